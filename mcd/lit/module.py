@@ -1,0 +1,147 @@
+"""The LightningModule that trains, validates and tests every method (method.md "Training protocol").
+
+- Training / validation: a batch holds clips ``[B, T, C, H, W]``; the model is ``reset()`` at the clip start
+  and run frame by frame so that temporal models carry their state across the clip; the loss sees all ``T``
+  outputs (the paper's loss reads the last one or two). ``ref`` reaches the model in training only (DASR's
+  gradient).
+- Test: whole frames, one current frame per batch, in sequence order; ``reset()`` where ``batch["reset"]``
+  is set, so state is carried across a whole test sequence. Per-frame metrics (``mcd.metrics``) of the output
+  and of the noisy uniform input at the same budget (``c{budget}``) are collected in
+  :attr:`DenoiseModule.test_rows`.
+- Models with a frame window ``(past, future) != (0, 0)`` get ``[B, past+1+future, C, H, W]`` per step, edge
+  frames repeated at clip ends (as the test datamodule does at sequence ends).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import lightning as L
+import numpy as np
+import torch
+from omegaconf import DictConfig, OmegaConf
+from torch import Tensor, nn
+
+from mcd.lit.samples import save_samples
+from mcd.metrics import frame_metrics, temporal_l1
+
+
+def clip_buffers(batch: dict[str, object]) -> dict[str, Tensor]:
+    """The image buffers of a batch: its ``[B, T, C, H, W]`` tensors (not ``scene``, ``frame``, ``reset``)."""
+    return {k: v for k, v in batch.items() if isinstance(v, Tensor) and v.ndim == 5}
+
+
+def check_finite(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
+    """Raise if a non-finite value reached the module: the data loader must sanitise NaN/Inf at load."""
+    for name, value in buffers.items():
+        if not torch.isfinite(value).all():
+            raise ValueError(f"non-finite values in buffer {name!r} of scenes {batch.get('scene')} frames "
+                             f"{batch.get('frame')}: the datamodule must sanitise NaN/Inf at load")
+
+
+def _hwc(x: Tensor) -> np.ndarray:
+    """``[C, H, W]`` tensor -> ``H x W x C`` float32 NumPy array."""
+    return x.detach().float().permute(1, 2, 0).cpu().numpy()
+
+
+class DenoiseModule(L.LightningModule):
+    """Trains ``model`` with ``loss`` (``mcd.lit.losses``) and tests it on whole sequences."""
+
+    def __init__(self, cfg: DictConfig, model: nn.Module, loss: nn.Module,
+                 sample_dir: str | Path | None = None) -> None:
+        super().__init__()
+        self.cfg = cfg
+        self.model = model
+        # The loss (with its frozen VGG) is not part of the checkpointed state: kept outside the module tree.
+        self.__dict__["loss_fn"] = loss
+        self.budget = int(cfg.budget)
+        self.sample_dir = Path(sample_dir) if sample_dir is not None else None
+        self.sample_frames = int(cfg.train.get("sample_frames", 0))
+        self.test_rows: list[dict[str, object]] = []
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._seq_pos = 0
+        self.save_hyperparameters({"cfg": OmegaConf.to_container(cfg, resolve=True)})
+
+    # -- frame-by-frame execution -------------------------------------------------------------------------
+    def _frame_input(self, buffers: dict[str, Tensor], t: int, with_ref: bool) -> dict[str, Tensor | None]:
+        past, future = self.model.window
+        if (past, future) == (0, 0):
+            x: dict[str, Tensor | None] = {k: v[:, t] for k, v in buffers.items()}
+        else:
+            last = next(iter(buffers.values())).shape[1] - 1
+            idx = [min(max(i, 0), last) for i in range(t - past, t + future + 1)]
+            x = {k: v[:, idx] for k, v in buffers.items()}
+        if not with_ref:
+            x["ref"] = None
+        return x
+
+    def run_clip(self, batch: dict[str, object], with_ref: bool) -> Tensor:
+        """Outputs ``[B, T, 3, H, W]`` of a clip, the model reset at its start and stepped frame by frame."""
+        buffers = clip_buffers(batch)
+        check_finite(buffers, batch)
+        self.model.reset()
+        steps = buffers["ref"].shape[1]
+        return torch.stack([self.model(self._frame_input(buffers, t, with_ref))["output"]
+                            for t in range(steps)], dim=1)
+
+    def _loss(self, batch: dict[str, object], stage: str, with_ref: bool) -> Tensor:
+        pred = self.run_clip(batch, with_ref)
+        terms = self.loss_fn(pred, clip_buffers(batch)["ref"])
+        size = pred.shape[0]
+        for name, value in terms.items():
+            self.log(f"{stage}/{name}", value, prog_bar=name == "loss", on_step=stage == "train",
+                     on_epoch=True, batch_size=size)
+        return terms["loss"]
+
+    # -- Lightning hooks ----------------------------------------------------------------------------------
+    def on_fit_start(self) -> None:
+        self.loss_fn.to(self.device)
+
+    def training_step(self, batch: dict[str, object], batch_idx: int) -> Tensor:
+        loss = self._loss(batch, "train", with_ref=True)
+        if not torch.isfinite(loss):
+            raise FloatingPointError(f"non-finite training loss at step {self.global_step} (scenes "
+                                     f"{batch.get('scene')}, frames {batch.get('frame')}); lower train.lr "
+                                     "or use trainer.precision=32-true")
+        return loss
+
+    def validation_step(self, batch: dict[str, object], batch_idx: int) -> Tensor:
+        return self._loss(batch, "val", with_ref=False)
+
+    def configure_optimizers(self) -> dict[str, object]:
+        train = self.cfg.train
+        opt = torch.optim.Adam(self.model.parameters(), lr=float(train.lr),
+                               weight_decay=float(train.weight_decay))
+        steps = max(int(self.trainer.estimated_stepping_batches), 1)
+        sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=steps, eta_min=float(train.lr_min))
+        return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
+
+    def on_test_start(self) -> None:
+        self.test_rows = []
+        self._prev = None
+
+    def test_step(self, batch: dict[str, object], batch_idx: int) -> None:
+        buffers = clip_buffers(batch)
+        check_finite(buffers, batch)
+        if buffers["ref"].shape[0] != 1:
+            raise ValueError(f"test batches must hold one frame (B=1), got B={buffers['ref'].shape[0]}")
+        if bool(batch["reset"][0]):
+            self.model.reset()
+            self._prev = None
+            self._seq_pos = 0
+        past = self.model.window[0]
+        out = self.model(self._frame_input(buffers, past, with_ref=False))
+        pred, ref = _hwc(out["output"][0]), _hwc(buffers["ref"][0, past])
+        noisy = _hwc(buffers[f"c{self.budget}"][0, past])
+        scene, frame = str(batch["scene"][0]), int(batch["frame"][0, past])
+        row: dict[str, object] = {"scene": scene, "frame": frame, **frame_metrics(pred, ref),
+                                  **frame_metrics(noisy, ref, prefix="input_")}
+        row["lt"] = math.nan if self._prev is None else temporal_l1(pred, self._prev[0], ref, self._prev[1])
+        self.test_rows.append(row)
+        self._prev = (pred, ref)
+        if self.sample_dir is not None and self._seq_pos < self.sample_frames:
+            images = {k: _hwc(v[0]) for k, v in out.items() if isinstance(v, Tensor) and v.ndim == 4}
+            images.update(noisy=noisy, reference=ref)
+            save_samples(self.sample_dir / scene, frame, images, self.budget)
+        self._seq_pos += 1

@@ -1,0 +1,205 @@
+"""``python -m mcd.run +experiment=F``: render (or load) the data, train, keep the best validation checkpoint,
+test it on whole sequences, and write the run directory (docs/architecture.md, "Run directory").
+
+Overrides: ``paths.data_dir=<dir>``, ``hydra.run.dir=<dir>``, ``ckpt_path=<file>`` (resume training from a
+checkpoint), ``trainer.precision=bf16-mixed`` (GPU), any ``train.*`` / ``data.*`` / ``method.*`` key.
+Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` is skipped; a job that
+raises writes ``error.json`` (overrides, config, traceback) and the sweep goes on. A single run re-raises.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import platform
+import subprocess
+import time
+import traceback
+from pathlib import Path
+
+import hydra
+import lightning as L
+import pandas as pd
+import torch
+from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
+from lightning.pytorch.callbacks import ModelCheckpoint
+from lightning.pytorch.loggers import CSVLogger
+from omegaconf import DictConfig, OmegaConf
+
+from mcd.lit import DenoiseModule, build_loss, check_switches, switch_row
+from mcd.metrics import FRAME_METRICS, aggregate
+
+log = logging.getLogger("mcd.run")
+
+#: Keys a finished run's ``metrics.json`` must hold (a sweep skips jobs that have them all).
+REQUIRED_KEYS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse", "macs_g", "params_m",
+                 "experiment", "method", "budget", "data_profile", "commit", "device", "wall_s", "per_scene",
+                 "perceptual_loss")
+REPO = Path(__file__).resolve().parent.parent
+
+
+def is_complete(path: Path) -> bool:
+    """Whether ``path`` is a readable ``metrics.json`` holding every key of :data:`REQUIRED_KEYS`."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and all(k in data for k in REQUIRED_KEYS)
+
+
+def git_commit() -> dict[str, object]:
+    """The repository's commit and whether its working tree differs from it ("unknown" outside git)."""
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True,
+                                check=True).stdout.strip()
+        status = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=REPO,
+                                capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return {"commit": "unknown", "dirty": None}
+    return {"commit": commit, "dirty": bool(status.strip())}
+
+
+def device_name(device: torch.device) -> str:
+    """GPU name, or the CPU model and the threads torch uses."""
+    if device.type == "cuda":
+        return torch.cuda.get_device_name(device)
+    model = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"CPU {model} ({torch.get_num_threads()} threads, {os.cpu_count()} cores)"
+
+
+def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseException) -> Path:
+    """``error.json``: the job's overrides, its config and the traceback."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "error.json"
+    path.write_text(json.dumps({
+        "error": f"{type(err).__name__}: {err}",
+        "overrides": overrides,
+        "config": OmegaConf.to_container(cfg, resolve=False),
+        "traceback": traceback.format_exception(err),
+    }, indent=2))
+    return path
+
+
+def _json_safe(value: object) -> object:
+    """NaN/inf become ``None`` (JSON has no NaN)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    return value
+
+
+def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
+                   started: float) -> dict[str, object]:
+    """The whole run; returns what it wrote to ``metrics.json``."""
+    from mcd.complexity import macs_and_params
+    from mcd.data.datamodule import MCDDataModule
+    from mcd.data.store import Store
+    from mcd.models import build
+
+    check_switches(cfg.method)
+    L.seed_everything(int(cfg.seed), workers=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+
+    model = build(cfg)
+    buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
+    store = Store.from_cfg(cfg)
+    t0 = time.perf_counter()
+    report = store.ensure(buffers)
+    data_s = time.perf_counter() - t0
+    log.info("data: %s", report)
+    datamodule = MCDDataModule(cfg, store, buffers, model.window)
+    loss = build_loss(cfg)
+    lit = DenoiseModule(cfg, model, loss, sample_dir=out_dir / "samples")
+
+    best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-epoch{epoch:03d}",
+                           auto_insert_metric_name=False, monitor="val/loss", mode="min", save_top_k=1,
+                           save_last=True)
+    trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True), default_root_dir=str(out_dir),
+                        callbacks=[best], logger=CSVLogger(str(out_dir), name="logs", version=""))
+    resume = cfg.get("ckpt_path")
+    if resume and not Path(resume).is_file():
+        raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
+                                "(give a run's checkpoints/last.ckpt)")
+    t0 = time.perf_counter()
+    trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None)
+    train_s = time.perf_counter() - t0
+    tested = best.best_model_path or best.last_model_path
+    log.info("testing checkpoint %s (best val/loss %s)", tested, best.best_model_score)
+    t0 = time.perf_counter()
+    trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False)
+    test_s = time.perf_counter() - t0
+
+    rows = pd.DataFrame(lit.test_rows, columns=["scene", "frame", *FRAME_METRICS])
+    rows.to_csv(out_dir / "frames.csv", index=False)
+    averages = aggregate(lit.test_rows)
+    macs_g, params_m = macs_and_params(cfg)
+    metrics = {
+        **{k: averages[k] for k in FRAME_METRICS},
+        "macs_g": macs_g,
+        "params_m": params_m,
+        "experiment": str(cfg.experiment),
+        "method": OmegaConf.to_container(cfg.method, resolve=True),
+        "switches": switch_row(cfg.method),
+        "budget": int(cfg.budget),
+        "data_profile": choices.get("data"),
+        "model_profile": choices.get("model"),
+        "train_profile": choices.get("train"),
+        "per_scene": averages["per_scene"],
+        "test_frames": averages["frames"],
+        "perceptual_loss": lit.loss_fn.perceptual_status.as_dict(),
+        **git_commit(),
+        "device": device_name(lit.device),
+        "precision": str(cfg.trainer.precision),
+        "torch": torch.__version__,
+        "config": str(out_dir / "resolved_config.yaml"),
+        "data": str(report),
+        "checkpoint": tested,
+        "best_val_loss": float(best.best_model_score) if best.best_model_score is not None else None,
+        "train_steps": int(trainer.global_step),
+        "epochs": int(trainer.current_epoch),
+        "data_s": data_s,
+        "train_s": train_s,
+        "test_s": test_s,
+        "wall_s": time.perf_counter() - started,
+    }
+    metrics = _json_safe(metrics)
+    (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    log.info("%s: PSNR %.2f dB (noisy %.2f), SSIM %.4f, rMSE %.4g, L_t %.4g, %.1f GMACs, %.3f M params, "
+             "%.0f s -> %s",
+             cfg.experiment, metrics["psnr"], metrics["input_psnr"], metrics["ssim"], metrics["rmse"],
+             metrics["lt"] or math.nan, macs_g, params_m, metrics["wall_s"], out_dir)
+    return metrics
+
+
+@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+def main(cfg: DictConfig) -> None:
+    """Hydra entry point (see the module docstring)."""
+    started = time.perf_counter()
+    hydra_cfg = HydraConfig.get()
+    out_dir = Path(hydra_cfg.runtime.output_dir)
+    if is_complete(out_dir / "metrics.json"):
+        log.info("skip: %s already holds a complete metrics.json", out_dir)
+        return
+    try:
+        train_and_test(cfg, out_dir, dict(hydra_cfg.runtime.choices), started)
+    except Exception as err:
+        path = write_error(out_dir, cfg, list(hydra_cfg.overrides.task), err)
+        if hydra_cfg.mode != RunMode.MULTIRUN:
+            raise
+        log.error("job failed (%s: %s); details in %s; the sweep goes on", type(err).__name__, err, path)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,37 @@
+"""The component switches and the experiment files A-M (method.md "The five switches")."""
+
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+
+from mcd.lit.switches import check_switches, switch_row
+
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "conf" / "experiment"
+ROWS = dict(A="100000", B="110000", C="111000", D="111100", E="111110", F="111111", G="111010", H="111011",
+            I="111101", J="111001", K="110100", L="110010", M="110001")
+
+
+@pytest.mark.parametrize("name", sorted(ROWS))
+def test_experiment_files_hold_method_md_rows(name):
+    cfg = OmegaConf.load(EXPERIMENTS / f"{name}.yaml")
+    assert cfg.experiment == name and cfg.method.name == "two_stage"
+    assert switch_row(cfg.method) == ROWS[name]
+    check_switches(cfg.method)
+
+
+@pytest.mark.parametrize("key", ["KP", "FG"])
+def test_kp_or_fg_without_as_fails_and_says_why(key):
+    method = {"name": "two_stage", "UN": True, "AS": False, "KP": False, "PP": False, "FG": False,
+              "SA": False}
+    method[key] = True
+    with pytest.raises(ValueError, match=f"method.{key}=true needs method.AS=true: .*F_s"):
+        check_switches(method)
+
+
+def test_switches_must_be_booleans_and_un_stays_on():
+    with pytest.raises(ValueError, match="method.SA must be true or false"):
+        check_switches({"SA": "yes"})
+    with pytest.raises(ValueError, match="method.UN=false"):
+        check_switches({"name": "two_stage", "UN": False, "AS": True})
+    check_switches({"name": "rae"})  # a baseline without switches
