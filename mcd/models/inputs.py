@@ -1,0 +1,72 @@
+"""Input preparation shared by the two-stage networks (method.md "Inputs").
+
+Colour enters the networks compressed (default ``log1p``, ``method.colour``) and leaves through the inverse;
+depth enters as ``log1p(depth)`` so distant surfaces stay in range; the sampler also sees two grey images.
+Networks that halve the resolution pad their input (replicate) to a multiple of their stride and crop back.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor
+
+#: Rec. 709 luminance weights, for the grey images the sampling network sees.
+LUMA = (0.2126, 0.7152, 0.0722)
+#: Largest compressed value fed back through the inverse transform (log1p range: expm1(20) ~ 4.9e8).
+MAX_COMPRESSED = 20.0
+COLOUR_TRANSFORMS = ("log1p", "none")
+
+
+def need(x: dict[str, Tensor | None], name: str, who: str) -> Tensor:
+    """``x[name]``, or a ``KeyError`` that names the buffer and the model that reads it."""
+    value = x.get(name)
+    if value is None:
+        present = sorted(k for k, v in x.items() if isinstance(v, Tensor))
+        raise KeyError(f"{who} needs buffer {name!r} in its input (its required_buffers() lists it); got {present}")
+    return value
+
+
+def compress(c: Tensor, transform: str = "log1p") -> Tensor:
+    """Linear HDR colour -> network range (negative values clamped to 0 first)."""
+    if transform == "log1p":
+        return torch.log1p(c.clamp_min(0))
+    if transform == "none":
+        return c.clamp_min(0)
+    raise ValueError(f"unknown colour transform {transform!r}; use one of {COLOUR_TRANSFORMS}")
+
+
+def expand(y: Tensor, transform: str = "log1p") -> Tensor:
+    """Network range -> linear HDR colour, computed in fp32, never negative, never Inf/NaN for finite ``y``."""
+    y = y.float().clamp(0, MAX_COMPRESSED)
+    if transform == "log1p":
+        return torch.expm1(y)
+    if transform == "none":
+        return y
+    raise ValueError(f"unknown colour transform {transform!r}; use one of {COLOUR_TRANSFORMS}")
+
+
+def grey(c: Tensor) -> Tensor:
+    """Luminance ``[B, 1, H, W]`` of an RGB image ``[B, 3, H, W]``."""
+    w = c.new_tensor(LUMA).view(1, 3, 1, 1)
+    return (c * w).sum(1, keepdim=True)
+
+
+def gbuffers(x: dict[str, Tensor | None], who: str) -> Tensor:
+    """The 7 G-buffer channels ``[log1p(depth), normal, albedo]`` of one frame, ``[B, 7, H, W]``."""
+    depth = need(x, "depth", who)
+    return torch.cat([torch.log1p(depth.clamp_min(0)), need(x, "normal", who), need(x, "albedo", who)], 1)
+
+
+def pad_to_multiple(t: Tensor, multiple: int) -> Tensor:
+    """Replicate-pad the bottom/right of ``[B, C, H, W]`` so that H and W are multiples of ``multiple``."""
+    h, w = t.shape[-2:]
+    ph, pw = (-h) % multiple, (-w) % multiple
+    if ph == 0 and pw == 0:
+        return t
+    return F.pad(t, (0, pw, 0, ph), mode="replicate")
+
+
+def crop(t: Tensor, size: tuple[int, int]) -> Tensor:
+    """Top-left ``size`` crop, the inverse of :func:`pad_to_multiple`."""
+    return t[..., : size[0], : size[1]]

@@ -1,0 +1,112 @@
+"""Kernel pool: adjustment, interpolation, per-pixel application (paper Sec. 3.1; method.md "Kernel pool").
+
+- Pool ``pi``: ``q`` learnable ``l x l`` kernels, initialised Bernoulli(0.5) in {0, 1}.
+- Adjustment: ``F_s``'s coarsest features -> adaptive average pool to ``l x l`` -> MLP lifting channels to ``q``
+  -> 1-D convolution over the kernel index (window 5) = residual ``r``; gate ``alpha = sigmoid(MLP(pi + r))``
+  per kernel; ``pi_bar = (1 - alpha) pi + alpha r``.
+- Descriptor: a convolution with an ``l x l`` kernel reduces ``pi_bar`` (``q`` channels) to a short vector.
+- Kernel map ``h`` (2 channels, tanh): from ``F_s``'s finest features, ``g``, the adaptive image ``i`` and the
+  descriptor, through a few conv blocks (Fast GhostConv when FG is on, as every block of ``F_s``).
+- Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax over
+  each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves between
+  that kernel and the identity.
+- Application: ``i_bar(p) = sum_taps kernel_p(tap) * i(p + tap)``, per channel (replicate padding at borders).
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from mcd.models.blocks import BlockFactory
+
+
+def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
+    """Filter ``image`` ``[B, C, H, W]`` with per-pixel kernels ``[B, l*l, H, W]`` (row-major taps).
+
+    Equivalent to ``unfold`` + weighted sum but without the ``l*l``-times larger unfolded tensor: a loop over the
+    ``l*l`` taps (not pixels) of shifted views. Runs in the kernels' dtype promoted with the image's.
+    """
+    taps = kernels.shape[1]
+    size = int(round(taps ** 0.5))
+    if size * size != taps or size % 2 == 0:
+        raise ValueError(f"per-pixel kernels need an odd square number of taps; got {taps}")
+    h, w = image.shape[-2:]
+    r = size // 2
+    padded = F.pad(image, (r, r, r, r), mode="replicate")
+    out = torch.zeros_like(image, dtype=torch.promote_types(image.dtype, kernels.dtype))
+    for t in range(taps):
+        dy, dx = divmod(t, size)
+        out = out + kernels[:, t : t + 1] * padded[..., dy : dy + h, dx : dx + w]
+    return out
+
+
+def identity_kernel(size: int) -> Tensor:
+    """``l*l`` taps, 1 at the centre."""
+    k = torch.zeros(size * size)
+    k[(size * size) // 2] = 1.0
+    return k
+
+
+def interpolate_kernels(pool: Tensor, h: Tensor) -> Tensor:
+    """Per-pixel kernels ``[B, l*l, H, W]`` from normalised pool kernels ``[B, q, l*l]`` and kernel map ``h``.
+
+    ``h`` ``[B, 2, H, W]`` in [-1, 1]: channel 0 runs along the pool (-1 first kernel, +1 last), channel 1 from
+    the pool kernel (-1) to the identity kernel (+1). One bilinear ``grid_sample`` over the ``q x 2`` table.
+    """
+    b, q, taps = pool.shape
+    ident = identity_kernel(int(round(taps ** 0.5))).to(pool)
+    table = torch.stack([pool, ident.expand(b, q, taps)], dim=-1).transpose(1, 2)     # [B, taps, q, 2]
+    grid = torch.stack([h[:, 1], h[:, 0]], dim=-1).to(table.dtype)                     # (x: column, y: kernel)
+    return F.grid_sample(table, grid, mode="bilinear", padding_mode="border", align_corners=True)
+
+
+class KernelPool(nn.Module):
+    """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features."""
+
+    def __init__(self, coarse_channels: int, q: int = 128, size: int = 5, lift_hidden: int = 128,
+                 alpha_hidden: int = 64, window: int = 5, descriptor: int = 16) -> None:
+        super().__init__()
+        self.q, self.size = q, size
+        taps = size * size
+        self.pool = nn.Parameter(torch.bernoulli(torch.full((q, taps), 0.5)))
+        self.lift = nn.Sequential(nn.Linear(coarse_channels, lift_hidden), nn.ReLU(inplace=True),
+                                  nn.Linear(lift_hidden, q))
+        self.neighbours = nn.Conv1d(taps, taps, window, padding=window // 2)
+        self.alpha = nn.Sequential(nn.Linear(taps, alpha_hidden), nn.ReLU(inplace=True), nn.Linear(alpha_hidden, 1))
+        self.describe = nn.Conv2d(q, descriptor, size)
+
+    def adjust(self, coarse: Tensor) -> Tensor:
+        """Adjusted pool ``pi_bar`` ``[B, q, l*l]`` for one input, from features ``[B, C, h, w]``."""
+        pooled = F.adaptive_avg_pool2d(coarse, self.size).flatten(2).transpose(1, 2)        # [B, l*l, C]
+        lifted = self.lift(pooled)                                                            # [B, l*l, q]
+        residual = self.neighbours(lifted).transpose(1, 2)                                    # [B, q, l*l]
+        alpha = torch.sigmoid(self.alpha(self.pool + residual))                               # [B, q, 1]
+        return (1 - alpha) * self.pool + alpha * residual
+
+    def descriptor(self, adjusted: Tensor) -> Tensor:
+        """Short vector ``[B, D]`` describing the adjusted pool."""
+        b = adjusted.shape[0]
+        return self.describe(adjusted.reshape(b, self.q, self.size, self.size)).flatten(1)
+
+    @staticmethod
+    def normalised(adjusted: Tensor) -> Tensor:
+        """``softmax`` over each kernel's taps, in fp32."""
+        return torch.softmax(adjusted.float(), dim=-1)
+
+
+class KernelMapHead(nn.Module):
+    """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor)."""
+
+    def __init__(self, cin: int, widths: list[int], block: BlockFactory) -> None:
+        super().__init__()
+        layers: list[nn.Module] = []
+        for w in widths:
+            layers.append(block(cin, w))
+            cin = w
+        self.blocks = nn.Sequential(*layers)
+        self.out = nn.Conv2d(cin, 2, 3, padding=1)
+
+    def forward(self, features: Tensor) -> Tensor:
+        return torch.tanh(self.out(self.blocks(features)))

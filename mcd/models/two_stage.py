@@ -1,0 +1,130 @@
+"""The two-stage model of the component study, composed from the switches ``UN AS KP PP FG SA`` (method.md).
+
+- UN: the denoiser ``F_d`` (always on). Without AS it denoises the uniform render at the budget, ``c_s``.
+- AS: the sampling network ``F_s`` predicts logits, :func:`mcd.sampling.adaptive_render` turns them into the
+  sampling map ``m`` and the adaptive image ``i``; ``F_d`` sees ``i``, ``g`` and ``m / (s - 1)``.
+- KP (needs AS): ``F_s`` also predicts the kernel map; the kernel pool's per-pixel kernels give ``i_bar``;
+  ``F_d`` sees ``i_bar``, ``i``, ``g`` and ``m / (s - 1)``.
+- PP: position-aware pooling in ``F_d``'s encoder. FG (needs AS): Fast GhostConv blocks in ``F_s``.
+  SA: semantic alignment at ``F_d``'s deepest level (state across frames until :meth:`reset`).
+Colour is compressed inside (``method.colour``, default ``log1p``); inputs and outputs are linear HDR.
+"""
+
+from __future__ import annotations
+
+import torch
+from omegaconf import DictConfig, OmegaConf
+from torch import Tensor, nn
+
+from mcd.models.denoiser import Denoiser
+from mcd.models.inputs import compress, expand, gbuffers, grey, need
+from mcd.models.registry import register
+from mcd.models.sampler import SamplingNetwork
+from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
+
+SWITCHES = ("UN", "AS", "KP", "PP", "FG", "SA")
+GBUFFERS = ("depth", "normal", "albedo")
+
+
+def check_switches(method) -> dict[str, bool]:
+    """The six switches as booleans; ``ValueError`` saying why for an impossible combination."""
+    missing = [s for s in SWITCHES if s not in method]
+    if missing:
+        raise ValueError(f"method config lacks switches {missing}; set method.{{{','.join(SWITCHES)}}} (true/false)")
+    sw = {s: method[s] for s in SWITCHES}
+    bad = [s for s, v in sw.items() if not isinstance(v, bool)]
+    if bad:
+        raise ValueError(f"switches {bad} must be booleans (true/false); got {[sw[s] for s in bad]}")
+    if not sw["UN"]:
+        raise ValueError("method.UN=false: the denoiser F_d is part of every row of the component study; "
+                         "use method.name=noisy for the noisy input")
+    for s, why in (("KP", "the kernel map and kernel pool are predicted by the sampling network F_s"),
+                   ("FG", "Fast GhostConv is the building block of the sampling network F_s")):
+        if sw[s] and not sw["AS"]:
+            raise ValueError(f"method.{s}=true needs method.AS=true: {why}, which exists only with adaptive "
+                             "sampling (method.md, switch table)")
+    return sw
+
+
+class TwoStage(nn.Module):
+    """Rows A-M of the component study; see the module docstring."""
+
+    window = (0, 0)
+
+    def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
+                 colour: str = "log1p") -> None:
+        super().__init__()
+        self.sw = dict(switches)
+        self.budget, self.levels, self.colour = float(budget), levels, colour
+        compress(torch.zeros(1), colour)                                  # fail early on an unknown transform
+        den = widths["denoiser"]
+        if self.sw["AS"]:
+            if not 1 < self.budget <= cap_for_levels(levels) + 1:
+                raise ValueError(f"budget={budget}: adaptive sampling needs 1 < s <= {cap_for_levels(levels) + 1} "
+                                 f"(c_1 spends one sample; the stack of {levels + 1} renders caps a pixel at "
+                                 f"{cap_for_levels(levels)} more)")
+            smp = widths["sampler"]
+            self.sampler: SamplingNetwork | None = SamplingNetwork(
+                list(smp["widths"]), smp["convs"], kernel_pool=self.sw["KP"], ghost=self.sw["FG"],
+                ghost_cfg=dict(widths.get("ghost", {})), kp_cfg=dict(widths.get("kernel_pool", {})))
+            cin = (3 if self.sw["KP"] else 0) + 3 + 7 + 1
+        else:
+            self.sampler = None
+            uniform = f"c{int(self.budget)}"
+            if self.budget != int(self.budget) or uniform not in stack_names(levels):
+                raise ValueError(f"budget={budget}: without AS the denoiser reads the uniform render c_s, which "
+                                 f"exists for s in {stack_names(levels)} only")
+            cin = 3 + 7
+        pp = widths.get("pooling", {})
+        att = widths.get("attention", {})
+        self.denoiser = Denoiser(cin, list(den["widths"]), den["convs"], position_pooling=self.sw["PP"],
+                                 semantic_alignment=self.sw["SA"], pp_hidden=pp.get("hidden", 0),
+                                 heads=att.get("heads", 4), ffn_mult=att.get("ffn_mult", 2))
+
+    def required_buffers(self) -> set[str]:
+        if self.sw["AS"]:
+            return {"c1_in", *stack_names(self.levels), *GBUFFERS}
+        return {f"c{int(self.budget)}", *GBUFFERS}
+
+    def reset(self) -> None:
+        self.denoiser.reset()
+
+    def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
+        who = "two_stage"
+        g = gbuffers(x, who)
+        out: dict[str, Tensor] = {}
+        if self.sampler is not None:
+            c1 = need(x, "c1_in", who)
+            albedo = need(x, "albedo", who)
+            fs_in = torch.cat([compress(c1, self.colour), g, compress(grey(c1), self.colour), grey(albedo)], 1)
+            s = self.sampler(fs_in)
+            image, m = adaptive_render(s["logits"], c1, stack_buffers(x, self.levels), x.get("ref"), self.budget)
+            ic = compress(image, self.colour)
+            smap = m / (self.budget - 1)
+            feats = [ic, g, smap]
+            if self.sw["KP"]:
+                kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic)
+                feats = [kp["initial"], ic, g, smap]
+                out["kernel_map"] = kp["kernel_map"].float()
+                out["initial"] = expand(kp["initial"], self.colour)
+            out["sampling_map"] = m
+            out["adaptive"] = image
+        else:
+            feats = [compress(need(x, f"c{int(self.budget)}", who), self.colour), g]
+        y = self.denoiser(torch.cat([f.float() for f in feats], 1))
+        out["output"] = expand(y, self.colour)
+        return out
+
+
+@register("two_stage")
+def build_two_stage(cfg: DictConfig) -> TwoStage:
+    """``TwoStage`` from ``cfg.method`` (switches, ``sampling.levels``, ``colour``), ``cfg.budget`` and
+    ``cfg.model.two_stage`` (widths)."""
+    switches = check_switches(cfg.method)
+    if "model" not in cfg or "two_stage" not in cfg.model:
+        raise KeyError("cfg.model.two_stage (the widths of the two-stage networks) is missing; pick a capacity "
+                       "profile, e.g. model=cpu or model=paper")
+    widths = OmegaConf.to_container(cfg.model.two_stage, resolve=True)
+    sampling = cfg.method.get("sampling", None) or {}
+    return TwoStage(switches, cfg.budget, widths, levels=int(sampling.get("levels", 5)),
+                    colour=cfg.method.get("colour", "log1p"))

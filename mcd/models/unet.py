@@ -1,0 +1,73 @@
+"""A configurable U-Net of conv blocks with skip connections (paper Sec. 3: both ``F_s`` and ``F_d``).
+
+Level ``j`` works at ``1 / 2^j`` resolution with ``widths[j]`` channels and ``convs`` blocks; the encoder pools
+between levels (max pooling, or position-aware pooling), the decoder upsamples bilinearly, concatenates the
+skip and runs ``convs`` blocks; a 1x1 convolution makes the output. The deepest level may swap its blocks after
+the first for another module (semantic alignment). Inputs of any size are replicate-padded to a multiple of
+the stride ``2^(levels-1)`` and the outputs cropped back, so odd sizes and inputs smaller than the stride work.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from mcd.models.blocks import BlockFactory, ConvReLU
+from mcd.models.inputs import crop, pad_to_multiple
+
+PoolFactory = Callable[[int], nn.Module]
+
+
+def max_pool(_channels: int) -> nn.Module:
+    """2x2 max pooling (ceil mode, so odd sizes keep their last row/column)."""
+    return nn.MaxPool2d(2, ceil_mode=True)
+
+
+class UNet(nn.Module):
+    """U-Net returning ``{"out", "finest", "coarsest"}`` (output, last decoder features, deepest features)."""
+
+    def __init__(self, cin: int, cout: int, widths: list[int], convs: int = 2, block: BlockFactory = ConvReLU,
+                 pool: PoolFactory = max_pool, deepest: nn.Module | None = None) -> None:
+        super().__init__()
+        if len(widths) < 1 or convs < 1:
+            raise ValueError(f"a U-Net needs at least one level and one conv per level; got {widths}, {convs}")
+        self.widths = list(widths)
+        self.stride = 2 ** (len(widths) - 1)
+        self.encoder = nn.ModuleList()
+        self.pools = nn.ModuleList()
+        c = cin
+        for j, w in enumerate(widths):
+            last = j == len(widths) - 1
+            blocks = [block(c, w)]
+            if last and deepest is not None:
+                blocks.append(deepest)
+            else:
+                blocks += [block(w, w) for _ in range(convs - 1)]
+            self.encoder.append(nn.Sequential(*blocks))
+            if not last:
+                self.pools.append(pool(w))
+            c = w
+        self.decoder = nn.ModuleList()
+        for j in range(len(widths) - 2, -1, -1):
+            w = widths[j]
+            self.decoder.append(nn.Sequential(block(c + w, w), *[block(w, w) for _ in range(convs - 1)]))
+            c = w
+        self.head = nn.Conv2d(c, cout, 1)
+
+    def forward(self, x: Tensor) -> dict[str, Tensor]:
+        size = x.shape[-2:]
+        x = pad_to_multiple(x, self.stride)
+        skips = []
+        for j, level in enumerate(self.encoder):
+            x = level(x)
+            if j < len(self.pools):
+                skips.append(x)
+                x = self.pools[j](x)
+        coarsest = x
+        for level, skip in zip(self.decoder, reversed(skips), strict=True):
+            x = F.interpolate(x, size=skip.shape[-2:], mode="bilinear", align_corners=False)
+            x = level(torch.cat([x, skip], 1))
+        return {"out": crop(self.head(x), size), "finest": crop(x, size), "coarsest": coarsest}

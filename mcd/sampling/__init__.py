@@ -1,0 +1,13 @@
+"""Adaptive sampling (method.md "Adaptive sampling"): map normalisation, simulated render, DASR gradient.
+
+The true adaptive Mitsuba render of a sampling map lives in :mod:`mcd.data.adaptive_render`.
+"""
+
+from mcd.sampling.dasr_grad import AdaptiveRender, adaptive_render
+from mcd.sampling.normalise import cap_for_levels, check_logits, frame_budget, normalise_map, shares
+from mcd.sampling.simulate import blend_with_c1, sample_sum, simulated_render, stack_buffers, stack_names
+
+__all__ = [
+    "AdaptiveRender", "adaptive_render", "blend_with_c1", "cap_for_levels", "check_logits", "frame_budget",
+    "normalise_map", "sample_sum", "shares", "simulated_render", "stack_buffers", "stack_names",
+]
