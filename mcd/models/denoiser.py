@@ -22,7 +22,8 @@ class Denoiser(nn.Module):
     """``F_d``: ``cin`` channels -> 3 channels (compressed colour)."""
 
     def __init__(self, cin: int, widths: list[int], convs: int, position_pooling: bool = False,
-                 semantic_alignment: bool = False, pp_hidden: int = 0, heads: int = 4, ffn_mult: int = 2) -> None:
+                 semantic_alignment: bool = False, pp_hidden: int = 0, heads: int = 4,
+                 ffn_mult: int = 2) -> None:
         super().__init__()
         pool = partial(PositionAwarePool, hidden=pp_hidden) if position_pooling else max_pool
         self.align = SemanticAlignment(widths[-1], heads, ffn_mult) if semantic_alignment else None

@@ -4,10 +4,10 @@ A large-kernel group convolution gathers a wide neighbourhood cheaply; a point-w
 channels into half the output; a depth-wise 3x3 convolution on that half makes the other ("ghost") half;
 concatenation and ReLU. It replaces every 3x3 conv + ReLU block of the sampling network ``F_s``.
 
-The group convolution's output width is not given by the paper; it is ``mid_ratio * cout`` (default 0.5), which
-makes the block cheaper than the 3x3 block it replaces, as the paper's component table requires (rows E, G, H, L
-lose params and MACs against D, C, J, B). Groups fall back to ``gcd(groups, cin, mid)`` when ``groups`` does
-not divide both widths (e.g. an input layer of 12 channels with groups 8).
+The group convolution's output width is not given by the paper; it is ``mid_ratio * cout`` (default 0.5),
+which makes the block cheaper than the 3x3 block it replaces, as the paper's component table requires (rows
+E, G, H, L lose params and MACs against D, C, J, B). Groups fall back to ``gcd(groups, cin, mid)`` when
+``groups`` does not divide both widths (e.g. an input layer of 12 channels with groups 8).
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ class FastGhostConv(nn.Module):
     def __init__(self, cin: int, cout: int, kernel: int = 7, groups: int = 4, mid_ratio: float = 0.5) -> None:
         super().__init__()
         if cout % 2:
-            raise ValueError(f"FastGhostConv needs an even output width (half primary, half ghost); got {cout}")
+            raise ValueError(f"FastGhostConv needs an even output width (half primary, half ghost); "
+                             f"got {cout}")
         if kernel % 2 == 0:
             raise ValueError(f"FastGhostConv needs an odd group-conv kernel size; got {kernel}")
         mid = max(1, round(cout * mid_ratio))

@@ -23,7 +23,8 @@ def need(x: dict[str, Tensor | None], name: str, who: str) -> Tensor:
     value = x.get(name)
     if value is None:
         present = sorted(k for k, v in x.items() if isinstance(v, Tensor))
-        raise KeyError(f"{who} needs buffer {name!r} in its input (its required_buffers() lists it); got {present}")
+        raise KeyError(f"{who} needs buffer {name!r} in its input (its required_buffers() lists it); "
+                       f"got {present}")
     return value
 
 
@@ -37,7 +38,7 @@ def compress(c: Tensor, transform: str = "log1p") -> Tensor:
 
 
 def expand(y: Tensor, transform: str = "log1p") -> Tensor:
-    """Network range -> linear HDR colour, computed in fp32, never negative, never Inf/NaN for finite ``y``."""
+    """Network range -> linear HDR colour, in fp32, never negative, never Inf/NaN for finite ``y``."""
     y = y.float().clamp(0, MAX_COMPRESSED)
     if transform == "log1p":
         return torch.expm1(y)

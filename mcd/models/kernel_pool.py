@@ -1,15 +1,15 @@
 """Kernel pool: adjustment, interpolation, per-pixel application (paper Sec. 3.1; method.md "Kernel pool").
 
 - Pool ``pi``: ``q`` learnable ``l x l`` kernels, initialised Bernoulli(0.5) in {0, 1}.
-- Adjustment: ``F_s``'s coarsest features -> adaptive average pool to ``l x l`` -> MLP lifting channels to ``q``
-  -> 1-D convolution over the kernel index (window 5) = residual ``r``; gate ``alpha = sigmoid(MLP(pi + r))``
-  per kernel; ``pi_bar = (1 - alpha) pi + alpha r``.
+- Adjustment: ``F_s``'s coarsest features -> adaptive average pool to ``l x l`` -> MLP lifting channels to
+  ``q`` -> 1-D convolution over the kernel index (window 5) = residual ``r``; gate ``alpha = sigmoid(MLP(pi +
+  r))`` per kernel; ``pi_bar = (1 - alpha) pi + alpha r``.
 - Descriptor: a convolution with an ``l x l`` kernel reduces ``pi_bar`` (``q`` channels) to a short vector.
 - Kernel map ``h`` (2 channels, tanh): from ``F_s``'s finest features, ``g``, the adaptive image ``i`` and the
   descriptor, through a few conv blocks (Fast GhostConv when FG is on, as every block of ``F_s``).
-- Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax over
-  each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves between
-  that kernel and the identity.
+- Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
+  over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
+  between that kernel and the identity.
 - Application: ``i_bar(p) = sum_taps kernel_p(tap) * i(p + tap)``, per channel (replicate padding at borders).
 """
 
@@ -25,8 +25,8 @@ from mcd.models.blocks import BlockFactory
 def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
     """Filter ``image`` ``[B, C, H, W]`` with per-pixel kernels ``[B, l*l, H, W]`` (row-major taps).
 
-    Equivalent to ``unfold`` + weighted sum but without the ``l*l``-times larger unfolded tensor: a loop over the
-    ``l*l`` taps (not pixels) of shifted views. Runs in the kernels' dtype promoted with the image's.
+    Equivalent to ``unfold`` + weighted sum but without the ``l*l``-times larger unfolded tensor: a loop over
+    the ``l*l`` taps (not pixels) of shifted views. Runs in the kernels' dtype promoted with the image's.
     """
     taps = kernels.shape[1]
     size = int(round(taps ** 0.5))
@@ -52,13 +52,14 @@ def identity_kernel(size: int) -> Tensor:
 def interpolate_kernels(pool: Tensor, h: Tensor) -> Tensor:
     """Per-pixel kernels ``[B, l*l, H, W]`` from normalised pool kernels ``[B, q, l*l]`` and kernel map ``h``.
 
-    ``h`` ``[B, 2, H, W]`` in [-1, 1]: channel 0 runs along the pool (-1 first kernel, +1 last), channel 1 from
-    the pool kernel (-1) to the identity kernel (+1). One bilinear ``grid_sample`` over the ``q x 2`` table.
+    ``h`` ``[B, 2, H, W]`` in [-1, 1]: channel 0 runs along the pool (-1 first kernel, +1 last), channel 1
+    from the pool kernel (-1) to the identity kernel (+1). One bilinear ``grid_sample`` over the ``q x 2``
+    table.
     """
     b, q, taps = pool.shape
     ident = identity_kernel(int(round(taps ** 0.5))).to(pool)
     table = torch.stack([pool, ident.expand(b, q, taps)], dim=-1).transpose(1, 2)     # [B, taps, q, 2]
-    grid = torch.stack([h[:, 1], h[:, 0]], dim=-1).to(table.dtype)                     # (x: column, y: kernel)
+    grid = torch.stack([h[:, 1], h[:, 0]], dim=-1).to(table.dtype)                 # x: column, y: kernel
     return F.grid_sample(table, grid, mode="bilinear", padding_mode="border", align_corners=True)
 
 
@@ -74,7 +75,8 @@ class KernelPool(nn.Module):
         self.lift = nn.Sequential(nn.Linear(coarse_channels, lift_hidden), nn.ReLU(inplace=True),
                                   nn.Linear(lift_hidden, q))
         self.neighbours = nn.Conv1d(taps, taps, window, padding=window // 2)
-        self.alpha = nn.Sequential(nn.Linear(taps, alpha_hidden), nn.ReLU(inplace=True), nn.Linear(alpha_hidden, 1))
+        self.alpha = nn.Sequential(nn.Linear(taps, alpha_hidden), nn.ReLU(inplace=True),
+                                   nn.Linear(alpha_hidden, 1))
         self.describe = nn.Conv2d(q, descriptor, size)
 
     def adjust(self, coarse: Tensor) -> Tensor:

@@ -1,9 +1,9 @@
 """Position-aware pooling (paper Sec. 3.2 "Position-aware pooling"; method.md "Position-aware pooling").
 
-For every 2x2 window (stride 2) a cheap MLP of 1x1 convolutions scores each of the 4 members from its features,
-its absolute position (x, y in (-1, 1) over the whole feature map) and its relative position in the window
-(one-hot of 4); a softmax over the 4 scores weights the members' sum. ``pixel_unshuffle`` forms the windows.
-Odd sizes are replicate-padded to even first, so the output is ``ceil(H/2) x ceil(W/2)``.
+For every 2x2 window (stride 2) a cheap MLP of 1x1 convolutions scores each of the 4 members from its
+features, its absolute position (x, y in (-1, 1) over the whole feature map) and its relative position in the
+window (one-hot of 4); a softmax over the 4 scores weights the members' sum. ``pixel_unshuffle`` forms the
+windows. Odd sizes are replicate-padded to even first, so the output is ``ceil(H/2) x ceil(W/2)``.
 """
 
 from __future__ import annotations
@@ -14,11 +14,12 @@ from torch import Tensor, nn
 
 
 def position_features(h: int, w: int, like: Tensor) -> Tensor:
-    """``[1, 6, h, w]``: absolute x, y at pixel centres in (-1, 1), then the one-hot of the 2x2 window slot."""
+    """``[1, 6, h, w]``: absolute x, y at pixel centres in (-1, 1), then the one-hot of the window slot."""
     ys = (torch.arange(h, device=like.device, dtype=like.dtype) * 2 + 1) / h - 1
     xs = (torch.arange(w, device=like.device, dtype=like.dtype) * 2 + 1) / w - 1
     gy, gx = torch.meshgrid(ys, xs, indexing="ij")
-    slot = (torch.arange(h, device=like.device)[:, None] % 2) * 2 + torch.arange(w, device=like.device)[None] % 2
+    rows, cols = torch.arange(h, device=like.device), torch.arange(w, device=like.device)
+    slot = (rows[:, None] % 2) * 2 + cols[None] % 2
     onehot = F.one_hot(slot, 4).permute(2, 0, 1).to(like.dtype)
     return torch.cat([gx[None], gy[None], onehot], 0)[None]
 
@@ -30,7 +31,8 @@ class PositionAwarePool(nn.Module):
         super().__init__()
         cin = channels + 6
         if hidden > 0:
-            self.score = nn.Sequential(nn.Conv2d(cin, hidden, 1), nn.ReLU(inplace=True), nn.Conv2d(hidden, 1, 1))
+            self.score = nn.Sequential(nn.Conv2d(cin, hidden, 1), nn.ReLU(inplace=True),
+                                       nn.Conv2d(hidden, 1, 1))
         else:
             self.score = nn.Conv2d(cin, 1, 1)
 

@@ -1,4 +1,4 @@
-"""Method registry: ``@register(name)`` on a factory ``cfg -> nn.Module``; :func:`build` picks by ``cfg.method.name``.
+"""Method registry: ``@register(name)`` on a factory ``cfg -> nn.Module``; :func:`build` picks one by name.
 
 Factories read ``cfg.method`` (name and switches), ``cfg.budget`` and their widths from ``cfg.model.<name>``.
 """

@@ -1,4 +1,5 @@
-"""The sampling network ``F_s`` (paper Sec. 3 and 3.1; method.md "Adaptive sampling", "Kernel pool", "Inputs").
+"""The sampling network ``F_s`` (paper Sec. 3 and 3.1; method.md "Adaptive sampling", "Kernel pool",
+"Inputs").
 
 A light U-Net on ``c_1`` (compressed), the G-buffers and two grey images (luminance of ``c_1`` and of the
 albedo): 12 channels in, sampling logits ``m̄`` out. With KP it also adjusts the kernel pool from its coarsest
@@ -43,7 +44,8 @@ class SamplingNetwork(nn.Module):
         y = self.unet(x)
         return {"logits": y["out"], "finest": y["finest"], "coarsest": y["coarsest"]}
 
-    def initial_denoise(self, finest: Tensor, coarsest: Tensor, g: Tensor, image: Tensor) -> dict[str, Tensor]:
+    def initial_denoise(self, finest: Tensor, coarsest: Tensor, g: Tensor,
+                        image: Tensor) -> dict[str, Tensor]:
         """Kernel map and initial denoise ``i_bar`` of ``image`` (the adaptive image, network range)."""
         if self.pool is None or self.head is None:
             raise RuntimeError("initial_denoise needs the kernel pool (method.KP=true)")

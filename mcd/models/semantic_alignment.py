@@ -54,14 +54,15 @@ class SemanticAlignment(nn.Module):
         b, c, h, w = x.shape
         memory = x if self.prev is None else self.prev
         if memory.shape != x.shape:
-            raise RuntimeError(f"semantic alignment kept features of shape {tuple(memory.shape)} from the previous "
-                               f"frame but got {tuple(x.shape)}; call model.reset() at each clip/sequence start")
+            raise RuntimeError(f"semantic alignment kept features of shape {tuple(memory.shape)} from the "
+                               f"previous frame but got {tuple(x.shape)}; call model.reset() at each "
+                               "clip/sequence start")
         with torch.autocast(device_type=x.device.type, enabled=False):
             xf = x.float()
             query = (xf + sine_cosine_encoding(c, h, w, x.device)).flatten(2).transpose(1, 2)   # [B, L, C]
             mem = memory.float().flatten(2).transpose(1, 2)
             q, k, v = (self._split(p(t)) for p, t in ((self.q, query), (self.k, mem), (self.v, mem)))
-            att = F.scaled_dot_product_attention(q, k, v)                                    # [B, heads, L, d]
+            att = F.scaled_dot_product_attention(q, k, v)                          # [B, heads, L, d]
             att = self.out(att.transpose(1, 2).reshape(b, h * w, c)).transpose(1, 2).reshape(b, c, h, w)
             y = xf + att
         y = y + self.ffn(y)

@@ -30,7 +30,8 @@ def check_switches(method) -> dict[str, bool]:
     """The six switches as booleans; ``ValueError`` saying why for an impossible combination."""
     missing = [s for s in SWITCHES if s not in method]
     if missing:
-        raise ValueError(f"method config lacks switches {missing}; set method.{{{','.join(SWITCHES)}}} (true/false)")
+        raise ValueError(f"method config lacks switches {missing}; set method.{{{','.join(SWITCHES)}}} "
+                         "(true/false)")
     sw = {s: method[s] for s in SWITCHES}
     bad = [s for s, v in sw.items() if not isinstance(v, bool)]
     if bad:
@@ -60,8 +61,9 @@ class TwoStage(nn.Module):
         den = widths["denoiser"]
         if self.sw["AS"]:
             if not 1 < self.budget <= cap_for_levels(levels) + 1:
-                raise ValueError(f"budget={budget}: adaptive sampling needs 1 < s <= {cap_for_levels(levels) + 1} "
-                                 f"(c_1 spends one sample; the stack of {levels + 1} renders caps a pixel at "
+                raise ValueError(f"budget={budget}: adaptive sampling needs 1 < s <= "
+                                 f"{cap_for_levels(levels) + 1} (c_1 spends one sample; the stack of "
+                                 f"{levels + 1} renders caps a pixel at "
                                  f"{cap_for_levels(levels)} more)")
             smp = widths["sampler"]
             self.sampler: SamplingNetwork | None = SamplingNetwork(
@@ -72,8 +74,8 @@ class TwoStage(nn.Module):
             self.sampler = None
             uniform = f"c{int(self.budget)}"
             if self.budget != int(self.budget) or uniform not in stack_names(levels):
-                raise ValueError(f"budget={budget}: without AS the denoiser reads the uniform render c_s, which "
-                                 f"exists for s in {stack_names(levels)} only")
+                raise ValueError(f"budget={budget}: without AS the denoiser reads the uniform render c_s, "
+                                 f"which exists for s in {stack_names(levels)} only")
             cin = 3 + 7
         pp = widths.get("pooling", {})
         att = widths.get("attention", {})
@@ -96,9 +98,11 @@ class TwoStage(nn.Module):
         if self.sampler is not None:
             c1 = need(x, "c1_in", who)
             albedo = need(x, "albedo", who)
-            fs_in = torch.cat([compress(c1, self.colour), g, compress(grey(c1), self.colour), grey(albedo)], 1)
+            colour = self.colour
+            fs_in = torch.cat([compress(c1, colour), g, compress(grey(c1), colour), grey(albedo)], 1)
             s = self.sampler(fs_in)
-            image, m = adaptive_render(s["logits"], c1, stack_buffers(x, self.levels), x.get("ref"), self.budget)
+            stack = stack_buffers(x, self.levels)
+            image, m = adaptive_render(s["logits"], c1, stack, x.get("ref"), self.budget)
             ic = compress(image, self.colour)
             smap = m / (self.budget - 1)
             feats = [ic, g, smap]
@@ -122,8 +126,8 @@ def build_two_stage(cfg: DictConfig) -> TwoStage:
     ``cfg.model.two_stage`` (widths)."""
     switches = check_switches(cfg.method)
     if "model" not in cfg or "two_stage" not in cfg.model:
-        raise KeyError("cfg.model.two_stage (the widths of the two-stage networks) is missing; pick a capacity "
-                       "profile, e.g. model=cpu or model=paper")
+        raise KeyError("cfg.model.two_stage (the widths of the two-stage networks) is missing; pick a "
+                       "capacity profile, e.g. model=cpu or model=paper")
     widths = OmegaConf.to_container(cfg.model.two_stage, resolve=True)
     sampling = cfg.method.get("sampling", None) or {}
     return TwoStage(switches, cfg.budget, widths, levels=int(sampling.get("levels", 5)),

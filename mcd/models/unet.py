@@ -1,10 +1,11 @@
 """A configurable U-Net of conv blocks with skip connections (paper Sec. 3: both ``F_s`` and ``F_d``).
 
-Level ``j`` works at ``1 / 2^j`` resolution with ``widths[j]`` channels and ``convs`` blocks; the encoder pools
-between levels (max pooling, or position-aware pooling), the decoder upsamples bilinearly, concatenates the
-skip and runs ``convs`` blocks; a 1x1 convolution makes the output. The deepest level may swap its blocks after
-the first for another module (semantic alignment). Inputs of any size are replicate-padded to a multiple of
-the stride ``2^(levels-1)`` and the outputs cropped back, so odd sizes and inputs smaller than the stride work.
+Level ``j`` works at ``1 / 2^j`` resolution with ``widths[j]`` channels and ``convs`` blocks; the encoder
+pools between levels (max pooling, or position-aware pooling), the decoder upsamples bilinearly, concatenates
+the skip and runs ``convs`` blocks; a 1x1 convolution makes the output. The deepest level may swap its blocks
+after the first for another module (semantic alignment). Inputs of any size are replicate-padded to a
+multiple of the stride ``2^(levels-1)`` and the outputs cropped back, so odd sizes and inputs smaller than
+the stride work.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ class UNet(nn.Module):
                  pool: PoolFactory = max_pool, deepest: nn.Module | None = None) -> None:
         super().__init__()
         if len(widths) < 1 or convs < 1:
-            raise ValueError(f"a U-Net needs at least one level and one conv per level; got {widths}, {convs}")
+            raise ValueError(f"a U-Net needs at least one level and one conv per level; "
+                             f"got {widths}, {convs}")
         self.widths = list(widths)
         self.stride = 2 ** (len(widths) - 1)
         self.encoder = nn.ModuleList()

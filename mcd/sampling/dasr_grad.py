@@ -1,11 +1,12 @@
 """The adaptive render as a differentiable step (method.md "Adaptive sampling" step 4, DASR's approximation).
 
 Rounding the map and picking renders by the bits of ``m`` have no useful derivative. DASR approximates the
-change of a pixel's ``1 + m`` sample average with one more sample by ``(ref - i) / (1 + m)`` (the expected step
-towards the converged value), so in backward ``dL/dm_p = sum_c dL/di_p,c * (ref_p,c - i_p,c) / (1 + m_p)``;
-``m = p * N * (s - 1)`` before rounding gives ``dL/dp = dL/dm * N * (s - 1)``, and autograd takes it through the
-softmax to the logits. ``ref`` is read only here. The map itself is returned as a non-differentiable output:
-feeding it to the denoiser sends no gradient back to the sampler (the paper's gradient is the only path).
+change of a pixel's ``1 + m`` sample average with one more sample by ``(ref - i) / (1 + m)`` (the expected
+step towards the converged value), so in backward ``dL/dm_p = sum_c dL/di_p,c * (ref_p,c - i_p,c) / (1 +
+m_p)``; ``m = p * N * (s - 1)`` before rounding gives ``dL/dp = dL/dm * N * (s - 1)``, and autograd takes it
+through the softmax to the logits. ``ref`` is read only here. The map itself is returned as a
+non-differentiable output: feeding it to the denoiser sends no gradient back to the sampler (the paper's
+gradient is the only path).
 """
 
 from __future__ import annotations
@@ -34,8 +35,8 @@ class AdaptiveRender(torch.autograd.Function):
     def backward(ctx, grad_i: Tensor, _grad_m: Tensor | None):
         i, m, ref = ctx.saved_tensors
         if ref is None:
-            raise RuntimeError("the adaptive render's gradient (DASR) needs the reference: pass x['ref'] during "
-                               "training (it may be None only when no gradient is taken)")
+            raise RuntimeError("the adaptive render's gradient (DASR) needs the reference: pass x['ref'] "
+                               "during training (it may be None only when no gradient is taken)")
         dm = (grad_i.float() * (ref.float() - i) / (1 + m)).sum(1, keepdim=True)
         n = m[0].numel()
         dp = dm * float(frame_budget(n, ctx.budget))
@@ -44,7 +45,8 @@ class AdaptiveRender(torch.autograd.Function):
 
 def adaptive_render(logits: Tensor, c1: Tensor, stack: Tensor, ref: Tensor | None,
                     budget: float) -> tuple[Tensor, Tensor]:
-    """Sampling logits ``[B,1,H,W]`` -> (adaptive image ``i`` ``[B,3,H,W]``, sampling map ``m`` ``[B,1,H,W]``).
+    """Sampling logits ``[B,1,H,W]`` -> (adaptive image ``i`` ``[B,3,H,W]``, sampling map ``m``
+    ``[B,1,H,W]``).
 
     ``c1`` is the render the sampler saw (``c1_in``), ``stack`` the ``[B, K, 3, H, W]`` renders ``c_{2^k}``,
     ``ref`` the reference (training only). Computed in fp32 whatever the autocast state. On the meta device

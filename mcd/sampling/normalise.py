@@ -1,9 +1,10 @@
 """Sampling-map normalisation (method.md "Adaptive sampling" step 1; paper Eq. 1).
 
-``m = round(softmax(m̄) * N * (s - 1))`` per frame, each pixel capped at ``2^0 + ... + 2^t`` (63 for ``t = 5``),
-with an exact budget: ``sum(m) == N * (s - 1)`` for every frame. The cap is honoured by water-filling (the
-capped pixels' excess goes to the others in proportion to their share) and the rounding by largest remainder.
-Everything here is a non-differentiable integer map; the gradient is :mod:`mcd.sampling.dasr_grad`'s job.
+``m = round(softmax(m̄) * N * (s - 1))`` per frame, each pixel capped at ``2^0 + ... + 2^t`` (63 for ``t =
+5``), with an exact budget: ``sum(m) == N * (s - 1)`` for every frame. The cap is honoured by water-filling
+(the capped pixels' excess goes to the others in proportion to their share) and the rounding by largest
+remainder. Everything here is a non-differentiable integer map; the gradient is
+:mod:`mcd.sampling.dasr_grad`'s job.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def check_logits(logits: Tensor) -> None:
 
 
 def shares(logits: Tensor) -> Tensor:
-    """Per-frame softmax over all pixels of ``[B, 1, H, W]`` logits, computed in fp32 (safe under autocast)."""
+    """Per-frame softmax over all pixels of ``[B, 1, H, W]`` logits, in fp32 (safe under autocast)."""
     check_logits(logits)
     b = logits.shape[0]
     return torch.softmax(logits.float().reshape(b, -1), dim=1).reshape(logits.shape)
@@ -43,10 +44,11 @@ def shares(logits: Tensor) -> Tensor:
 
 @torch.no_grad()
 def normalise_map(p: Tensor, budget: float, cap: int = 63) -> Tensor:
-    """Integer sampling map ``m`` (float tensor, ``[B, 1, H, W]``) from per-frame shares ``p`` (each frame sums to 1).
+    """Integer sampling map ``m`` (float tensor, ``[B, 1, H, W]``) from per-frame shares ``p`` (each frame
+    sums to 1).
 
-    ``sum(m[b]) == N * (s - 1)`` exactly and ``0 <= m <= cap``. Raises ``ValueError`` for NaN shares or a budget
-    the cap cannot hold (``s - 1 > cap``).
+    ``sum(m[b]) == N * (s - 1)`` exactly and ``0 <= m <= cap``. Raises ``ValueError`` for NaN shares or a
+    budget the cap cannot hold (``s - 1 > cap``).
     """
     if not bool(torch.isfinite(p).all()):
         raise ValueError("sampling shares hold NaN/Inf; the sampling network's logits are not finite")
@@ -57,8 +59,8 @@ def normalise_map(p: Tensor, budget: float, cap: int = 63) -> Tensor:
     if total < 0:
         raise ValueError(f"budget s={budget} is below 1 spp; the adaptive renderer needs s >= 1")
     if total > cap * n:
-        raise ValueError(f"budget s={budget} needs {budget - 1} adaptive spp per pixel, more than the cap {cap} "
-                         "(raise method.sampling.levels or lower the budget)")
+        raise ValueError(f"budget s={budget} needs {budget - 1} adaptive spp per pixel, more than the cap "
+                         f"{cap} (raise method.sampling.levels or lower the budget)")
     flat = flat / flat.sum(1, keepdim=True).clamp_min(1e-300)
     flat = (1 - UNIFORM_MIX) * flat + UNIFORM_MIX / n
     raw = _water_fill(flat, float(total), float(cap))
@@ -70,22 +72,23 @@ def normalise_map(p: Tensor, budget: float, cap: int = 63) -> Tensor:
     rank.scatter_(1, order, torch.arange(n, device=p.device).expand(b, n))
     m = floor + (rank < deficit[:, None]).double()
     if not (bool((m.sum(1) == total).all()) and float(m.max()) <= cap and float(m.min()) >= 0):
-        raise RuntimeError(f"sampling-map normalisation broke its invariant: sums {m.sum(1).tolist()} != {total} "
-                           f"or values outside [0, {cap}]")
+        raise RuntimeError(f"sampling-map normalisation broke its invariant: sums {m.sum(1).tolist()} != "
+                           f"{total} or values outside [0, {cap}]")
     return m.to(p.dtype if p.dtype.is_floating_point else torch.float32).reshape(p.shape)
 
 
 def _water_fill(p: Tensor, total: float, cap: float) -> Tensor:
-    """``min(lam * p, cap)`` with, per row, the ``lam`` that makes the row sum to ``total`` (``p > 0`` everywhere).
+    """``min(lam * p, cap)`` with, per row, the ``lam`` that makes the row sum to ``total`` (``p > 0``
+    everywhere).
 
-    Exact and loop-free: with the shares sorted, if the ``k`` largest are capped then ``lam_k = (total - k cap) /
-    (sum of the rest)``; the answer is the smallest ``k`` whose next share is not capped by ``lam_k``.
+    Exact and loop-free: with the shares sorted, if the ``k`` largest are capped then ``lam_k = (total - k
+    cap) / (sum of the rest)``; the answer is the smallest ``k`` whose next share is not capped by ``lam_k``.
     """
     ps, _ = p.sort(dim=1, descending=True)
     n = ps.shape[1]
     rest = ps.flip(1).cumsum(1).flip(1)                                        # sum_{j >= k} ps_j
     k = torch.arange(n, device=p.device, dtype=p.dtype)
     ok = (total - k * cap) * ps <= cap * rest                                  # lam_k * ps_k <= cap
-    first = ok.double().argmax(dim=1)                                          # smallest valid k (ok[:, -1] holds)
+    first = ok.double().argmax(dim=1)                          # smallest valid k (ok[:, -1] always holds)
     lam = (total - first.to(p.dtype) * cap) / rest.gather(1, first[:, None]).squeeze(1)
     return torch.minimum(lam[:, None] * p, torch.full_like(p, cap))
