@@ -1,0 +1,423 @@
+"""``python -m mcd.bench``: inference speed of every method (benchmark.md "Metrics", speed), beside Intel Open
+Image Denoise on the same frames; writes ``reports/bench/bench.csv`` (read by ``mcd.report``'s speed-against-
+error plot) and prints a table.
+
+Per method (built by ``mcd.models.build`` from the composed Hydra config ``+experiment=<X> model=<profile>``),
+device (CPU; CUDA when present), resolution (1920x1080 and 256x256 by default) and inference path:
+
+- fp32, eager, contiguous; fp32 eager channels-last;
+- half precision through ``torch.autocast`` (fp16 and bf16 on CUDA; bf16 on a CPU with native bf16 support),
+  channels-last;
+- the half paths again after ``torch.compile(mode="max-autotune-no-cudagraphs")`` on CUDA (on CPU only with
+  ``--cpu-compile``: inductor's C++ build takes minutes on a small machine).
+
+Timing: one output frame per call (batch 1) in steady state (temporal methods keep their state from frame to
+frame; ``reset()`` once before warm-up), ``--warmup`` calls first, then ``--reps`` timed calls, each closed by
+``torch.cuda.synchronize()`` on CUDA; the median and frames/s are written. CPU at 1080p is slow: it uses
+``--cpu-1080p-reps`` (default 2) after one warm-up, and the CSV's ``reps`` column states it.
+
+Inputs: the first frame of a scene in the data store (``--frames <store>/<profile>/<scene>``; tiled to the
+target size), else seeded synthetic HDR buffers (timing of these networks does not depend on pixel values);
+the ``inputs`` column says which. Unavailable paths (no pyoidn, no bf16 on this CPU) get a row whose
+``status`` says why and no time; failures get ``status`` ``failed: <error>``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import logging
+import math
+import platform
+import statistics
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from hydra import compose, initialize_config_dir
+from omegaconf import DictConfig
+from torch import Tensor, nn
+
+log = logging.getLogger("mcd.bench")
+
+REPO = Path(__file__).resolve().parent.parent
+#: Every registered method, as the experiment that selects it (A-M are rows of `two_stage`; F stands for it).
+METHODS = ("F", "unet", "rae", "fastdvdnet", "dasr", "ntasad", "oidn", "noisy")
+SIZES = {"1080p": (1080, 1920), "256": (256, 256)}  # or any "<W>x<H>"
+CHANNELS = {"depth": 1, "motion": 2}
+COLUMNS = (
+    "method",
+    "device",
+    "dtype",
+    "compiled",
+    "height",
+    "width",
+    "ms_median",
+    "fps",
+    "channels_last",
+    "reps",
+    "warmup",
+    "model",
+    "inputs",
+    "status",
+    "device_name",
+)
+
+
+@dataclass
+class Row:
+    """One line of bench.csv (the first eight columns are the interface of docs/architecture.md)."""
+
+    method: str
+    device: str
+    dtype: str
+    compiled: bool
+    height: int
+    width: int
+    ms_median: float | None
+    fps: float | None
+    channels_last: bool
+    reps: int
+    warmup: int
+    model: str
+    inputs: str
+    status: str
+    device_name: str
+
+
+@dataclass(frozen=True)
+class InferencePath:
+    """An inference path: autocast dtype (None = fp32), memory format, compilation."""
+
+    dtype: torch.dtype | None
+    channels_last: bool
+    compiled: bool
+
+    @property
+    def dtype_name(self) -> str:
+        return "fp32" if self.dtype is None else {torch.float16: "fp16", torch.bfloat16: "bf16"}[self.dtype]
+
+
+def cpu_bf16_supported() -> bool:
+    """Whether this CPU computes bf16 natively (AVX512-BF16 or AMX); emulated bf16 is slower than fp32."""
+    checks = ("_is_avx512_bf16_supported", "_is_amx_tile_supported")
+    return any(bool(getattr(torch.cpu, c, lambda: False)()) for c in checks)
+
+
+def inference_paths(device: torch.device, cpu_compile: bool) -> list[InferencePath]:
+    """The paths measured on `device` (see the module docstring)."""
+    paths = [InferencePath(None, False, False), InferencePath(None, True, False)]
+    if device.type == "cuda":
+        halves = [torch.float16] + ([torch.bfloat16] if torch.cuda.is_bf16_supported() else [])
+        paths += [InferencePath(h, True, False) for h in halves] + [
+            InferencePath(h, True, True) for h in halves
+        ]
+    else:
+        if cpu_bf16_supported():
+            paths.append(InferencePath(torch.bfloat16, True, False))
+        if cpu_compile:
+            paths.append(InferencePath(None, True, True))
+    return paths
+
+
+def compose_cfg(experiment: str, overrides: list[str]) -> DictConfig:
+    """The run config of `+experiment=<X>` plus `overrides`, as `python -m mcd.run` composes it."""
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base="1.3"):
+        return compose(config_name="config", overrides=[f"+experiment={experiment}", *overrides])
+
+
+def device_name(device: torch.device) -> str:
+    """A readable name of the device (GPU model, or the CPU and its thread count)."""
+    if device.type == "cuda":
+        return torch.cuda.get_device_name(device)
+    return f"{platform.processor() or platform.machine()} ({torch.get_num_threads()} threads)"
+
+
+def parse_size(size: str) -> tuple[int, int]:
+    """`(height, width)` of a size name (`1080p`, `256`) or `<W>x<H>`."""
+    if size in SIZES:
+        return SIZES[size]
+    try:
+        w, h = (int(v) for v in size.lower().split("x"))
+    except ValueError:
+        raise ValueError(f"size {size!r}: use one of {sorted(SIZES)} or <width>x<height>") from None
+    return h, w
+
+
+def _tile(image: np.ndarray, height: int, width: int) -> np.ndarray:
+    reps = (math.ceil(height / image.shape[0]), math.ceil(width / image.shape[1]), 1)
+    return np.tile(image, reps)[:height, :width]
+
+
+def frame_buffers(
+    names: set[str], height: int, width: int, frames_dir: Path | None
+) -> tuple[dict[str, np.ndarray], str]:
+    """`H x W x C` float32 buffers by name: a store frame tiled to size, else seeded synthetic ones."""
+    if frames_dir is not None:
+        from mcd.data.exr import read_exr
+
+        frame = sorted(p for p in frames_dir.iterdir() if p.is_dir() and p.name.isdigit())
+        if not frame:
+            raise FileNotFoundError(f"--frames {frames_dir}: no frame folders (0000, 0001, ...) in it")
+        missing = [n for n in sorted(names) if not (frame[0] / f"{n}.exr").is_file()]
+        if missing:
+            raise FileNotFoundError(
+                f"--frames {frame[0]}: buffers {missing} missing; render them first "
+                "(python -m mcd.render) or drop --frames"
+            )
+        return (
+            {n: _tile(read_exr(frame[0] / f"{n}.exr"), height, width) for n in names},
+            f"store frame {frame[0]}",
+        )
+    rng = np.random.default_rng(0)
+    out = {}
+    for n in sorted(names):
+        c = CHANNELS.get(n, 3)
+        if n == "normal":
+            v = rng.normal(size=(height, width, 3)).astype(np.float32)
+            out[n] = v / np.linalg.norm(v, axis=-1, keepdims=True)
+        elif n == "motion":
+            out[n] = rng.normal(scale=2.0, size=(height, width, 2)).astype(np.float32)
+        elif n == "albedo":
+            out[n] = rng.uniform(0.05, 0.95, size=(height, width, 3)).astype(np.float32)
+        else:  # colour and depth: heavy-tailed positive HDR values
+            out[n] = rng.gamma(0.5, 1.0, size=(height, width, c)).astype(np.float32)
+    return out, "synthetic (seeded)"
+
+
+def model_inputs(
+    model: nn.Module, buffers: dict[str, np.ndarray], device: torch.device, channels_last: bool
+) -> dict[str, Tensor | None]:
+    """One frame's inputs in the model's layout (`[1, C, H, W]`, or `[1, T, C, H, W]` for a window)."""
+    past, future = getattr(model, "window", (0, 0))
+    x: dict[str, Tensor | None] = {"ref": None}
+    for name in model.required_buffers():
+        if name == "ref":
+            continue
+        t = torch.from_numpy(np.ascontiguousarray(buffers[name])).permute(2, 0, 1)[None].to(device)
+        if (past, future) != (0, 0):
+            t = t[:, None].expand(-1, past + 1 + future, -1, -1, -1).contiguous()
+        elif channels_last:
+            t = t.contiguous(memory_format=torch.channels_last)
+        x[name] = t
+    return x
+
+
+def _sync(device: torch.device) -> None:
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+
+
+@contextlib.contextmanager
+def _autocast(device: torch.device, dtype: torch.dtype | None) -> Iterator[None]:
+    if dtype is None:
+        yield
+    else:
+        with torch.autocast(device_type=device.type, dtype=dtype):
+            yield
+
+
+def time_calls(call: Callable[[], object], device: torch.device, warmup: int, reps: int) -> list[float]:
+    """Milliseconds of `reps` calls after `warmup` calls, each closed by a device synchronisation."""
+    for _ in range(warmup):
+        call()
+    _sync(device)
+    times = []
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        call()
+        _sync(device)
+        times.append((time.perf_counter() - t0) * 1e3)
+    return times
+
+
+def bench_one(
+    model: nn.Module,
+    buffers: dict[str, np.ndarray],
+    device: torch.device,
+    path: InferencePath,
+    warmup: int,
+    reps: int,
+) -> float:
+    """Median ms per frame of `model` on `device` along `path` (raises on a non-finite output)."""
+    model = model.to(device).eval()
+    if path.channels_last:
+        model = model.to(memory_format=torch.channels_last)
+    fn: Callable[..., dict[str, Tensor]] = model
+    if path.compiled:
+        fn = torch.compile(model, mode="max-autotune-no-cudagraphs" if device.type == "cuda" else "default")
+    x = model_inputs(model, buffers, device, path.channels_last)
+    outputs: list[dict[str, Tensor]] = []
+
+    def call() -> None:
+        with torch.inference_mode(), _autocast(device, path.dtype):
+            outputs[:] = [fn(x)]
+
+    if hasattr(model, "reset"):
+        model.reset()
+    times = time_calls(call, device, warmup, reps)
+    out = outputs[0]["output"]
+    if not torch.isfinite(out.float()).all():
+        raise FloatingPointError(f"non-finite output along {path}")
+    return statistics.median(times)
+
+
+def run(
+    methods: list[str],
+    sizes: list[str],
+    devices: list[str],
+    overrides: list[str],
+    warmup: int,
+    reps: int,
+    cpu_1080p_reps: int,
+    cpu_compile: bool,
+    frames_dir: Path | None,
+) -> list[Row]:
+    """Every (method, device, size, path) measurement (see the module docstring)."""
+    from mcd.models import build
+
+    rows: list[Row] = []
+    profile = next((o.split("=", 1)[1] for o in overrides if o.startswith("model=")), "cpu")
+    for dev_name in devices:
+        device = torch.device(dev_name)
+        if device.type == "cuda" and not torch.cuda.is_available():
+            log.warning("no CUDA device here: skipping the GPU rows")
+            continue
+        dname = device_name(device)
+        paths = inference_paths(device, cpu_compile)
+        for size in sizes:
+            h, w = parse_size(size)
+            slow = device.type == "cpu" and h * w >= 1080 * 1920
+            n_warm, n_reps = (1, cpu_1080p_reps) if slow else (warmup, reps)
+            for method in methods:
+                base = dict(
+                    method=method,
+                    device=device.type,
+                    height=h,
+                    width=w,
+                    warmup=n_warm,
+                    reps=n_reps,
+                    model=profile,
+                    device_name=dname,
+                )
+                try:
+                    model = build(compose_cfg(method, overrides))
+                    buffers, inputs = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, frames_dir)
+                except Exception as err:  # e.g. OIDN without pyoidn: a row that says so, not a number
+                    why = "unavailable" if isinstance(err, ImportError) else "failed to build"
+                    rows.append(
+                        Row(
+                            **base,
+                            dtype="fp32",
+                            compiled=False,
+                            ms_median=None,
+                            fps=None,
+                            channels_last=False,
+                            inputs="",
+                            status=f"{why}: {type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}",
+                        )
+                    )
+                    log.warning("%s %s: %s", method, why, err)
+                    continue
+                for path in paths:
+                    try:
+                        ms = bench_one(model, buffers, device, path, n_warm, n_reps)
+                        status, fps = "ok", 1e3 / ms
+                    except Exception as err:  # a path that does not work for a method is a row, not a crash
+                        ms, fps, status = (
+                            None,
+                            None,
+                            f"failed: {type(err).__name__}: {str(err).splitlines()[0]}",
+                        )
+                    rows.append(
+                        Row(
+                            **base,
+                            dtype=path.dtype_name,
+                            compiled=path.compiled,
+                            ms_median=ms,
+                            fps=fps,
+                            channels_last=path.channels_last,
+                            inputs=inputs,
+                            status=status,
+                        )
+                    )
+                    log.info(
+                        "%-10s %-4s %4dx%-4d %-4s cl=%d compiled=%d: %s",
+                        method,
+                        device.type,
+                        w,
+                        h,
+                        path.dtype_name,
+                        path.channels_last,
+                        path.compiled,
+                        f"{ms:.2f} ms ({fps:.1f} fps)" if ms is not None else status,
+                    )
+                del model
+                if device.type == "cuda":
+                    torch.cuda.empty_cache()
+    return rows
+
+
+def write_csv(rows: list[Row], path: Path) -> None:
+    """bench.csv with the columns of :data:`COLUMNS` (empty time for unavailable or failed paths)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        for r in rows:
+            d = asdict(r)
+            d["ms_median"] = "" if r.ms_median is None else f"{r.ms_median:.4f}"
+            d["fps"] = "" if r.fps is None else f"{r.fps:.3f}"
+            writer.writerow(d)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        prog="python -m mcd.bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "overrides", nargs="*", help="Hydra overrides for every method (default: model=paper)"
+    )
+    parser.add_argument("--methods", default=",".join(METHODS), help="experiments, comma-separated")
+    parser.add_argument("--sizes", default="1080p,256", help="comma-separated: 1080p, 256 or <W>x<H>")
+    parser.add_argument("--devices", default="cpu,cuda", help="cpu and/or cuda (cuda rows need a GPU)")
+    parser.add_argument("--warmup", type=int, default=3)
+    parser.add_argument("--reps", type=int, default=10)
+    parser.add_argument("--cpu-1080p-reps", type=int, default=2, help="timed calls on CPU at 1080p (slow)")
+    parser.add_argument(
+        "--cpu-compile", action="store_true", help="also torch.compile on CPU (slow to build)"
+    )
+    parser.add_argument("--frames", type=Path, help="a scene folder of the store (<data>/<profile>/<scene>)")
+    parser.add_argument("--out", type=Path, default=Path("reports/bench/bench.csv"))
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    overrides = list(args.overrides)
+    if not any(o.startswith("model=") for o in overrides):
+        overrides.append("model=paper")
+    sizes = [s for s in args.sizes.split(",") if s]
+    for s in sizes:
+        try:
+            parse_size(s)
+        except ValueError as err:
+            parser.error(str(err))
+    rows = run(
+        [m for m in args.methods.split(",") if m],
+        sizes,
+        [d for d in args.devices.split(",") if d],
+        overrides,
+        args.warmup,
+        args.reps,
+        args.cpu_1080p_reps,
+        args.cpu_compile,
+        args.frames,
+    )
+    write_csv(rows, args.out)
+    print(f"{len(rows)} rows -> {args.out}")
+
+
+if __name__ == "__main__":
+    main()

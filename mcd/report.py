@@ -1,0 +1,205 @@
+"""``python -m mcd.report <multirun dir(s)> [--name N] [--bench reports/bench/bench.csv]``: the report
+of one or more sweeps (benchmark.md "Reports"), generated from the run directories only, under
+``reports/<name>/``:
+
+- ``table1.md/.csv`` (methods at 4 spp) and ``components.md/.csv`` (A-M), the paper's numbers beside ours,
+  ``transfer.md/.csv`` when transfer jobs ran;
+- ``spp.csv/.png`` (error against budget), ``speed_vs_error.png/.csv`` (from the bench CSV);
+- ``strips/<scene>.png`` and ``strips/<scene>_methods.png`` (qualitative, with crops),
+  ``per_frame/<scene>_psnr.png`` (per-frame PSNR over each test sequence);
+- ``README.md``: provenance (commands, config, data profile, commit, device, wall time), the paper's claims
+  checked against our numbers, failed jobs with their error, and an index of the files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from mcd.reporting import frames, speed, spp, strips, tables
+from mcd.reporting.provenance import Provenance
+from mcd.reporting.runs import Run, Sweep, display_name, find_runs, find_sweeps
+from mcd.reporting.select import to_markdown
+
+DEFAULT_BENCH = Path("reports/bench/bench.csv")
+
+
+def _failures(runs: list[Run], root: Path) -> pd.DataFrame:
+    rows = []
+    for r in runs:
+        if r.status == "ok":
+            continue
+        try:
+            where = str(r.path.relative_to(root))
+        except ValueError:
+            where = str(r.path)
+        rows.append(
+            {
+                "run": where,
+                "status": r.status,
+                "overrides": " ".join(r.overrides),
+                "error": r.error_message.replace("|", "\\|"),
+            }
+        )
+    return pd.DataFrame(rows, columns=["run", "status", "overrides", "error"])
+
+
+def _headline(t1: pd.DataFrame) -> list[str]:
+    """F against the best other method of Table 1 (ours and the paper's), in words and numbers."""
+    ours = t1.set_index("experiment")
+    lines = []
+    if "F" not in ours.index or pd.isna(ours.loc["F", "PSNR"]):
+        return ["No finished run of F at 4 spp: the full method's standing cannot be stated."]
+    others = ours.drop(index="F")["PSNR"].dropna()
+    if others.empty:
+        return [f"F: {ours.loc['F', 'PSNR']:.2f} dB; no other method finished to compare with."]
+    best = others.idxmax()
+    gap = ours.loc["F", "PSNR"] - others.max()
+    word = "above" if gap > 0 else "below"
+    lines.append(
+        f"F is {abs(gap):.2f} dB {word} the best other method here ({display_name(str(best))}, "
+        f"{others.max():.2f} dB); F {ours.loc['F', 'PSNR']:.2f} dB."
+    )
+    return lines
+
+
+def write_readme(
+    out_dir: Path,
+    name: str,
+    prov: Provenance,
+    runs: list[Run],
+    sweeps: list[Sweep],
+    results: dict[str, pd.DataFrame],
+    files: list[Path],
+    root: Path,
+    notes: list[str],
+    report_s: float,
+) -> Path:
+    """The report's README: provenance, findings, failures, index."""
+    n_ok = sum(r.status == "ok" for r in runs)
+    fails = _failures(runs, root)
+    lines = [
+        f"# Report `{name}`",
+        "",
+        f"Generated {dt.datetime.now().astimezone().isoformat(timespec='seconds')} "
+        f"by `{prov.report_command}` "
+        f"at commit `{prov.report_commit}`, from run directories only (no hand edits).",
+        "",
+        "## Provenance",
+        "",
+        f"- Sweep commands ({len(sweeps)}):",
+        *[
+            f"  - `{s.command}` → `{s.path.relative_to(root) if s.path.is_relative_to(root) else s.path}` "
+            f"(data profile `{s.data_profile}`)"
+            for s in sweeps
+        ],
+        f"- Data profile(s): {prov.data_profiles}",
+        f"- Config: {prov.config_groups}; each job's full config is in `<run>/.hydra/config.yaml` "
+        "(and `resolved_config.yaml`)",
+        f"- Commit(s) of the runs: {prov.commits}",
+        f"- Device(s): {prov.devices}",
+        f"- Wall time: {prov.wall_s / 60:.1f} min summed over {n_ok} finished runs "
+        f"(as each run's metrics.json records it); this report took {report_s:.1f} s",
+        f"- Jobs: {len(runs)} found, {n_ok} finished, {int((fails['status'] == 'failed').sum())} failed, "
+        f"{int((fails['status'] == 'incomplete').sum())} incomplete",
+        *[f"- Note: {n}" for n in notes],
+        "",
+        "## Findings (generated from the tables below)",
+        "",
+        *[f"- {line}" for line in _headline(results["table1"])],
+        *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],
+        "",
+        "## Table 1 (4 spp)",
+        "",
+        to_markdown(results["table1"].drop(columns=["run"])),
+        "## Component study",
+        "",
+        to_markdown(results["components"].drop(columns=["run"])),
+    ]
+    if "transfer" in results:
+        lines += ["## Transfer", "", to_markdown(results["transfer"].drop(columns=["run"]))]
+    lines += ["## Failed and incomplete jobs", ""]
+    lines += [to_markdown(fails) if not fails.empty else "None."]
+    lines += ["", "## Files", ""]
+    lines += [f"- [{p.relative_to(out_dir)}]({p.relative_to(out_dir)})" for p in files]
+    path = out_dir / "README.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def make_report(
+    dirs: list[Path],
+    out_root: Path,
+    name: str | None = None,
+    bench: Path | None = DEFAULT_BENCH,
+    notes: list[str] | None = None,
+    command: str | None = None,
+) -> Path:
+    """Write the whole report for the runs under `dirs`; returns the report directory."""
+    started = time.perf_counter()
+    runs = find_runs(dirs)
+    if not runs:
+        raise FileNotFoundError(
+            f"no run directories (metrics.json / error.json / .hydra) under "
+            f"{', '.join(map(str, dirs))}: pass the multirun dirs of `mcd.run -m`"
+        )
+    sweeps = find_sweeps(dirs)
+    if name is None:
+        profiles = sorted({r.data_profile for r in runs})
+        name = profiles[0] if len(profiles) == 1 else "combined"
+    out_dir = out_root / name
+    out_dir.mkdir(parents=True, exist_ok=True)
+    root = Path.cwd().resolve()
+    prov = Provenance.gather(sweeps, runs, command)
+
+    results = tables.write_all(runs, out_dir, root)
+    spp.write(runs, out_dir, prov, root)
+    speed.write(runs, bench, out_dir, prov)
+    strip_files = strips.write(runs, out_dir, prov)
+    frame_files = frames.write(runs, out_dir, prov)
+
+    files = [out_dir / f for f in ("table1.md", "table1.csv", "components.md", "components.csv")]
+    if "transfer" in results:
+        files += [out_dir / "transfer.md", out_dir / "transfer.csv"]
+    files += [out_dir / f for f in ("spp.png", "spp.csv", "speed_vs_error.png", "speed_vs_error.csv")]
+    files += strip_files + frame_files
+    if frame_files:
+        files.append(out_dir / "per_frame" / "per_frame.csv")
+    write_readme(
+        out_dir, name, prov, runs, sweeps, results, files, root, notes or [], time.perf_counter() - started
+    )
+    return out_dir
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        prog="python -m mcd.report", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("dirs", nargs="+", type=Path, help="multirun dirs (e.g. multirun/ablation/tiny)")
+    parser.add_argument("--name", help="report name: reports/<name>/ (default: the runs' data profile)")
+    parser.add_argument("--out", type=Path, default=Path("reports"), help="reports root (default: reports)")
+    parser.add_argument(
+        "--bench",
+        type=Path,
+        default=DEFAULT_BENCH,
+        help=f"bench CSV of python -m mcd.bench (default: {DEFAULT_BENCH})",
+    )
+    parser.add_argument(
+        "--note",
+        action="append",
+        default=[],
+        help="a line for the README's provenance (e.g. reduced epochs); repeatable",
+    )
+    args = parser.parse_args(argv)
+    command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
+    out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command)
+    print(f"report written to {out_dir}/README.md")
+
+
+if __name__ == "__main__":
+    main()

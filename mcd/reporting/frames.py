@@ -1,0 +1,63 @@
+"""Per-frame PSNR over each test sequence, one plot per scene and one line per method (benchmark.md "Reports":
+flicker and drift show there), from each run's `frames.csv`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from mcd.reporting.provenance import Provenance  # noqa: E402
+from mcd.reporting.runs import Run, display_name  # noqa: E402
+from mcd.reporting.select import pick  # noqa: E402
+from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # noqa: E402
+
+#: Methods drawn: Table 1's and the component chain's first and last rows (A, B, C), at 4 spp.
+METHODS = (*TABLE1_ROWS, "A", "B", "C")
+
+
+def per_frame(runs: list[Run]) -> pd.DataFrame:
+    """All frames of the 4 spp runs of `METHODS`: experiment, method, scene, frame, psnr, ssim, rmse, lt."""
+    parts = []
+    for exp in dict.fromkeys(METHODS):
+        prefer = "ablation" if exp in COMPONENT_ROWS else "baselines"
+        run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep=prefer)
+        if run is None or run.status != "ok" or run.frames is None:
+            continue
+        df = run.frames.copy()
+        df.insert(0, "method", display_name(exp))
+        df.insert(0, "experiment", exp)
+        parts.append(df)
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+
+
+def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
+    """`per_frame/per_frame.csv` and `per_frame/<scene>_psnr.png`; returns the PNG paths."""
+    df = per_frame(runs)
+    folder = out_dir / "per_frame"
+    folder.mkdir(parents=True, exist_ok=True)
+    pngs: list[Path] = []
+    if df.empty:
+        return pngs
+    df.to_csv(folder / "per_frame.csv", index=False)
+    for scene, sdf in df.groupby("scene", sort=True):
+        fig, ax = plt.subplots(figsize=(9, 4.6))
+        for exp in dict.fromkeys(sdf["experiment"]):
+            mdf = sdf[sdf["experiment"] == exp].sort_values("frame")
+            style = "-" if exp in ("F", "noisy") else "--"
+            ax.plot(mdf["frame"], mdf["psnr"], style, marker=".", label=display_name(str(exp)))
+        ax.set_xlabel("test frame")
+        ax.set_ylabel("PSNR (dB)")
+        ax.set_title(f"Per-frame PSNR over the test sequence: {scene} (4 spp)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+        prov.stamp(fig)
+        path = folder / f"{scene}_psnr.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        pngs.append(path)
+    return pngs

@@ -1,0 +1,107 @@
+"""Provenance of a report (benchmark.md "Reports": every report names command, config, data profile, commit,
+device): gathered from the runs themselves, printed in the README and under every figure."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from matplotlib.figure import Figure
+
+from mcd.reporting.runs import Run, Sweep
+
+
+def git_commit(cwd: Path | None = None) -> str:
+    """The checked-out commit (short hash, `+dirty` when tracked files differ), or `unknown` outside git."""
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short=10", "HEAD"], cwd=cwd, capture_output=True, text=True, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=cwd,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return commit + ("+dirty" if dirty else "")
+
+
+def _distinct(values: list[object]) -> str:
+    seen = sorted({str(v) for v in values if v not in (None, "")})
+    return ", ".join(seen) if seen else "unknown"
+
+
+@dataclass
+class Provenance:
+    """What produced a report: the sweep commands and what the runs recorded about themselves."""
+
+    sweeps: list[Sweep]
+    runs: list[Run]
+    report_command: str
+    report_commit: str
+
+    @classmethod
+    def gather(cls, sweeps: list[Sweep], runs: list[Run], command: str | None = None) -> Provenance:
+        return cls(
+            sweeps=sweeps,
+            runs=runs,
+            report_command=command or "python -m mcd.report " + " ".join(sys.argv[1:]),
+            report_commit=git_commit(),
+        )
+
+    def _ok(self) -> list[Run]:
+        return [r for r in self.runs if r.metrics is not None]
+
+    @property
+    def data_profiles(self) -> str:
+        return _distinct([r.data_profile for r in self.runs])
+
+    @property
+    def commits(self) -> str:
+        return _distinct([r.metrics.get("commit") for r in self._ok()])
+
+    @property
+    def devices(self) -> str:
+        return _distinct([r.metrics.get("device") for r in self._ok()])
+
+    @property
+    def config_groups(self) -> str:
+        """Model / train / trainer profiles of the runs (the `config` part of the provenance)."""
+        parts = []
+        for group in ("model", "train", "trainer", "loss"):
+            profiles = _distinct([r.choices.get(group) for r in self.runs])
+            if profiles != "unknown":
+                parts.append(f"{group}={profiles}")
+        return " ".join(parts) or "see each run's .hydra/config.yaml"
+
+    @property
+    def wall_s(self) -> float:
+        """Total wall time of the finished runs, seconds (as each run's metrics.json recorded it)."""
+        return float(sum(float(r.metrics.get("wall_s") or 0.0) for r in self._ok()))
+
+    def commands(self) -> list[str]:
+        return [s.command for s in self.sweeps]
+
+    def footer(self, sweep_names: list[str] | None = None) -> str:
+        """Two lines for the foot of a figure: the sweep command(s), profile, commit, device."""
+        sweeps = [s for s in self.sweeps if sweep_names is None or s.name in sweep_names] or self.sweeps
+        cmds = " ; ".join(s.command for s in sweeps) or "runs: " + ", ".join(
+            sorted({r.sweep for r in self.runs})
+        )
+        return (
+            f"{cmds}\n"
+            f"data profile {self.data_profiles} | {self.config_groups} | commit {self.commits} | "
+            f"device {self.devices} | report {self.report_commit}"
+        )
+
+    def stamp(self, fig: Figure, sweep_names: list[str] | None = None) -> None:
+        """Write the footer under a figure (leaves room for it at the bottom)."""
+        fig.text(
+            0.01, 0.005, self.footer(sweep_names), fontsize=6, family="monospace", va="bottom", wrap=True
+        )
+        fig.subplots_adjust(bottom=max(fig.subplotpars.bottom, 0.16))

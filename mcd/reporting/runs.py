@@ -1,0 +1,213 @@
+"""Finding and reading the run directories of `python -m mcd.run` sweeps
+(docs/architecture.md "Run directory").
+
+A run directory is any folder holding `metrics.json` (finished), `error.json` (failed) or Hydra's
+`.hydra/config.yaml` (started, neither finished nor failed: killed, or still running). A sweep directory holds
+Hydra's `multirun.yaml`, which records the command line that launched it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+from omegaconf import OmegaConf
+
+#: Names shown in tables and legends; experiments not listed here (rows A-M) show as they are.
+DISPLAY_NAMES = {
+    "noisy": "Noisy input",
+    "unet": "U-Net",
+    "fastdvdnet": "FastDVDnet",
+    "rae": "RAE",
+    "dasr": "DASR",
+    "ntasad": "NTASAD",
+    "oidn": "OIDN",
+    "F": "Ours (F)",
+}
+
+
+def display_name(experiment: str) -> str:
+    """Legend/table name of an experiment (`F` is the paper's full method, "Ours")."""
+    return DISPLAY_NAMES.get(experiment, experiment)
+
+
+def _load_json(path: Path) -> dict[str, Any] | None:
+    """The JSON object in `path`, or None when the file is missing, truncated or not an object."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _load_yaml(path: Path) -> dict[str, Any]:
+    """A Hydra-saved YAML file as a plain dict, interpolations resolved where they resolve ({} if absent)."""
+    if not path.is_file():
+        return {}
+    cfg = OmegaConf.load(path)
+    try:
+        return OmegaConf.to_container(cfg, resolve=True)  # type: ignore[return-value]
+    except Exception:  # an interpolation into the `hydra` node, which is not saved with the job config
+        return OmegaConf.to_container(cfg, resolve=False)  # type: ignore[return-value]
+
+
+@dataclass
+class Run:
+    """One job of a sweep: its directory, the config it ran with, and its metrics or its error."""
+
+    path: Path
+    config: dict[str, Any] = field(default_factory=dict)
+    overrides: list[str] = field(default_factory=list)
+    choices: dict[str, str] = field(default_factory=dict)
+    metrics: dict[str, Any] | None = None
+    error: dict[str, Any] | None = None
+
+    @property
+    def status(self) -> str:
+        """`ok` (complete metrics.json), `failed` (error.json) or `incomplete` (neither)."""
+        if self.metrics is not None:
+            return "ok"
+        return "failed" if self.error is not None else "incomplete"
+
+    def _get(self, key: str, default: Any = None) -> Any:
+        if self.metrics is not None and key in self.metrics:
+            return self.metrics[key]
+        return self.config.get(key, default)
+
+    @property
+    def experiment(self) -> str:
+        return str(self._get("experiment", "?"))
+
+    @property
+    def budget(self) -> float | None:
+        value = self._get("budget")
+        return None if value is None else float(value)
+
+    @property
+    def sweep(self) -> str:
+        """The sweep the job belongs to (`sweep_name`, from `sweeps/<name>.yaml`), else its grandparent."""
+        name = self.config.get("sweep_name")
+        return str(name) if name else self.path.parent.parent.name
+
+    @property
+    def transfer(self) -> dict[str, Any] | None:
+        """The transfer settings of a transfer job (metrics.json `transfer`), None for ordinary jobs."""
+        value = self._get("transfer")
+        return value if isinstance(value, dict) and value else None
+
+    @property
+    def data_profile(self) -> str:
+        profile = self._get("data_profile") or self.choices.get("data")
+        return str(profile) if profile else "?"
+
+    @property
+    def method_switches(self) -> dict[str, bool]:
+        """The component switches (method.md) this job ran with, from its config."""
+        method = self.config.get("method", {})
+        return {k: bool(method[k]) for k in ("UN", "AS", "KP", "PP", "FG", "SA") if k in method}
+
+    @cached_property
+    def frames(self) -> pd.DataFrame | None:
+        """frames.csv (scene, frame, psnr, ...), or None when absent or unreadable."""
+        path = self.path / "frames.csv"
+        if not path.is_file():
+            return None
+        try:
+            return pd.read_csv(path)
+        except (OSError, ValueError):
+            return None
+
+    @property
+    def error_message(self) -> str:
+        """One line naming what went wrong (for failed and incomplete jobs)."""
+        if self.error is not None:
+            msg = str(self.error.get("error") or self.error.get("message") or "see error.json")
+            return msg.strip().splitlines()[0] if msg.strip() else "see error.json"
+        if self.status == "incomplete":
+            return "no metrics.json and no error.json: the job was killed or is still running"
+        return ""
+
+
+def load_run(path: Path) -> Run:
+    """Read one run directory."""
+    metrics = _load_json(path / "metrics.json")
+    if metrics is not None and "psnr" not in metrics:
+        metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
+    error = _load_json(path / "error.json")
+    if error is None and (path / "error.json").exists():
+        error = {"error": f"{path / 'error.json'} exists but is not readable JSON"}
+    overrides_file = path / ".hydra" / "overrides.yaml"
+    overrides = [str(o) for o in OmegaConf.load(overrides_file)] if overrides_file.is_file() else []
+    if not overrides and error is not None and isinstance(error.get("overrides"), list):
+        overrides = [str(o) for o in error["overrides"]]
+    config = _load_yaml(path / ".hydra" / "config.yaml")
+    if not config and error is not None and isinstance(error.get("config"), dict):
+        config = error["config"]
+    hydra_file = path / ".hydra" / "hydra.yaml"
+    choices = (
+        OmegaConf.select(OmegaConf.load(hydra_file), "hydra.runtime.choices", default=None)
+        if (hydra_file.is_file())
+        else None
+    )
+    choices = (
+        {str(k): str(v) for k, v in choices.items() if not str(k).startswith("hydra")} if choices else {}
+    )
+    return Run(path=path, config=config, overrides=overrides, choices=choices, metrics=metrics, error=error)
+
+
+def _is_run_dir(path: Path) -> bool:
+    return (
+        (path / "metrics.json").is_file()
+        or (path / "error.json").is_file()
+        or (path / ".hydra" / "config.yaml").is_file()
+    )
+
+
+def find_runs(roots: list[Path]) -> list[Run]:
+    """Every run directory under `roots` (each a multirun dir, a sweep dir or one run dir), sorted by path."""
+    found: set[Path] = set()
+    for root in roots:
+        if not root.exists():
+            raise FileNotFoundError(f"{root}: no such directory (pass multirun dirs written by mcd.run -m)")
+        candidates = [root, *(p for p in root.rglob("*") if p.is_dir() and p.name != ".hydra")]
+        found.update(p.resolve() for p in candidates if _is_run_dir(p))
+    return [load_run(p) for p in sorted(found)]
+
+
+@dataclass
+class Sweep:
+    """A sweep directory and the command that launched it (from Hydra's multirun.yaml)."""
+
+    path: Path
+    name: str
+    command: str
+    data_profile: str
+
+
+def find_sweeps(roots: list[Path]) -> list[Sweep]:
+    """The sweep directories (holding multirun.yaml) under or above `roots`."""
+    files: set[Path] = set()
+    for root in roots:
+        files.update(p.resolve() for p in root.rglob("multirun.yaml"))
+        files.update(
+            p.resolve() for p in [root / "multirun.yaml", root.parent / "multirun.yaml"] if p.is_file()
+        )
+    sweeps = []
+    for f in sorted(files):
+        cfg = OmegaConf.load(f)
+        task = OmegaConf.select(cfg, "hydra.overrides.task", default=[]) or []
+        choices = OmegaConf.select(cfg, "hydra.runtime.choices", default={}) or {}
+        name = OmegaConf.select(cfg, "sweep_name", default=None) or f.parent.parent.name
+        sweeps.append(
+            Sweep(
+                path=f.parent,
+                name=str(name),
+                command="python -m mcd.run -m " + " ".join(str(t) for t in task),
+                data_profile=str(choices.get("data", "?")),
+            )
+        )
+    return sweeps

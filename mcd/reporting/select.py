@@ -1,0 +1,78 @@
+"""Choosing which run stands for an experiment in a table or figure, and writing tables as markdown + CSV."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from mcd.reporting.runs import Run
+
+
+def pick(runs: list[Run], experiment: str, budget: float | None, prefer_sweep: str) -> Run | None:
+    """The run of `experiment` at `budget` (any budget if None), excluding transfer jobs.
+
+    Finished runs first; among them the preferred sweep's, then any other sweep's (the same experiment at 4
+    spp is a job of several sweeps: ablation, baselines, spp). Without a finished run, the failed or
+    incomplete one, so that tables show the failure instead of a silent gap.
+    """
+    cands = [
+        r
+        for r in runs
+        if r.experiment == experiment and r.transfer is None and (budget is None or r.budget == budget)
+    ]
+    if not cands:
+        return None
+
+    def rank(r: Run) -> tuple[int, int, str]:
+        return (r.status != "ok", r.sweep != prefer_sweep, str(r.path))
+
+    return sorted(cands, key=rank)[0]
+
+
+def metric(run: Run | None, key: str, scale: float = 1.0) -> float:
+    """`metrics[key] * scale` of a finished run, NaN when the run or the value is missing."""
+    if run is None or run.metrics is None:
+        return math.nan
+    value = run.metrics.get(key)
+    try:
+        return float(value) * scale
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def run_label(run: Run | None, root: Path | None = None) -> str:
+    """Where a table row came from: the run directory (relative to `root` when possible) or `not run`."""
+    if run is None:
+        return "not run"
+    if root is not None:
+        try:
+            return str(run.path.relative_to(root))
+        except ValueError:
+            pass
+    return str(run.path)
+
+
+def _cell(value: object, digits: int) -> str:
+    if isinstance(value, float):
+        return "—" if math.isnan(value) else f"{value:.{digits}f}"
+    return str(value)
+
+
+def to_markdown(df: pd.DataFrame, digits: int = 2) -> str:
+    """A GitHub-markdown table of `df` (floats to `digits` decimals, NaN as an em dash)."""
+    header = "| " + " | ".join(str(c) for c in df.columns) + " |"
+    rule = "|" + "|".join("---" for _ in df.columns) + "|"
+    rows = ["| " + " | ".join(_cell(v, digits) for v in row) + " |" for row in df.itertuples(index=False)]
+    return "\n".join([header, rule, *rows]) + "\n"
+
+
+def write_table(
+    df: pd.DataFrame, out_dir: Path, name: str, title: str, notes: list[str], digits: int = 2
+) -> None:
+    """`<name>.csv` (full precision) and `<name>.md` (title, table, notes) in `out_dir`."""
+    df.to_csv(out_dir / f"{name}.csv", index=False)
+    lines = [f"# {title}", "", to_markdown(df, digits)]
+    lines += [f"- {n}" for n in notes]
+    (out_dir / f"{name}.md").write_text("\n".join(lines) + "\n")

@@ -1,0 +1,64 @@
+"""The spp figure (benchmark.md "Reports"): PSNR, SSIM, rMSE and L_t against the budget, one line per method,
+as PNG and CSV."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from mcd.reporting.provenance import Provenance  # noqa: E402
+from mcd.reporting.runs import Run, display_name  # noqa: E402
+from mcd.reporting.select import metric, pick, run_label  # noqa: E402
+
+PANELS = (
+    ("psnr", 1.0, "PSNR (dB)"),
+    ("ssim", 1e2, "SSIM x1e2"),
+    ("rmse", 1e3, "rMSE x1e3"),
+    ("lt", 1e2, "L_t x1e2"),
+)
+
+
+def spp_frame(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
+    """One row per (experiment, budget) with a finished or failed run, preferring the spp sweep's jobs."""
+    keys = sorted({(r.experiment, r.budget) for r in runs if r.budget is not None and r.transfer is None})
+    rows = []
+    for exp, budget in keys:
+        run = pick(runs, exp, budget, prefer_sweep="spp")
+        row = {"method": display_name(exp), "experiment": exp, "budget": budget}
+        row.update({key: metric(run, key, scale) for key, scale, _ in PANELS})
+        row["status"] = run.status if run is not None else "not run"
+        row["run"] = run_label(run, root)
+        rows.append(row)
+    return pd.DataFrame(
+        rows, columns=["method", "experiment", "budget", *(k for k, _, _ in PANELS), "status", "run"]
+    )
+
+
+def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = None) -> pd.DataFrame:
+    """`spp.csv` and `spp.png` (x: average spp, log2 axis; one budget only: a point)."""
+    df = spp_frame(runs, root)
+    df.to_csv(out_dir / "spp.csv", index=False)
+    fig, axes = plt.subplots(1, 4, figsize=(16, 4.6))
+    ok = df[df["status"] == "ok"]
+    for ax, (key, _, label) in zip(axes, PANELS, strict=True):
+        for exp, group in ok.groupby("experiment", sort=True):
+            group = group.sort_values("budget")
+            ax.plot(group["budget"], group[key], marker="o", label=display_name(str(exp)))
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("average spp")
+        ax.set_title(label)
+        ax.grid(True, alpha=0.3)
+    if ok.empty:
+        fig.suptitle("spp sweep: no finished runs")
+    else:
+        axes[0].legend(fontsize=7)
+        fig.suptitle("Error against sample budget (lower rMSE / L_t is better)")
+    prov.stamp(fig, ["spp"])
+    fig.savefig(out_dir / "spp.png", dpi=120)
+    plt.close(fig)
+    return df

@@ -1,0 +1,141 @@
+"""Qualitative strips per scene (benchmark.md "Reports"): noisy input, sampling map, kernel map, initial
+denoise `ī`, output and reference of the full method, with zoomed crops; and a second strip comparing every
+method's output on the same crop. Read from the runs' `samples/<scene>/<frame:04d>_<name>.exr`
+(written by `mcd.lit.samples`, pictured by its `picture`)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
+
+from mcd.data.exr import read_exr  # noqa: E402
+from mcd.lit.samples import picture  # noqa: E402
+from mcd.metrics import to_display  # noqa: E402
+from mcd.reporting.provenance import Provenance  # noqa: E402
+from mcd.reporting.runs import Run, display_name  # noqa: E402
+from mcd.reporting.select import pick  # noqa: E402
+from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # noqa: E402
+
+#: Columns of the strip and their titles (`noisy` is saved as `noisy_<budget>spp`).
+COLUMNS = (
+    ("noisy", "noisy input"),
+    ("sampling_map", "sampling map m"),
+    ("kernel_map", "kernel map h"),
+    ("initial", "initial denoise ī"),
+    ("output", "output"),
+    ("reference", "reference"),
+)
+_NAME = re.compile(r"^(?P<frame>\d+)_(?P<name>[a-z_]+?)(?:_\d+spp)?$")
+
+
+def samples(run: Run) -> dict[str, dict[int, dict[str, Path]]]:
+    """`scene -> frame -> name -> EXR path` of a run's saved samples."""
+    found: dict[str, dict[int, dict[str, Path]]] = {}
+    root = run.path / "samples"
+    if not root.is_dir():
+        return found
+    for exr in sorted(root.glob("*/*.exr")):
+        m = _NAME.match(exr.stem)
+        if m:
+            found.setdefault(exr.parent.name, {}).setdefault(int(m["frame"]), {})[m["name"]] = exr
+    return found
+
+
+def crop_box(noisy: np.ndarray, ref: np.ndarray, size: int) -> tuple[int, int]:
+    """Top-left (y, x) of the `size` x `size` window where the noisy input's display error is largest."""
+    err = np.abs(to_display(noisy) - to_display(ref)).mean(axis=-1)
+    h, w = err.shape
+    if size >= min(h, w):
+        return 0, 0
+    integral = np.pad(err.cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+    sums = (
+        integral[size:, size:] - integral[:-size, size:] - integral[size:, :-size] + integral[:-size, :-size]
+    )
+    y, x = np.unravel_index(int(np.argmax(sums)), sums.shape)
+    return int(y), int(x)
+
+
+def _strip_run(runs: list[Run]) -> Run | None:
+    """The run whose samples make the strip: F at 4 spp, else the first component row with samples."""
+    for exp in ("F", *COMPONENT_ROWS):
+        run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="ablation")
+        if run is not None and run.status == "ok" and samples(run):
+            return run
+    return None
+
+
+def _show(ax: plt.Axes, image: np.ndarray, title: str | None = None) -> None:
+    ax.imshow(image, interpolation="nearest")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    if title:
+        ax.set_title(title, fontsize=8)
+
+
+def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
+    """`strips/<scene>.png` (the full method's stages) and `strips/<scene>_methods.png` (every method's output
+    on the same crop); returns the written paths."""
+    run = _strip_run(runs)
+    folder = out_dir / "strips"
+    folder.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    if run is None:
+        return written
+    others = []
+    for exp in dict.fromkeys((*TABLE1_ROWS, "A")):
+        other = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
+        if other is not None and other.status == "ok":
+            others.append((exp, samples(other)))
+    for scene, frames in sorted(samples(run).items()):
+        complete = [f for f, names in frames.items() if "output" in names and "reference" in names]
+        if not complete:
+            continue
+        frame = min(complete)
+        names = frames[frame]
+        imgs = {name: read_exr(path) for name, path in names.items()}
+        ref = imgs["reference"]
+        size = max(8, min(ref.shape[:2]) // 4)
+        y, x = crop_box(imgs.get("noisy", imgs["output"]), ref, size)
+        cols = [(n, t) for n, t in COLUMNS if n in imgs]
+        fig, axes = plt.subplots(2, len(cols), figsize=(2.4 * len(cols), 5.4), squeeze=False)
+        for j, (name, title) in enumerate(cols):
+            pic = picture(name, imgs[name])
+            _show(axes[0, j], pic, title)
+            axes[0, j].add_patch(Rectangle((x - 0.5, y - 0.5), size, size, fill=False, ec="red", lw=1))
+            _show(axes[1, j], pic[y : y + size, x : x + size])
+        fig.suptitle(
+            f"{display_name(run.experiment)} at {run.budget:g} spp, {scene}, test frame {frame} "
+            f"({run.path.name})",
+            fontsize=9,
+        )
+        prov.stamp(fig)
+        path = folder / f"{scene}.png"
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        written.append(path)
+
+        crops = [("noisy input", picture("noisy", imgs["noisy"]))] if "noisy" in imgs else []
+        for exp, smp in others:
+            exr = smp.get(scene, {}).get(frame, {}).get("output")
+            if exr is not None:
+                crops.append((display_name(exp), picture("output", read_exr(exr))))
+        crops.append(("reference", picture("reference", ref)))
+        fig, axes = plt.subplots(1, len(crops), figsize=(2.2 * len(crops), 3.2), squeeze=False)
+        for j, (title, pic) in enumerate(crops):
+            _show(axes[0, j], pic[y : y + size, x : x + size], title)
+        fig.suptitle(
+            f"Outputs at 4 spp, {scene}, test frame {frame}, crop at (x={x}, y={y}), {size}px", fontsize=9
+        )
+        prov.stamp(fig)
+        path = folder / f"{scene}_methods.png"
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        written.append(path)
+    return written

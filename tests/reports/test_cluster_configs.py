@@ -1,0 +1,58 @@
+"""`trainer=ddp` and `hydra/launcher=slurm` compose with a sweep, and what they compose to is accepted by
+Lightning and by hydra-submitit-launcher (issue 5, "Beyond one machine")."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.utils import get_class
+from omegaconf import OmegaConf
+
+CONF = Path(__file__).resolve().parents[2] / "conf"
+
+
+def _compose(overrides: list[str]):
+    with initialize_config_dir(config_dir=str(CONF), version_base="1.3"):
+        return compose(config_name="config", overrides=overrides, return_hydra_config=True)
+
+
+def test_ddp_trainer_composes_and_lightning_accepts_it():
+    import lightning as L
+
+    cfg = _compose(["+sweep=ablation", "trainer=ddp"])
+    assert cfg.trainer.strategy == "ddp"
+    assert cfg.trainer.accelerator == "gpu" and cfg.trainer.devices == -1 and cfg.trainer.num_nodes == 1
+    # the default trainer's keys come along (ddp extends it)
+    assert cfg.trainer.max_epochs == cfg.train.epochs
+    # Lightning takes every key; on this GPU-less machine, DDP over 2 CPU processes (nothing is launched here)
+    kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
+    kwargs.update(accelerator="cpu", devices=2, enable_progress_bar=False)
+    trainer = L.Trainer(**kwargs, logger=False, enable_checkpointing=False)
+    assert type(trainer.strategy).__name__ == "DDPStrategy"
+    assert trainer.num_devices == 2
+
+
+def test_slurm_launcher_composes_with_a_sweep_and_ddp():
+    pytest.importorskip("hydra_plugins.hydra_submitit_launcher", reason="pip install 'mcd[cluster]'")
+    cfg = _compose(["+sweep=ablation", "trainer=ddp", "hydra/launcher=slurm",
+                    "hydra.launcher.gpus_per_node=4", "trainer.num_nodes=2", "hydra.launcher.partition=gpu"])
+    launcher = cfg.hydra.launcher
+    assert launcher._target_.endswith("SlurmLauncher")
+    assert get_class(launcher._target_).__name__ == "SlurmLauncher"
+    assert launcher.gpus_per_node == 4 and launcher.tasks_per_node == 4  # one task per GPU for Lightning
+    assert launcher.nodes == 2 and launcher.partition == "gpu"
+    raw = OmegaConf.to_container(cfg.hydra, resolve=False)
+    assert raw["launcher"]["submitit_folder"].startswith("${hydra.sweep.dir}")
+    # the sweep is the same as on one machine: 13 jobs, deterministic directories
+    assert cfg.hydra.sweeper.params["+experiment"] == "A,B,C,D,E,F,G,H,I,J,K,L,M"
+    assert raw["sweep"]["dir"] == "multirun/${sweep_name}/${hydra.runtime.choices.data}"
+    assert raw["sweep"]["subdir"] == "${hydra:job.override_dirname}"
+
+
+def test_slurm_launcher_without_ddp_runs_one_gpu_jobs():
+    pytest.importorskip("hydra_plugins.hydra_submitit_launcher", reason="pip install 'mcd[cluster]'")
+    cfg = _compose(["+sweep=baselines", "hydra/launcher=slurm"])
+    assert cfg.hydra.launcher.nodes == 1 and cfg.hydra.launcher.tasks_per_node == 1
+    assert cfg.trainer.devices == 1
