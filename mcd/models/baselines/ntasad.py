@@ -1,0 +1,159 @@
+"""NTASAD, neural temporal adaptive sampling and denoising (Hasselgren et al. 2020; baselines.md "NTASAD").
+
+Sampler and denoiser are two U-Nets of one design (:class:`NTASADUNet`): two full-resolution convs of width
+``enc``, then max-pool + one conv of width ``enc`` at each of 1/2..1/32; a decoder of nearest upsampling +
+concatenated skip + two convs of width ``dec`` at 1/16..1/2; the full-resolution decoder level concatenates
+the raw input instead of a skip and has two convs of width ``full``; 3x3 heads read the decoder levels.
+
+Temporal feedback: only the final output is fed back, warped to the current frame by the motion vectors
+(:func:`~mcd.models.baselines.warp.warp`), to both networks; the first frame's "previous output" is the
+uniform render at the budget. Sampler inputs: G-buffers, motion vectors, grey albedo and the grey warped
+previous output (``log1p``); its logits drive the project's adaptive render
+(:func:`mcd.sampling.adaptive_render`: map normalisation to the exact budget, simulated render from the 2^k
+stack blended with ``c1_in``, DASR gradient). Denoiser inputs: the adaptive image, G-buffers, the warped
+previous output (colour in ``log1p``).
+
+Hierarchical kernel prediction: per-pixel 5x5 kernels (softmax over taps) filter the adaptive image at 1/4
+and 1/2 (average-pooled) and at full resolution, where a spatial 5x5 on the image and a temporal 5x5 on the
+warped previous output share one softmax over their 50 taps. Levels combine coarse to fine as ``o = i_f - a
+Up(Down(i_f)) + a Up(i_c)`` with a per-pixel blend weight ``a = sigmoid(.)`` predicted at 1/2 and full
+resolution (the coarsest level has nothing coarser to blend, so its head has only the 25 taps)."""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from omegaconf import DictConfig
+from torch import Tensor, nn
+
+from mcd.models.baselines.uniform import uniform_key
+from mcd.models.baselines.warp import warp
+from mcd.models.inputs import compress, crop, gbuffers, grey, need, pad_to_multiple
+from mcd.models.kernel_pool import apply_pixel_kernels
+from mcd.models.registry import register
+from mcd.sampling import adaptive_render, stack_buffers, stack_names
+
+#: Per-pixel kernel size at every level.
+K = 5
+#: Motion vectors enter the sampler divided by this (pixels per frame -> order 1).
+MOTION_SCALE = 8.0
+#: Resolutions (as divisors) of the U-Net: full, 1/2 ... 1/32.
+DEPTH = 5
+
+
+class NTASADUNet(nn.Module):
+    """NTASAD's U-Net; ``heads`` maps a decoder resolution divisor (1, 2, 4, ...) to its output channels."""
+
+    def __init__(self, cin: int, enc: int, dec: int, full: int, heads: dict[int, int]) -> None:
+        super().__init__()
+        self.enc0 = nn.Sequential(nn.Conv2d(cin, enc, 3, padding=1), nn.ReLU(inplace=True),
+                                  nn.Conv2d(enc, enc, 3, padding=1), nn.ReLU(inplace=True))
+        self.down = nn.ModuleList(nn.Conv2d(enc, enc, 3, padding=1) for _ in range(DEPTH))
+        self.up = nn.ModuleList()
+        prev = enc
+        for _ in range(DEPTH - 1):
+            self.up.append(nn.ModuleList([nn.Conv2d(prev + enc, dec, 3, padding=1),
+                                          nn.Conv2d(dec, dec, 3, padding=1)]))
+            prev = dec
+        self.full = nn.ModuleList([nn.Conv2d(prev + cin, full, 3, padding=1),
+                                   nn.Conv2d(full, full, 3, padding=1)])
+        bad = [r for r in heads if r not in [2**i for i in range(DEPTH)]]
+        if bad:
+            raise ValueError(f"NTASAD heads at divisors {bad}: the decoder has levels 1, 2, ..., "
+                             f"{2 ** (DEPTH - 1)}")
+        self.heads = nn.ModuleDict({str(r): nn.Conv2d(full if r == 1 else dec, c, 3, padding=1)
+                                    for r, c in heads.items()})
+
+    @property
+    def stride(self) -> int:
+        return 2**DEPTH
+
+    def forward(self, x: Tensor) -> dict[int, Tensor]:
+        """``x`` ``[B, cin, H, W]`` (H, W multiples of :attr:`stride`) -> ``{divisor: head output}``."""
+        skips = [self.enc0(x)]
+        for conv in self.down:
+            skips.append(F.relu(conv(F.max_pool2d(skips[-1], 2))))
+        y = skips[-1]
+        out: dict[int, Tensor] = {}
+        for level, convs in zip(range(DEPTH - 1, 0, -1), self.up, strict=True):
+            y = torch.cat([F.interpolate(y, scale_factor=2.0, mode="nearest"), skips[level]], 1)
+            y = F.relu(convs[1](F.relu(convs[0](y))))
+            if str(2**level) in self.heads:
+                out[2**level] = self.heads[str(2**level)](y)
+        y = torch.cat([F.interpolate(y, scale_factor=2.0, mode="nearest"), x], 1)
+        y = F.relu(self.full[1](F.relu(self.full[0](y))))
+        if "1" in self.heads:
+            out[1] = self.heads["1"](y)
+        return out
+
+
+def up2(x: Tensor) -> Tensor:
+    return F.interpolate(x, scale_factor=2.0, mode="bilinear", align_corners=False)
+
+
+def combine(fine: Tensor, coarse: Tensor, a: Tensor) -> Tensor:
+    """``o = i_f - a Up(Down(i_f)) + a Up(i_c)``: replace the fine level's low band by the coarse level's."""
+    return fine - a * up2(F.avg_pool2d(fine, 2)) + a * up2(coarse)
+
+
+class NTASAD(nn.Module):
+    """Sampler + hierarchical-kernel denoiser with warped output feedback at average budget ``budget``."""
+
+    window = (0, 0)
+
+    def __init__(self, budget: int, enc: int, dec: int, full: int, levels: int = 5) -> None:
+        super().__init__()
+        self.budget, self.levels = int(budget), int(levels)
+        self.first_key = uniform_key(self.budget, "ntasad")
+        taps = K * K
+        self.sampler = NTASADUNet(11, enc, dec, full, {1: 1})
+        self.denoiser = NTASADUNet(13, enc, dec, full, {4: taps, 2: taps + 1, 1: 2 * taps + 1})
+        self.prev: Tensor | None = None
+
+    def required_buffers(self) -> set[str]:
+        return {"c1_in", *stack_names(self.levels), self.first_key, "depth", "normal", "albedo", "motion"}
+
+    def reset(self) -> None:
+        self.prev = None
+
+    def previous(self, x: dict[str, Tensor | None]) -> Tensor:
+        """The previous output warped to this frame, or the uniform render at the budget on a first frame."""
+        if self.prev is None:
+            return need(x, self.first_key, "ntasad")
+        motion = need(x, "motion", "ntasad")
+        if self.prev.shape[0] != motion.shape[0] or self.prev.shape[-2:] != motion.shape[-2:]:
+            raise RuntimeError(f"NTASAD's previous output has shape {tuple(self.prev.shape)} but this frame "
+                               f"is {tuple(motion.shape)}: call reset() at the start of every sequence/clip")
+        return warp(self.prev, motion)
+
+    def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
+        c1 = need(x, "c1_in", "ntasad")
+        h, w = c1.shape[-2:]
+        prev = self.previous(x)
+        g = gbuffers(x, "ntasad")
+        motion = need(x, "motion", "ntasad") / MOTION_SCALE
+        s_in = torch.cat([g, motion, grey(need(x, "albedo", "ntasad")), grey(compress(prev))], 1)
+        logits = crop(self.sampler(pad_to_multiple(s_in, self.sampler.stride))[1], (h, w))
+        i, m = adaptive_render(logits, c1, stack_buffers(x, self.levels), x.get("ref"), float(self.budget))
+        i = i.to(c1.dtype)
+        d_in = pad_to_multiple(torch.cat([compress(i), g, compress(prev)], 1), self.denoiser.stride)
+        heads = self.denoiser(d_in)
+        stride = self.denoiser.stride
+        img, prev_p = pad_to_multiple(i, stride), pad_to_multiple(prev, stride)
+        taps = K * K
+        o = apply_pixel_kernels(F.avg_pool2d(img, 4), torch.softmax(heads[4], 1))
+        f2 = apply_pixel_kernels(F.avg_pool2d(img, 2), torch.softmax(heads[2][:, :taps], 1))
+        o = combine(f2, o, torch.sigmoid(heads[2][:, taps:]))
+        k1 = torch.softmax(heads[1][:, : 2 * taps], 1)
+        f1 = apply_pixel_kernels(img, k1[:, :taps]) + apply_pixel_kernels(prev_p, k1[:, taps:])
+        o = crop(combine(f1, o, torch.sigmoid(heads[1][:, 2 * taps:])), (h, w)).clamp_min(0)
+        self.prev = o
+        return {"output": o, "sampling_map": m, "adaptive": i}
+
+
+@register("ntasad")
+def build_ntasad(cfg: DictConfig) -> NTASAD:
+    """NTASAD from ``cfg.budget``, ``cfg.method.sampling.levels`` and ``cfg.model.ntasad``."""
+    m = cfg.model.ntasad
+    levels = (cfg.method.get("sampling", None) or {}).get("levels", 5)
+    return NTASAD(cfg.budget, int(m.enc), int(m.dec), int(m.full), int(levels))

@@ -1,0 +1,69 @@
+"""Intel Open Image Denoise through ``pyoidn`` (benchmark.md "Experiments"; baselines.md "Open points").
+
+Pretrained, single frame, colour + albedo + normal, HDR mode: the reference a practitioner would reach for.
+No parameters and no training (``method.trainable: false``); it reads the uniform render at the budget.
+``pyoidn`` is the optional extra ``mcd[oidn]``; without it, building the method fails with the install
+command."""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+import numpy as np
+import torch
+from omegaconf import DictConfig
+from torch import Tensor, nn
+
+from mcd.models.baselines.uniform import uniform_key
+from mcd.models.inputs import need
+from mcd.models.registry import register
+
+INSTALL = "pip install 'mcd[oidn]'  (or: pip install pyoidn)"
+
+
+def import_pyoidn() -> ModuleType:
+    """``pyoidn``, or an ImportError that says how to install it."""
+    try:
+        return importlib.import_module("pyoidn")
+    except ImportError as err:
+        raise ImportError(f"method 'oidn' needs the optional package pyoidn, which is not installed: "
+                          f"{INSTALL}") from err
+
+
+class OIDN(nn.Module):
+    """OIDN's ``RT`` filter (``quality``: high/balanced/fast) on ``c{budget}`` with albedo and normal."""
+
+    window = (0, 0)
+
+    def __init__(self, budget: int, quality: str = "high") -> None:
+        super().__init__()
+        self.pyoidn = import_pyoidn()
+        self.key = uniform_key(budget, "oidn")
+        self.quality = quality
+
+    def required_buffers(self) -> set[str]:
+        return {self.key, "normal", "albedo"}
+
+    def reset(self) -> None:
+        """Stateless."""
+
+    @staticmethod
+    def _hwc(t: Tensor) -> np.ndarray:
+        return np.ascontiguousarray(t.detach().float().permute(1, 2, 0).cpu().numpy())
+
+    @torch.no_grad()
+    def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
+        noisy = need(x, self.key, "oidn")
+        albedo = need(x, "albedo", "oidn").clamp(0, 1)
+        normal = need(x, "normal", "oidn").clamp(-1, 1)
+        out = [self.pyoidn.denoise(self._hwc(c.clamp_min(0)), albedo=self._hwc(a), normal=self._hwc(n),
+                                   hdr=True, quality=self.quality)
+               for c, a, n in zip(noisy, albedo, normal, strict=True)]
+        return {"output": torch.from_numpy(np.stack(out)).permute(0, 3, 1, 2).to(noisy)}
+
+
+@register("oidn")
+def build_oidn(cfg: DictConfig) -> OIDN:
+    """OIDN on ``c{budget}``; ``method.quality`` (high/balanced/fast, default high)."""
+    return OIDN(cfg.budget, str(cfg.method.get("quality", "high")))

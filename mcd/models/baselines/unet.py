@@ -1,0 +1,24 @@
+"""Table 1's U-Net = component row A (baselines.md "U-Net"): the project's denoiser ``F_d`` alone on the
+uniform render at the budget + G-buffers, single frame, direct RGB output. Same code as row A: a thin alias of
+``two_stage`` with the switches ``UN AS KP PP FG SA = 100000`` and the widths of ``cfg.model.two_stage``."""
+
+from __future__ import annotations
+
+from omegaconf import DictConfig, OmegaConf
+from torch import nn
+
+from mcd.models.registry import register
+from mcd.models.two_stage import SWITCHES, build_two_stage
+
+ROW_A = {s: s == "UN" for s in SWITCHES}
+
+
+@register("unet")
+def build_unet(cfg: DictConfig) -> nn.Module:
+    """Row A of the two-stage model; a switch other than UN turned on is an error (use ``two_stage`` then)."""
+    on = [s for s in SWITCHES if s != "UN" and bool(cfg.method.get(s, False))]
+    if on:
+        raise ValueError(f"method.name=unet is component row A (only UN); it cannot take "
+                         f"method.{on[0]}=true. Use method.name=two_stage for other switch rows, or "
+                         "+experiment=unet")
+    return build_two_stage(OmegaConf.merge(cfg, {"method": ROW_A}))
