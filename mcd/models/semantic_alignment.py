@@ -11,6 +11,7 @@ Attention runs in fp32 whatever the autocast state (softmax over thousands of to
 from __future__ import annotations
 
 import math
+from contextlib import nullcontext
 
 import torch
 import torch.nn.functional as F
@@ -57,7 +58,8 @@ class SemanticAlignment(nn.Module):
             raise RuntimeError(f"semantic alignment kept features of shape {tuple(memory.shape)} from the "
                                f"previous frame but got {tuple(x.shape)}; call model.reset() at each "
                                "clip/sequence start")
-        with torch.autocast(device_type=x.device.type, enabled=False):
+        no_autocast = nullcontext() if x.is_meta else torch.autocast(x.device.type, enabled=False)
+        with no_autocast:
             xf = x.float()
             query = (xf + sine_cosine_encoding(c, h, w, x.device)).flatten(2).transpose(1, 2)   # [B, L, C]
             mem = memory.float().flatten(2).transpose(1, 2)
