@@ -1,0 +1,215 @@
+"""The LightningDataModule over the store (docs/architecture.md, "Batches"; benchmark.md, "Data protocol").
+
+Splits per scene sequence (benchmark.md: first 20% test, the rest train, 5-frame non-overlapping clips): the
+first ``round(data.test_fraction * n)`` frames are the test sequence, the next ``data.val_clips`` clips of
+``data.clip_len`` frames validate, the remaining frames give non-overlapping training clips. Training and
+validation use ``data.train_scenes``; testing runs ``data.test_scenes`` (held-out transfer scenes among them)
+on their whole test sequences.
+
+- train: clips ``[B, T, C, h, w]`` with one random crop ``data.train_crop`` per clip (the same for all frames
+  and buffers), batch ``train.batch_size``, shuffled;
+- val: clips with a centre crop ``data.val_crop`` (the whole frame if it is smaller), batch 1;
+- test: whole frames, one current frame per batch in sequence order, ``T = past + 1 + future`` of the model's
+  ``window`` with the sequence's edge frames repeated, the current frame at index ``past``, and ``reset`` True
+  on a sequence's first frame.
+
+The simulated adaptive render is built by the model from the stored ``c_{2^k}`` images, not here.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from typing import Any
+
+import lightning as L
+import numpy as np
+import torch
+from omegaconf import DictConfig
+from torch.utils.data import DataLoader, Dataset
+
+from mcd.data.store import BUFFERS, Store, validate_buffers
+
+log = logging.getLogger(__name__)
+
+
+def split_frames(n: int, test_fraction: float, val_clips: int, clip_len: int) -> dict[str, list[list[int]]]:
+    """Frame indices of a sequence: ``test`` (one whole sequence), ``val`` and ``train`` (clips)."""
+    n_test = max(1, int(round(test_fraction * n)))
+    rest = list(range(n_test, n))
+    clips = [rest[i : i + clip_len] for i in range(0, len(rest) - clip_len + 1, clip_len)]
+    if len(clips) < val_clips + 1:
+        raise ValueError(
+            f"a {n}-frame sequence leaves {len(rest)} frames after the {n_test} test frames: not enough for "
+            f"{val_clips} validation clip(s) and one training clip of {clip_len} frames; raise "
+            "data.frames_per_segment or data.segments, or lower data.val_clips / data.clip_len"
+        )
+    return {"test": [list(range(n_test))], "val": clips[:val_clips], "train": clips[val_clips:]}
+
+
+class _Frames:
+    """Loads ``(scene, frame, buffer)`` as CHW float32 tensors from the store, optionally kept in memory."""
+
+    def __init__(self, store: Store, buffers: list[str], cache: bool):
+        self.store, self.buffers, self.cache = store, buffers, cache
+        self._mem: dict[tuple[str, int, str], torch.Tensor] = {}
+
+    def get(self, scene: str, frame: int, buffer: str) -> torch.Tensor:
+        key = (scene, frame, buffer)
+        if key in self._mem:
+            return self._mem[key]
+        t = torch.from_numpy(np.ascontiguousarray(self.store.load(scene, frame, buffer).transpose(2, 0, 1)))
+        if self.cache:
+            self._mem[key] = t
+        return t
+
+    def clip(self, scene: str, frames: list[int], crop: tuple[int, int, int, int] | None) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for b in self.buffers:
+            ts = [self.get(scene, f, b) for f in frames]
+            if crop is not None:
+                y, x, h, w = crop
+                ts = [t[:, y : y + h, x : x + w] for t in ts]
+            out[b] = torch.stack(ts)
+        out["scene"] = scene
+        out["frame"] = torch.tensor(frames, dtype=torch.long)
+        return out
+
+
+class ClipDataset(Dataset):
+    """Training (random crop) or validation (centre crop) clips."""
+
+    def __init__(
+        self,
+        frames: _Frames,
+        clips: list[tuple[str, list[int]]],
+        crop: int,
+        size: tuple[int, int],
+        random_crop: bool,
+    ):
+        self.frames, self.clips, self.random_crop = frames, clips, random_crop
+        self.h, self.w = size
+        self.ch, self.cw = min(crop, self.h), min(crop, self.w)
+
+    def __len__(self) -> int:
+        return len(self.clips)
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        scene, frames = self.clips[i]
+        if self.random_crop:
+            y = int(torch.randint(0, self.h - self.ch + 1, ()).item())
+            x = int(torch.randint(0, self.w - self.cw + 1, ()).item())
+        else:
+            y, x = (self.h - self.ch) // 2, (self.w - self.cw) // 2
+        return self.frames.clip(scene, frames, (y, x, self.ch, self.cw))
+
+
+class SequenceDataset(Dataset):
+    """Whole test frames in sequence order, each with its window of neighbours and a ``reset`` flag."""
+
+    def __init__(self, frames: _Frames, sequences: list[tuple[str, list[int]]], window: tuple[int, int]):
+        self.frames, self.window = frames, window
+        self.items = [(scene, seq, i) for scene, seq in sequences for i in range(len(seq))]
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        scene, seq, k = self.items[i]
+        past, future = self.window
+        idx = [seq[min(max(k + o, 0), len(seq) - 1)] for o in range(-past, future + 1)]
+        out = self.frames.clip(scene, idx, None)
+        out["reset"] = torch.tensor(k == 0)
+        return out
+
+
+class MCDDataModule(L.LightningDataModule):
+    """Train / val / test loaders over the store for the buffers a model reads (plus ``ref``, always).
+
+    `train_scenes` / `test_scenes` override ``data.train_scenes`` / ``data.test_scenes`` (e.g. fine-tuning on
+    a held-out transfer scene). The buffers must have been rendered (``store.ensure``).
+    """
+
+    def __init__(
+        self,
+        cfg: DictConfig,
+        store: Store,
+        buffers: Iterable[str],
+        window: tuple[int, int] = (0, 0),
+        train_scenes: list[str] | None = None,
+        test_scenes: list[str] | None = None,
+    ):
+        super().__init__()
+        self.cfg, self.store = cfg, store
+        want = validate_buffers(buffers) | {"ref"}
+        self.buffers = [b for b in BUFFERS if b in want]
+        self.window = (int(window[0]), int(window[1]))
+        d = cfg.data
+        self.train_scenes = list(train_scenes if train_scenes is not None else d.train_scenes)
+        self.test_scenes = list(test_scenes if test_scenes is not None else d.test_scenes)
+        train_cfg = cfg.get("train") or {}
+        self.batch_size = int(train_cfg.get("batch_size", 4))
+        self.num_workers = int(d.get("num_workers", 0))
+        self._frames = _Frames(store, self.buffers, bool(d.get("cache_in_memory", True)))
+        self._ready = False
+
+    def setup(self, stage: str | None = None) -> None:
+        if self._ready:
+            return
+        d = self.cfg.data
+        h, w = int(d.height), int(d.width)
+        crop = int(d.train_crop)
+        if crop > min(h, w):
+            raise ValueError(f"data.train_crop={crop} is larger than the {h}x{w} frames of profile {d.name}")
+        train, val, test = [], [], []
+        for scene in dict.fromkeys(self.train_scenes + self.test_scenes):
+            sp = split_frames(
+                self.store.frame_count(scene), float(d.test_fraction), int(d.val_clips), int(d.clip_len)
+            )
+            if scene in self.train_scenes:
+                train += [(scene, c) for c in sp["train"]]
+                val += [(scene, c) for c in sp["val"]]
+            if scene in self.test_scenes:
+                test += [(scene, s) for s in sp["test"]]
+        self.train_set = ClipDataset(self._frames, train, crop, (h, w), random_crop=True)
+        self.val_set = ClipDataset(self._frames, val, int(d.val_crop), (h, w), random_crop=False)
+        self.test_set = SequenceDataset(self._frames, test, self.window)
+        log.info(
+            "datamodule %s: loading buffers %s; train %d clips of %d (crop %d) from %s; "
+            "val %d clips (crop %d); "
+            "test %d frames from %s (window %s)",
+            d.name,
+            ",".join(self.buffers),
+            len(train),
+            int(d.clip_len),
+            crop,
+            ",".join(self.train_scenes),
+            len(val),
+            min(int(d.val_crop), h, w),
+            len(self.test_set),
+            ",".join(self.test_scenes),
+            self.window,
+        )
+        self._ready = True
+
+    def _loader(self, ds: Dataset, batch: int, shuffle: bool) -> DataLoader:
+        return DataLoader(
+            ds,
+            batch_size=batch,
+            shuffle=shuffle,
+            num_workers=self.num_workers,
+            drop_last=False,
+            persistent_workers=self.num_workers > 0,
+        )
+
+    def train_dataloader(self) -> DataLoader:
+        self.setup()
+        return self._loader(self.train_set, self.batch_size, shuffle=True)
+
+    def val_dataloader(self) -> DataLoader:
+        self.setup()
+        return self._loader(self.val_set, 1, shuffle=False)
+
+    def test_dataloader(self) -> DataLoader:
+        self.setup()
+        return self._loader(self.test_set, 1, shuffle=False)

@@ -1,0 +1,206 @@
+"""Scenes as Hydra configs (conf/scene/): a Mitsuba XML file or a procedural room, plus its camera path.
+
+A scene config (``data.scenes.<name>``, composed from ``conf/scene/<file>.yaml``) is either
+
+- ``kind: xml``: ``file`` relative to the repository's ``scenes/`` folder when ``vendored: true``, else to
+  ``paths.scenes_dir`` (env ``MCD_SCENES_DIR``); loaded with ``mi.load_file(file, resx, resy, max_depth)``
+  (every ``scene.xml`` declares those ``<default>``s, /work/shared/scenes/README.md); or
+- ``kind: procedural``: a room from :mod:`mcd.data.procedural` with its ``seed``.
+
+The camera path (benchmark.md, "Camera"): explicit key nodes ``path.nodes`` (``origin``/``target``/``up``), or
+derived from the scene's own camera (XML scenes): the first node is that camera; the others dolly forward by a
+fraction ``path.dolly`` of the free distance ahead, truck sideways by ``path.truck`` of the free distance to
+the side, and pan by alternating ``path.pan_deg``. Every segment is checked against the scene's geometry (a
+ray from node to node must not hit anything), so that no frame is rendered from inside a wall.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+
+from mcd.data.camera import look_at, yaw
+
+log = logging.getLogger(__name__)
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+VENDORED_DIR = REPO_ROOT / "scenes"
+
+
+class SceneNotFoundError(FileNotFoundError):
+    """A scene file is missing; the message names the path and the setting that moves it."""
+
+
+@dataclass
+class SceneSpec:
+    """One registered scene, resolved from its config."""
+
+    name: str
+    kind: str
+    file: Path | None = None
+    seed: int = 0
+    room: dict[str, Any] = field(default_factory=dict)
+    path: dict[str, Any] = field(default_factory=dict)
+    exposure: float | str = "auto"
+    missing_hint: str = ""
+
+    @staticmethod
+    def from_cfg(name: str, scfg: DictConfig | dict, scenes_dir: str | Path) -> SceneSpec:
+        d = OmegaConf.to_container(scfg, resolve=True) if isinstance(scfg, DictConfig) else dict(scfg)
+        kind = d.get("kind")
+        if kind == "xml":
+            rel = d.get("file")
+            if not rel:
+                raise ValueError(f"scene {name!r}: kind xml needs a 'file' (conf/scene/)")
+            if d.get("vendored", False):
+                file = VENDORED_DIR / rel
+                hint = f"the repository's scenes/ folder ({VENDORED_DIR}) should hold it: restore it from git"
+            else:
+                base = Path(scenes_dir).expanduser()
+                if not base.is_absolute() and not (Path.cwd() / base).exists():
+                    base = REPO_ROOT / base
+                file = base / rel
+                hint = (
+                    f"set paths.scenes_dir=<dir> or the environment variable MCD_SCENES_DIR to the folder "
+                    f"that "
+                    f"holds {rel} (now {scenes_dir!r}); see /work/shared/scenes/README.md"
+                )
+            return SceneSpec(
+                name,
+                "xml",
+                file=file,
+                path=d.get("path") or {},
+                exposure=d.get("exposure", "auto"),
+                missing_hint=hint,
+            )
+        if kind == "procedural":
+            return SceneSpec(
+                name,
+                "procedural",
+                seed=int(d.get("seed", 0)),
+                room=d.get("room") or {},
+                path=d.get("path") or {},
+                exposure=d.get("exposure", "auto"),
+            )
+        raise ValueError(f"scene {name!r}: unknown kind {kind!r} (expected 'xml' or 'procedural')")
+
+    def check_exists(self) -> None:
+        """Raise SceneNotFoundError naming the path and how to fix it."""
+        if self.kind == "xml" and (self.file is None or not self.file.is_file()):
+            raise SceneNotFoundError(f"scene {self.name!r}: file {self.file} not found; {self.missing_hint}")
+
+    def source(self) -> dict[str, Any]:
+        """What the scene is made of, with a hash: recorded in the manifest; a change invalidates renders."""
+        if self.kind == "xml":
+            self.check_exists()
+            h = hashlib.sha256(self.file.read_bytes()).hexdigest()
+            return {"kind": "xml", "file": str(self.file), "sha256": h, "path": self.path}
+        from mcd.data.procedural import GENERATOR_VERSION
+
+        desc = {
+            "kind": "procedural",
+            "seed": self.seed,
+            "room": self.room,
+            "path": self.path,
+            "generator_version": GENERATOR_VERSION,
+        }
+        desc["sha256"] = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()
+        return desc
+
+    def load(self, width: int, height: int, max_depth: int | None, segments: int) -> LoadedScene:
+        """Load into Mitsuba (the variant must be set) and build the camera key nodes (``segments + 1``)."""
+        import mitsuba as mi
+
+        if self.kind == "xml":
+            self.check_exists()
+            kwargs: dict[str, Any] = {"resx": width, "resy": height}
+            if max_depth is not None:
+                kwargs["max_depth"] = max_depth
+            scene = mi.load_file(str(self.file), **kwargs)
+            sensor = scene.sensors()[0]
+            params = mi.traverse(sensor)
+            fov = float(np.asarray(params["x_fov"], dtype=np.float64).ravel()[0])
+            cam0 = np.asarray(params["to_world"].matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0]
+            if self.path.get("nodes"):
+                nodes = [look_at(n["origin"], n["target"], n["up"]) for n in self.path["nodes"]]
+            else:
+                nodes = derive_nodes(scene, cam0, segments, self.path)
+        else:
+            from mcd.data.procedural import build_room
+
+            scene_dict, nodes, fov = build_room(self.seed, self.room, segments, max_depth or 8)
+            scene = mi.load_dict(scene_dict)
+        if len(nodes) != segments + 1:
+            raise ValueError(
+                f"scene {self.name!r}: path has {len(nodes)} key nodes, the profile needs {segments + 1}"
+            )
+        check_segments_clear(scene, nodes, self.name)
+        return LoadedScene(self, scene, nodes, fov)
+
+
+@dataclass
+class LoadedScene:
+    spec: SceneSpec
+    scene: Any  # mi.Scene
+    nodes: list[np.ndarray]
+    fov: float
+
+
+def ray_distances(scene: Any, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """Distance to the first hit along each ray (inf for a miss); `origins`, `dirs` are ``(N, 3)``."""
+    import drjit as dr
+    import mitsuba as mi
+
+    o = np.asarray(origins, dtype=np.float32)
+    d = np.asarray(dirs, dtype=np.float32)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    ray = mi.Ray3f(mi.Point3f(*[o[:, i] for i in range(3)]), mi.Vector3f(*[d[:, i] for i in range(3)]))
+    si = scene.ray_intersect(ray)
+    t = np.asarray(dr.select(si.is_valid(), si.t, dr.inf), dtype=np.float64)
+    return np.atleast_1d(t)
+
+
+def derive_nodes(scene: Any, cam0: np.ndarray, segments: int, path: dict[str, Any]) -> list[np.ndarray]:
+    """Key nodes from the scene's own camera: dolly forward, truck sideways and pan, staying in free space."""
+    dolly = float(path.get("dolly", 0.3))
+    truck = float(path.get("truck", 0.15))
+    pan = float(path.get("pan_deg", 10.0))
+    rot = cam0[:3, :3] / np.linalg.norm(cam0[:3, :3], axis=0, keepdims=True)
+    o, left, fwd = cam0[:3, 3], rot[:, 0], rot[:, 2]
+    ahead = float(ray_distances(scene, o[None], fwd[None])[0])
+    if not np.isfinite(ahead):
+        ahead = 1.0
+    nodes = [cam0.copy()]
+    for i in range(1, segments + 1):
+        a = i / segments
+        p = o + fwd * dolly * ahead * a
+        side = 1.0 if i % 2 else -1.0
+        free = float(ray_distances(scene, p[None], (side * left)[None])[0])
+        free = free if np.isfinite(free) else ahead
+        p = p + side * left * truck * free * a
+        m = yaw(cam0, side * pan)
+        m[:3, 3] = p
+        nodes.append(m)
+    return nodes
+
+
+def check_segments_clear(scene: Any, nodes: list[np.ndarray], name: str) -> None:
+    """Raise if a straight move between consecutive key nodes passes through geometry."""
+    for k in range(len(nodes) - 1):
+        a, b = nodes[k][:3, 3], nodes[k + 1][:3, 3]
+        seg = float(np.linalg.norm(b - a))
+        if seg < 1e-9:
+            continue
+        hit = float(ray_distances(scene, a[None], (b - a)[None])[0])
+        if hit <= seg:
+            raise ValueError(
+                f"scene {name!r}: the camera path between key nodes {k} and {k + 1} passes through geometry "
+                f"(hit at {hit:.3g} of {seg:.3g}); change the scene's path settings in conf/scene/"
+            )

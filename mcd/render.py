@@ -1,0 +1,56 @@
+"""``python -m mcd.render data=<profile>``: render what the profile's scenes need into the store.
+
+Which buffers: ``render.buffers`` = ``method`` (default: those the configured method reads, from
+``mcd.models.build(cfg).required_buffers()``, plus ``ref``), ``all``, or a list such as ``[c4,ref]``.
+``--force`` (or ``render.force=true``) re-renders them; ``render.verify=true`` checks every checksum and re-
+renders damaged files; ``render.variant`` picks the Mitsuba variant (default ``auto``: CUDA, else LLVM, else
+scalar; logged). The store lives in ``paths.data_dir`` (env ``MCD_DATA_DIR``); Hydra's ``hydra.run.dir`` holds
+the log. Rendering resumes where an interrupted run stopped. See docs/architecture.md and mcd/data/store.py.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+
+import hydra
+from omegaconf import DictConfig, ListConfig
+
+from mcd.data.store import BUFFERS, Store
+
+log = logging.getLogger("mcd.render")
+
+
+def requested_buffers(cfg: DictConfig) -> set[str]:
+    """The buffer set `render.buffers` asks for (see the module docstring)."""
+    spec = cfg.render.get("buffers", "method")
+    if isinstance(spec, ListConfig | list | tuple):
+        return set(spec) | {"ref"}
+    if spec == "all":
+        return set(BUFFERS)
+    if spec == "method":
+        from mcd.models import build
+
+        return set(build(cfg).required_buffers()) | {"ref"}
+    raise ValueError(
+        f"render.buffers={spec!r}: expected 'method', 'all' or a list of buffers {list(BUFFERS)}"
+    )
+
+
+@hydra.main(config_path="../conf", config_name="config", version_base=None)
+def main(cfg: DictConfig) -> dict:
+    store = Store.from_cfg(cfg)
+    buffers = requested_buffers(cfg)
+    log.info("rendering profile %s into %s: buffers %s", store.profile, store.root, ",".join(sorted(buffers)))
+    return store.ensure(buffers)
+
+
+def _argv_flags() -> None:
+    """Accept ``--force`` as a shorthand for ``render.force=true``."""
+    if "--force" in sys.argv:
+        sys.argv = [a for a in sys.argv if a != "--force"] + ["render.force=true"]
+
+
+if __name__ == "__main__":
+    _argv_flags()
+    main()
