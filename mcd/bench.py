@@ -31,6 +31,7 @@ import logging
 import math
 import platform
 import statistics
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
@@ -134,7 +135,11 @@ def device_name(device: torch.device) -> str:
     """A readable name of the device (GPU model, or the CPU and its thread count)."""
     if device.type == "cuda":
         return torch.cuda.get_device_name(device)
-    return f"{platform.processor() or platform.machine()} ({torch.get_num_threads()} threads)"
+    cpu = platform.processor() or platform.machine()
+    with contextlib.suppress(OSError):
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+        cpu = next((ln.split(":", 1)[1].strip() for ln in lines if ln.startswith("model name")), cpu)
+    return f"{cpu} ({torch.get_num_threads()} threads)"
 
 
 def parse_size(size: str) -> tuple[int, int]:
@@ -318,7 +323,7 @@ def run(
                             fps=None,
                             channels_last=False,
                             inputs="",
-                            status=f"{why}: {type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}",
+                            status=f"{why}: {type(err).__name__}: {(str(err).splitlines() or [''])[0]}",
                         )
                     )
                     log.warning("%s %s: %s", method, why, err)
@@ -375,6 +380,59 @@ def write_csv(rows: list[Row], path: Path) -> None:
             writer.writerow(d)
 
 
+def summary(rows: list[Row]) -> list[str]:
+    """Markdown lines: the fastest path per method, device and size, and F's latency as a ratio to OIDN's."""
+    best: dict[tuple[str, str, int, int], Row] = {}
+    for r in rows:
+        key = (r.method, r.device, r.height, r.width)
+        if r.ms_median is not None and (key not in best or r.ms_median < best[key].ms_median):
+            best[key] = r
+    lines = ["| method | device | size | fastest path | ms/frame | frames/s |", "|---|---|---|---|---|---|"]
+    for (method, device, h, w), r in sorted(
+        best.items(), key=lambda kv: (kv[0][1], -kv[0][2], kv[1].ms_median)
+    ):
+        path = f"{r.dtype}{' channels-last' if r.channels_last else ''}{' compiled' if r.compiled else ''}"
+        lines.append(f"| {method} | {device} | {w}x{h} | {path} | {r.ms_median:.2f} | {r.fps:.2f} |")
+    for bad in (r for r in rows if r.status != "ok"):
+        lines.append(
+            f"| {bad.method} | {bad.device} | {bad.width}x{bad.height} | {bad.dtype} | — | {bad.status} |"
+        )
+    lines.append("")
+    for (method, device, h, w), r in sorted(best.items()):
+        oidn = best.get(("oidn", device, h, w))
+        if method == "F" and oidn is not None:
+            lines.append(
+                f"- F / OIDN latency on {device} at {w}x{h} (fastest path of each): "
+                f"{r.ms_median:.2f} / {oidn.ms_median:.2f} ms = {r.ms_median / oidn.ms_median:.2f}x"
+            )
+    return lines
+
+
+def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float) -> Path:
+    """README.md beside the CSV: provenance (command, commit, device, torch) and :func:`summary`."""
+    from mcd.reporting.provenance import git_commit
+
+    devices = sorted({f"{r.device}: {r.device_name}" for r in rows})
+    inputs = sorted({r.inputs for r in rows if r.inputs})
+    reps = sorted({f"{r.device} {r.width}x{r.height}: {r.warmup} warm-up + {r.reps} timed" for r in rows})
+    lines = [
+        "# Inference speed (python -m mcd.bench)",
+        "",
+        f"- Command: `{command}`",
+        f"- Commit: `{git_commit()}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
+        f"- Devices: {'; '.join(devices) or 'none'}",
+        f"- Capacity profile: {', '.join(sorted({r.model for r in rows}))}; batch 1, one frame per call",
+        f"- Inputs: {', '.join(inputs) or 'none'}",
+        f"- Repetitions (median of the timed calls): {'; '.join(reps)}",
+        f"- Data: [{csv_path.name}]({csv_path.name})",
+        "",
+        *summary(rows),
+    ]
+    path = csv_path.parent / "README.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m mcd.bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -404,6 +462,7 @@ def main(argv: list[str] | None = None) -> None:
             parse_size(s)
         except ValueError as err:
             parser.error(str(err))
+    started = time.perf_counter()
     rows = run(
         [m for m in args.methods.split(",") if m],
         sizes,
@@ -416,6 +475,8 @@ def main(argv: list[str] | None = None) -> None:
         args.frames,
     )
     write_csv(rows, args.out)
+    command = "python -m mcd.bench " + " ".join(argv if argv is not None else sys.argv[1:])
+    write_readme(rows, args.out, command, time.perf_counter() - started)
     print(f"{len(rows)} rows -> {args.out}")
 
 

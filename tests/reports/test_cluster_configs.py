@@ -36,8 +36,16 @@ def test_ddp_trainer_composes_and_lightning_accepts_it():
 
 def test_slurm_launcher_composes_with_a_sweep_and_ddp():
     pytest.importorskip("hydra_plugins.hydra_submitit_launcher", reason="pip install 'mcd[cluster]'")
-    cfg = _compose(["+sweep=ablation", "trainer=ddp", "hydra/launcher=slurm",
-                    "hydra.launcher.gpus_per_node=4", "trainer.num_nodes=2", "hydra.launcher.partition=gpu"])
+    cfg = _compose(
+        [
+            "+sweep=ablation",
+            "trainer=ddp",
+            "hydra/launcher=slurm",
+            "hydra.launcher.gpus_per_node=4",
+            "trainer.num_nodes=2",
+            "hydra.launcher.partition=gpu",
+        ]
+    )
     launcher = cfg.hydra.launcher
     assert launcher._target_.endswith("SlurmLauncher")
     assert get_class(launcher._target_).__name__ == "SlurmLauncher"

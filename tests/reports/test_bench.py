@@ -1,0 +1,125 @@
+"""`python -m mcd.bench`: real forward passes of registered methods, CSV columns of the interface, the F/OIDN
+ratio line, and the GPU paths (skipped without CUDA)."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+import torch
+
+from mcd import bench
+
+INTERFACE = ["method", "device", "dtype", "compiled", "height", "width", "ms_median", "fps"]
+
+
+def test_bench_cpu_writes_the_interface_columns(tmp_path):
+    out = tmp_path / "bench" / "bench.csv"
+    bench.main(
+        [
+            "--methods",
+            "F,A",
+            "--sizes",
+            "32x32",
+            "--devices",
+            "cpu",
+            "--warmup",
+            "1",
+            "--reps",
+            "2",
+            "--out",
+            str(out),
+            "model=cpu",
+        ]
+    )
+    rows = list(csv.DictReader(out.open()))
+    assert list(rows[0])[:8] == INTERFACE
+    assert {r["method"] for r in rows} == {"F", "A"}
+    for r in rows:
+        assert r["status"] == "ok", r
+        assert (r["height"], r["width"]) == ("32", "32")
+        ms, fps = float(r["ms_median"]), float(r["fps"])
+        assert ms > 0 and fps == pytest.approx(1e3 / ms, rel=1e-3)
+    # fp32 contiguous and channels-last are always measured on CPU
+    assert {(r["dtype"], r["channels_last"]) for r in rows if r["method"] == "F"} >= {
+        ("fp32", "False"),
+        ("fp32", "True"),
+    }
+    readme = (out.parent / "README.md").read_text()
+    assert "python -m mcd.bench" in readme and "| F | cpu | 32x32 |" in readme
+
+
+def test_unknown_method_is_a_row_not_a_crash(tmp_path):
+    rows = bench.run(["no_such_method"], ["32x32"], ["cpu"], ["model=cpu"], 0, 1, 1, False, None)
+    assert len(rows) == 1 and rows[0].ms_median is None and rows[0].status.startswith("failed to build")
+
+
+def test_missing_store_frames_name_the_folder(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no frame folders"):
+        bench.frame_buffers({"c1"}, 8, 8, tmp_path)
+
+
+def test_store_frames_are_tiled_to_size(tmp_path):
+    from mcd.data.exr import write_exr
+
+    (tmp_path / "0000").mkdir()
+    img = torch.arange(2 * 3 * 3, dtype=torch.float32).reshape(2, 3, 3).numpy()
+    write_exr(tmp_path / "0000" / "c1.exr", img)
+    buffers, inputs = bench.frame_buffers({"c1"}, 5, 7, tmp_path)
+    assert buffers["c1"].shape == (5, 7, 3) and "store frame" in inputs
+    assert (buffers["c1"][2:4, 3:6] == img).all()
+
+
+def test_ratio_line_compares_f_with_oidn():
+    common = dict(
+        device="cuda",
+        compiled=False,
+        height=1080,
+        width=1920,
+        channels_last=True,
+        reps=10,
+        warmup=3,
+        model="paper",
+        inputs="synthetic (seeded)",
+        status="ok",
+        device_name="gpu",
+    )
+    rows = [
+        bench.Row(method="F", dtype="fp16", ms_median=8.0, fps=125.0, **common),
+        bench.Row(method="oidn", dtype="fp32", ms_median=4.0, fps=250.0, **common),
+    ]
+    assert any("= 2.00x" in line for line in bench.summary(rows))
+
+
+def test_cpu_paths_respect_cpu_support():
+    paths = bench.inference_paths(torch.device("cpu"), cpu_compile=False)
+    assert not any(p.compiled for p in paths)
+    assert any(p.dtype == torch.bfloat16 for p in paths) == bench.cpu_bf16_supported()
+
+
+@pytest.mark.skipif(
+    not torch.cuda.is_available(), reason="needs a CUDA GPU (fp16/bf16, channels-last, compile)"
+)
+def test_bench_gpu_paths(tmp_path):
+    out = tmp_path / "bench.csv"
+    bench.main(
+        [
+            "--methods",
+            "F,oidn",
+            "--sizes",
+            "64x64",
+            "--devices",
+            "cuda",
+            "--warmup",
+            "2",
+            "--reps",
+            "3",
+            "--out",
+            str(out),
+            "model=cpu",
+        ]
+    )
+    rows = [r for r in csv.DictReader(out.open()) if r["method"] == "F"]
+    assert {r["dtype"] for r in rows} >= {"fp32", "fp16"}
+    assert any(r["compiled"] == "True" for r in rows)
+    assert all(r["status"] == "ok" for r in rows), rows

@@ -1,0 +1,100 @@
+"""Parts of `mcd.report`: reading run dirs of every status, the paper's claims stated against the numbers,
+crop placement, markdown cells."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+
+from mcd.reporting.runs import find_runs
+from mcd.reporting.select import pick, to_markdown
+from mcd.reporting.strips import crop_box
+from mcd.reporting.tables import component_checks
+
+
+def _job(root, name, metrics=None, error=None, metrics_text=None, experiment="F"):
+    d = root / name
+    (d / ".hydra").mkdir(parents=True)
+    (d / ".hydra" / "config.yaml").write_text(f"experiment: {experiment}\nbudget: 4\nsweep_name: ablation\n")
+    (d / ".hydra" / "overrides.yaml").write_text(f"- +experiment={experiment}\n")
+    if metrics is not None:
+        (d / "metrics.json").write_text(json.dumps(metrics))
+    if metrics_text is not None:
+        (d / "metrics.json").write_text(metrics_text)
+    if error is not None:
+        (d / "error.json").write_text(json.dumps(error))
+    return d
+
+
+def test_runs_of_every_status_are_found(tmp_path):
+    _job(tmp_path, "ok", metrics={"psnr": 30.0, "experiment": "F", "budget": 4})
+    _job(tmp_path, "failed", error={"error": "ValueError: KP needs AS\nmore"}, experiment="C")
+    _job(tmp_path, "killed", experiment="A")
+    _job(tmp_path, "truncated", metrics_text='{"psnr": 3', experiment="B")
+    runs = {r.path.name: r for r in find_runs([tmp_path])}
+    assert {k: r.status for k, r in runs.items()} == {
+        "ok": "ok",
+        "failed": "failed",
+        "killed": "incomplete",
+        "truncated": "incomplete",
+    }
+    assert runs["failed"].error_message == "ValueError: KP needs AS"
+    assert runs["failed"].overrides == ["+experiment=C"]
+    assert "killed" in runs["killed"].error_message
+    assert runs["ok"].sweep == "ablation" and runs["ok"].budget == 4.0
+
+
+def test_pick_prefers_finished_runs_of_the_preferred_sweep(tmp_path):
+    _job(tmp_path / "spp", "a", metrics={"psnr": 1.0, "experiment": "F", "budget": 4})
+    _job(tmp_path / "abl", "b", metrics={"psnr": 2.0, "experiment": "F", "budget": 4})
+    _job(tmp_path / "abl", "c", error={"error": "x"})
+    runs = find_runs([tmp_path])
+    for r in runs:
+        r.config["sweep_name"] = r.path.parent.name
+    assert pick(runs, "F", 4.0, prefer_sweep="abl").metrics["psnr"] == 2.0
+    assert pick(runs, "F", 4.0, prefer_sweep="spp").metrics["psnr"] == 1.0
+    assert pick(runs, "F", 8.0, prefer_sweep="abl") is None
+
+
+def _comp(psnr):
+    return pd.DataFrame(
+        {
+            "row": list(psnr),
+            "PSNR": list(psnr.values()),
+            "PSNR paper": [33.0 + 0.1 * i for i in range(len(psnr))],
+        }
+    )
+
+
+def test_claims_hold_when_they_hold():
+    lines = component_checks(_comp({"A": 30.0, "B": 30.2, "C": 31.5, "D": 31.6, "E": 31.7, "F": 31.8}))
+    ours = lines[0]
+    assert ours.startswith("ours: F above A holds") and "largest single step: holds" in ours
+    assert "B→C +1.30 dB" in ours
+
+
+def test_claims_are_reported_plainly_when_our_data_disagree():
+    ours = component_checks(_comp({"A": 30.0, "B": 30.9, "C": 30.5, "D": 30.6, "E": 30.0, "F": 29.5}))[0]
+    assert "F above A does NOT hold" in ours and "(F 29.50 dB vs A 30.00 dB, -0.50 dB)" in ours
+    assert "does NOT hold (largest step is A→B)" in ours
+
+
+def test_claims_with_missing_rows_say_which():
+    ours = component_checks(_comp({"A": 30.0, "B": math.nan, "C": 31.0, "D": 31.0, "E": 31.0, "F": 31.0}))[0]
+    assert "rows B have no PSNR" in ours
+
+
+def test_crop_lands_on_the_noisiest_window():
+    ref = np.full((40, 60, 3), 0.5, np.float32)
+    noisy = ref.copy()
+    noisy[20:30, 41:51] = np.random.default_rng(0).gamma(0.3, 10.0, size=(10, 10, 3))
+    assert crop_box(noisy, ref, 10) == (20, 41)
+    assert crop_box(noisy, ref, 100) == (0, 0)
+
+
+def test_markdown_marks_missing_values():
+    md = to_markdown(pd.DataFrame({"m": ["x"], "v": [math.nan], "w": [1.234]}))
+    assert md.splitlines()[2] == "| x | — | 1.23 |"
