@@ -55,6 +55,9 @@ class OIDN(nn.Module):
     @torch.no_grad()
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         noisy = need(x, self.key, "oidn")
+        if noisy.device.type == "meta":
+            raise NotImplementedError("OIDN runs its own (non-torch) network: its MACs cannot be counted on "
+                                      "the meta device; report them as unknown")
         albedo = need(x, "albedo", "oidn").clamp(0, 1)
         normal = need(x, "normal", "oidn").clamp(-1, 1)
         out = [self.pyoidn.denoise(self._hwc(c.clamp_min(0)), albedo=self._hwc(a), normal=self._hwc(n),
