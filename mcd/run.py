@@ -102,9 +102,8 @@ def _json_safe(value: object) -> object:
 def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                    started: float) -> dict[str, object]:
     """The whole run; returns what it wrote to ``metrics.json``."""
-    from mcd.complexity import macs_and_params
-    from mcd.data.datamodule import MCDDataModule
-    from mcd.data.store import Store
+    from mcd.complexity import complexity
+    from mcd.data import MCDDataModule, Store
     from mcd.models import build
 
     check_switches(cfg.method)
@@ -116,9 +115,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
     store = Store.from_cfg(cfg)
     t0 = time.perf_counter()
-    report = store.ensure(buffers)
+    report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     data_s = time.perf_counter() - t0
-    log.info("data: %s", report)
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
     loss = build_loss(cfg)
     lit = DenoiseModule(cfg, model, loss, sample_dir=out_dir / "samples")
@@ -144,7 +142,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     rows = pd.DataFrame(lit.test_rows, columns=["scene", "frame", *FRAME_METRICS])
     rows.to_csv(out_dir / "frames.csv", index=False)
     averages = aggregate(lit.test_rows)
-    macs_g, params_m = macs_and_params(cfg)
+    params_m, macs_g = complexity(cfg)
     metrics = {
         **{k: averages[k] for k in FRAME_METRICS},
         "macs_g": macs_g,
@@ -164,7 +162,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         "precision": str(cfg.trainer.precision),
         "torch": torch.__version__,
         "config": str(out_dir / "resolved_config.yaml"),
-        "data": str(report),
+        "data": report,
         "checkpoint": tested,
         "best_val_loss": float(best.best_model_score) if best.best_model_score is not None else None,
         "train_steps": int(trainer.global_step),

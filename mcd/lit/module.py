@@ -57,7 +57,7 @@ class DenoiseModule(L.LightningModule):
         self.__dict__["loss_fn"] = loss
         self.budget = int(cfg.budget)
         self.sample_dir = Path(sample_dir) if sample_dir is not None else None
-        self.sample_frames = int(cfg.train.get("sample_frames", 0))
+        self.sample_frames = {int(i) for i in cfg.train.get("sample_frames", ())}
         self.test_rows: list[dict[str, object]] = []
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
         self._seq_pos = 0
@@ -140,7 +140,7 @@ class DenoiseModule(L.LightningModule):
         row["lt"] = math.nan if self._prev is None else temporal_l1(pred, self._prev[0], ref, self._prev[1])
         self.test_rows.append(row)
         self._prev = (pred, ref)
-        if self.sample_dir is not None and self._seq_pos < self.sample_frames:
+        if self.sample_dir is not None and self._seq_pos in self.sample_frames:
             images = {k: _hwc(v[0]) for k, v in out.items() if isinstance(v, Tensor) and v.ndim == 4}
             images.update(noisy=noisy, reference=ref)
             save_samples(self.sample_dir / scene, frame, images, self.budget)
