@@ -10,6 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run, display_name  # noqa: E402
@@ -51,6 +52,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
             style = "-" if exp in ("F", "noisy") else "--"
             ax.plot(mdf["frame"], mdf["psnr"], style, marker=".", label=display_name(str(exp)))
         ax.set_xlabel("test frame")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_ylabel("PSNR (dB)")
         ax.set_title(f"Per-frame PSNR over the test sequence: {scene} (4 spp)")
         ax.grid(True, alpha=0.3)

@@ -1,32 +1,45 @@
 """The paper's numbers for the reference columns of the tables, read from `mcd.paper_numbers` (never retyped).
 
 Units as the paper prints them: PSNR dB, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs at 1920x1080, params in M.
+Keys here follow the run's metrics.json (`macs_g`); `mcd.paper_numbers` says `gmacs`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
-TABLE1_KEYS = ("psnr", "ssim", "macs_g", "params_m")
-COMPONENT_KEYS = ("psnr", "ssim", "lt", "rmse", "macs_g", "params_m")
+from mcd import paper_numbers
+
+#: Table 1 is keyed by `method.name`; experiments name them, and `F` is the paper's "Ours" (`two_stage`).
+_TABLE1_KEY = {"F": "two_stage"}
+_FIELDS = {
+    "psnr": "psnr",
+    "ssim": "ssim",
+    "lt": "lt",
+    "rmse": "rmse",
+    "macs_g": "gmacs",
+    "params_m": "params_m",
+}
 
 
-def _module() -> Any:
-    from mcd import paper_numbers
-
-    return paper_numbers
+def _row(row: dict | None, keys: tuple[str, ...]) -> dict[str, float]:
+    row = row or {}
+    return {k: float(row.get(_FIELDS[k], math.nan)) for k in keys}
 
 
 def table1(experiment: str) -> dict[str, float]:
     """Table 1's row of an experiment (`unet`, `fastdvdnet`, `rae`, `dasr`, `ntasad`, `F`); NaN: none."""
-    rows = getattr(_module(), "TABLE1", {})
-    row = rows.get(experiment, {})
-    return {k: float(row.get(k, math.nan)) for k in TABLE1_KEYS}
+    row = paper_numbers.TABLE1.get(_TABLE1_KEY.get(experiment, experiment))
+    return _row(row, ("psnr", "ssim", "macs_g", "params_m"))
 
 
 def components(experiment: str) -> dict[str, float]:
-    """The component study's row `A`..`M`; NaN if none."""
-    rows = getattr(_module(), "COMPONENTS", {})
-    row = rows.get(experiment, {})
-    return {k: float(row.get(k, math.nan)) for k in COMPONENT_KEYS}
+    """The component study's row `A`..`M`; NaN when the paper has none."""
+    return _row(
+        paper_numbers.COMPONENTS.get(experiment), ("psnr", "ssim", "lt", "rmse", "macs_g", "params_m")
+    )
+
+
+def switches(experiment: str) -> dict[str, bool]:
+    """The component switches that define row `A`..`M` (method.md); {} for other experiments."""
+    return dict(paper_numbers.COMPONENTS.get(experiment, {}).get("switches", {}))

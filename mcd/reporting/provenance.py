@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -12,8 +13,10 @@ from matplotlib.figure import Figure
 
 from mcd.reporting.runs import Run, Sweep
 
+REPO = Path(__file__).resolve().parents[2]
 
-def git_commit(cwd: Path | None = None) -> str:
+
+def git_commit(cwd: Path = REPO) -> str:
     """The checked-out commit (short hash, `+dirty` when tracked files differ), or `unknown` outside git."""
     try:
         commit = subprocess.run(
@@ -100,8 +103,10 @@ class Provenance:
         )
 
     def stamp(self, fig: Figure, sweep_names: list[str] | None = None) -> None:
-        """Write the footer under a figure (leaves room for it at the bottom)."""
-        fig.text(
-            0.01, 0.005, self.footer(sweep_names), fontsize=6, family="monospace", va="bottom", wrap=True
-        )
-        fig.subplots_adjust(bottom=max(fig.subplotpars.bottom, 0.16))
+        """Write the footer under a figure, wrapped to its width, and leave room for it at the bottom."""
+        width_in, height_in = fig.get_size_inches()
+        chars = max(40, int(width_in * 72 / (6 * 0.6)))  # monospace 6 pt: about 3.6 pt per character
+        lines = [w for line in self.footer(sweep_names).splitlines() for w in textwrap.wrap(line, chars)]
+        fig.text(0.005, 0.005, "\n".join(lines), fontsize=6, family="monospace", va="bottom")
+        footer = (len(lines) * 6 * 1.2 + 4) / 72 / height_in
+        fig.subplots_adjust(bottom=footer + max(fig.subplotpars.bottom, 0.1))

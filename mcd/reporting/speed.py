@@ -46,7 +46,7 @@ def speed_frame(runs: list[Run], bench: pd.DataFrame) -> pd.DataFrame:
                 "compiled": b["compiled"],
                 "height": int(b["height"]),
                 "width": int(b["width"]),
-                "ms_median": float(b["ms_median"]),
+                "ms_median": float(b["ms_median"]), "bench_model": str(b.get("model", "?")),
                 "psnr": metric(run, "psnr"),
                 "rmse": metric(run, "rmse", 1e3),
             }
@@ -86,9 +86,10 @@ def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenan
         fig.suptitle(f"Speed against error: nothing to plot ({why}; run python -m mcd.bench)")
     else:
         axes[0].legend(fontsize=8)
+        profiles = ", ".join(sorted(set(df["bench_model"])))
         fig.suptitle(
-            f"Speed (largest resolution per device, fastest path per method; {bench_csv}) against error "
-            "(4 spp runs)",
+            f"Speed (largest resolution per device, fastest path per method; {bench_csv}, capacity profile "
+            f"{profiles}) against error (4 spp runs: {prov.config_groups})",
             fontsize=9,
         )
     prov.stamp(fig)

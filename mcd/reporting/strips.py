@@ -107,6 +107,9 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         fig, axes = plt.subplots(2, len(cols), figsize=(2.4 * len(cols), 5.4), squeeze=False)
         for j, (name, title) in enumerate(cols):
             pic = picture(name, imgs[name])
+            if name == "sampling_map":
+                m = imgs[name][..., 0]
+                title = f"{title} ({m.min():.0f}..{m.max():.0f}, mean {m.mean():.2f})"
             _show(axes[0, j], pic, title)
             axes[0, j].add_patch(Rectangle((x - 0.5, y - 0.5), size, size, fill=False, ec="red", lw=1))
             _show(axes[1, j], pic[y : y + size, x : x + size])

@@ -66,7 +66,8 @@ def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     rows = []
     for exp in COMPONENT_ROWS:
         run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="ablation")
-        switches = run.method_switches if run is not None else {}
+        # the switches the job ran with; for rows that did not run, the row's definition (method.md)
+        switches = run.method_switches if run is not None and run.method_switches else paper.switches(exp)
         ref = paper.components(exp)
         row: dict[str, object] = {"row": exp}
         row.update({s: ("✓" if switches.get(s) else "") for s in SWITCHES})

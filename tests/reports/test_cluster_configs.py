@@ -55,8 +55,8 @@ def test_slurm_launcher_composes_with_a_sweep_and_ddp():
     assert raw["launcher"]["submitit_folder"].startswith("${hydra.sweep.dir}")
     # the sweep is the same as on one machine: 13 jobs, deterministic directories
     assert cfg.hydra.sweeper.params["+experiment"] == "A,B,C,D,E,F,G,H,I,J,K,L,M"
-    assert raw["sweep"]["dir"] == "multirun/${sweep_name}/${hydra.runtime.choices.data}"
-    assert raw["sweep"]["subdir"] == "${hydra:job.override_dirname}"
+    assert raw["sweep"]["dir"] == "multirun/${sweep_name}/${hydra.runtime.choices.data}${sweep_tag}"
+    assert raw["sweep"]["subdir"] == "${experiment}_spp${budget}"
 
 
 def test_slurm_launcher_without_ddp_runs_one_gpu_jobs():
