@@ -28,9 +28,9 @@ CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
 BUFFER_CHANNELS = {"depth": 1, "motion": 2}
 
 
-def _cpu_flash_attention_flop(query, key, value, *args, out_val=None, **kwargs) -> int:
-    """FLOPs of CPU flash attention, which ``FlopCounterMode`` does not count by itself."""
-    return flop_counter.sdpa_flop_count(query.shape, key.shape, value.shape)
+def _cpu_flash_attention_flop(query, key, value, *args, out_shape=None, **kwargs) -> int:
+    """FLOPs of CPU flash attention, which ``FlopCounterMode`` does not count by itself (gets shapes)."""
+    return flop_counter.sdpa_flop_count(query, key, value)
 
 
 def flop_counter_mode() -> flop_counter.FlopCounterMode:
@@ -59,7 +59,7 @@ def count_params(model: nn.Module) -> int:
 
 
 def count_macs(model: nn.Module, height: int = 1080, width: int = 1920, device: str = "meta") -> int:
-    """MACs of one forward pass of ``model`` (already on ``device``) producing one ``height x width`` frame."""
+    """MACs of one forward pass of ``model`` (on ``device``) producing one ``height x width`` frame."""
     model.eval()
     if hasattr(model, "reset"):
         model.reset()
@@ -114,7 +114,8 @@ def _rel(ours: float, paper: float) -> str:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", default="paper", help="capacity profile (conf/model/<name>.yaml)")
-    parser.add_argument("--experiments", nargs="*", default=None, help="default: every conf/experiment/*.yaml")
+    parser.add_argument("--experiments", nargs="*", default=None,
+                        help="default: every conf/experiment/*.yaml")
     parser.add_argument("--height", type=int, default=1080)
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("--out", default="reports/complexity.csv")
@@ -124,8 +125,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{'name':<12}{'params_m':>10}{'paper':>8}{'diff':>8}{'gmacs':>10}{'paper':>9}{'diff':>8}")
     for r in rows:
         print(f"{r['name']:<12}{r['params_m']:>10.3f}{r['paper_params_m']:>8.3f}"
-              f"{_rel(r['params_m'], r['paper_params_m']):>8}{r['gmacs_1080p']:>10.2f}{r['paper_gmacs']:>9.2f}"
-              f"{_rel(r['gmacs_1080p'], r['paper_gmacs']):>8}")
+              f"{_rel(r['params_m'], r['paper_params_m']):>8}{r['gmacs_1080p']:>10.2f}"
+              f"{r['paper_gmacs']:>9.2f}{_rel(r['gmacs_1080p'], r['paper_gmacs']):>8}")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     with out.open("w", newline="") as f:

@@ -1,0 +1,39 @@
+"""Shared helpers of the model tests: configs of the component rows and random frames."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+from omegaconf import OmegaConf
+
+CONF = Path(__file__).resolve().parents[2] / "conf"
+ROWS = dict(A="100000", B="110000", C="111000", D="111100", E="111110", F="111111", G="111010", H="111011",
+            I="111101", J="111001", K="110100", L="110010", M="110001")
+SWITCHES = ("UN", "AS", "KP", "PP", "FG", "SA")
+
+
+def row_cfg(row: str, profile: str = "cpu", budget: float = 4):
+    """The run config of a component row with a capacity profile (the experiment file + the profile)."""
+    exp = OmegaConf.load(CONF / "experiment" / f"{row}.yaml")
+    model = OmegaConf.load(CONF / "model" / f"{profile}.yaml")
+    return OmegaConf.create({"method": exp.method, "budget": budget, "model": model})
+
+
+def switch_cfg(bits: str, profile: str = "cpu", budget: float = 4):
+    method = {"name": "two_stage", **{s: b == "1" for s, b in zip(SWITCHES, bits, strict=True)}}
+    model = OmegaConf.load(CONF / "model" / f"{profile}.yaml")
+    return OmegaConf.create({"method": method, "budget": budget, "model": model})
+
+
+def frame(h: int = 32, w: int = 32, b: int = 1, scale: float = 1.0, seed: int = 0) -> dict[str, torch.Tensor]:
+    """One random frame of every buffer (linear HDR colour, G-buffers in their ranges) with a reference."""
+    g = torch.Generator().manual_seed(seed)
+    x = {f"c{2 ** k}": torch.rand(b, 3, h, w, generator=g) * scale for k in range(6)}
+    x["c1_in"] = torch.rand(b, 3, h, w, generator=g) * scale
+    x["ref"] = torch.rand(b, 3, h, w, generator=g) * scale
+    x["depth"] = torch.rand(b, 1, h, w, generator=g) * 20
+    n = torch.randn(b, 3, h, w, generator=g)
+    x["normal"] = n / n.norm(dim=1, keepdim=True)
+    x["albedo"] = torch.rand(b, 3, h, w, generator=g)
+    return x

@@ -1,0 +1,135 @@
+"""Kernel pool, position-aware pooling, semantic alignment, Fast GhostConv (method.md, one section each)."""
+
+import pytest
+import torch
+import torch.nn.functional as F
+
+from mcd.models.ghost_conv import FastGhostConv
+from mcd.models.kernel_pool import KernelPool, apply_pixel_kernels, identity_kernel, interpolate_kernels
+from mcd.models.position_pooling import PositionAwarePool
+from mcd.models.semantic_alignment import SemanticAlignment
+
+
+def _pool_kernels(b=2, q=8, taps=25, seed=0):
+    torch.manual_seed(seed)
+    return torch.softmax(torch.randn(b, q, taps), -1)
+
+
+def test_identity_weight_one_returns_the_input():
+    image = torch.rand(2, 3, 9, 11) * 1e3
+    h = torch.empty(2, 2, 9, 11).uniform_(-1, 1)
+    h[:, 1] = 1.0                                            # all the way to the identity kernel
+    kernels = interpolate_kernels(_pool_kernels(), h)
+    torch.testing.assert_close(kernels, identity_kernel(5).view(1, 25, 1, 1).expand(2, 25, 9, 11))
+    torch.testing.assert_close(apply_pixel_kernels(image, kernels), image)
+
+
+def test_interpolation_along_the_pool_is_linear_between_neighbours():
+    pool = _pool_kernels(b=1, q=5)
+    h = torch.full((1, 2, 1, 3), -1.0)
+    h[0, 0, 0] = torch.tensor([-1.0, 1.0, -0.25])           # kernel 0, kernel 4, halfway between 1 and 2
+    k = interpolate_kernels(pool, h)[0, :, 0].T              # [3, taps]
+    torch.testing.assert_close(k[0], pool[0, 0])
+    torch.testing.assert_close(k[1], pool[0, 4])
+    torch.testing.assert_close(k[2], 0.5 * (pool[0, 1] + pool[0, 2]))
+    h[0, 1] = 0.0                                            # halfway to the identity
+    k = interpolate_kernels(pool, h)[0, :, 0].T
+    torch.testing.assert_close(k[0], 0.5 * pool[0, 0] + 0.5 * identity_kernel(5))
+
+
+def test_pixel_kernels_match_unfold_and_keep_constants():
+    torch.manual_seed(1)
+    image = torch.rand(2, 3, 7, 6)
+    kernels = torch.softmax(torch.randn(2, 25, 7, 6), 1)
+    patches = F.unfold(F.pad(image, (2, 2, 2, 2), mode="replicate"), 5).view(2, 3, 25, 7, 6)
+    torch.testing.assert_close(apply_pixel_kernels(image, kernels), (patches * kernels[:, None]).sum(2))
+    flat = torch.full((1, 3, 5, 5), 7.0)
+    torch.testing.assert_close(apply_pixel_kernels(flat, kernels[:1, :, :5, :5]), flat)
+
+
+def test_kernel_pool_adjustment_shapes_init_and_gradients():
+    kp = KernelPool(coarse_channels=12, q=16, size=5, lift_hidden=8, alpha_hidden=8, descriptor=4)
+    assert set(kp.pool.detach().unique().tolist()) <= {0.0, 1.0}, "Bernoulli(0.5) init in {0, 1}"
+    adjusted = kp.adjust(torch.rand(2, 12, 3, 5))
+    assert adjusted.shape == (2, 16, 25)
+    assert kp.descriptor(adjusted).shape == (2, 4)
+    (kp.normalised(adjusted).square().sum() + kp.descriptor(adjusted).sum()).backward()
+    assert all(p.grad is not None for p in kp.parameters())
+
+
+@pytest.mark.parametrize("size", [(7, 9), (1, 1), (8, 8), (5, 2)])
+def test_position_pooling_odd_sizes_and_constant_image(size):
+    torch.manual_seed(0)
+    pool = PositionAwarePool(4, hidden=3)
+    constant = torch.full((2, 4, *size), 2.5)
+    out = pool(constant)
+    assert out.shape == (2, 4, (size[0] + 1) // 2, (size[1] + 1) // 2)
+    torch.testing.assert_close(out, torch.full_like(out, 2.5))
+    x = torch.randn(2, 4, *size, requires_grad=True)
+    y = pool(x)
+    y.sum().backward()
+    assert torch.isfinite(x.grad).all()
+
+
+def test_position_pooling_is_a_convex_combination_of_the_window():
+    torch.manual_seed(0)
+    pool = PositionAwarePool(3)
+    x = torch.randn(1, 3, 6, 8)
+    windows = F.pixel_unshuffle(x, 2).view(1, 3, 4, 3, 4)
+    out = pool(x)
+    assert bool((out <= windows.amax(2) + 1e-6).all() and (out >= windows.amin(2) - 1e-6).all())
+    with torch.no_grad():                                    # equal scores: the plain window average
+        pool.score.weight.zero_()
+        pool.score.bias.zero_()
+    torch.testing.assert_close(pool(x), windows.mean(2))
+
+
+def test_position_pooling_uses_position():
+    """Identical members in different windows get different weights once the score reads position."""
+    pool = PositionAwarePool(1)
+    with torch.no_grad():
+        pool.score.weight.zero_()
+        pool.score.weight[0, 1] = 5.0                        # channel 1 = absolute x
+    x = torch.arange(16.0).view(1, 1, 4, 4)
+    out = pool(x)
+    windows = F.pixel_unshuffle(x, 2).view(1, 1, 4, 2, 2)
+    assert bool((out > windows.mean(2)).all()), "the right-hand members (larger x) weigh more"
+
+
+def test_semantic_alignment_repeated_frame_state_and_reset():
+    torch.manual_seed(0)
+    sa = SemanticAlignment(16, heads=4)
+    x = torch.randn(2, 16, 5, 7, requires_grad=True)
+    first = sa(x)                                            # first frame attends to itself
+    second = sa(x)                                           # same frame again: attends to `first`
+    assert not torch.allclose(first, second), "the state of the previous frame is used"
+    sa.reset()
+    torch.testing.assert_close(sa(x), first)                 # after reset: as the first frame again
+    sa.reset()
+    a = sa(x)
+    b = sa(x.detach())                                       # gradient reaches frame 1 through the state
+    b.sum().backward()
+    assert x.grad is not None and float(x.grad.abs().sum()) > 0
+    assert a.shape == x.shape
+
+
+def test_semantic_alignment_shape_change_asks_for_reset():
+    sa = SemanticAlignment(8, heads=4)
+    sa(torch.randn(1, 8, 4, 4))
+    with pytest.raises(RuntimeError, match="reset"):
+        sa(torch.randn(1, 8, 4, 6))
+
+
+def test_fast_ghostconv_is_cheaper_than_a_3x3_block_and_widens_the_field():
+    g = FastGhostConv(48, 48)
+    conv = torch.nn.Conv2d(48, 48, 3, padding=1)
+    count = lambda m: sum(p.numel() for p in m.parameters())   # noqa: E731
+    assert count(g) < count(conv)
+    x = torch.zeros(1, 48, 15, 15, requires_grad=True)
+    g(x)[0, :, 7, 7].sum().backward()
+    reach = x.grad[0].abs().sum(0).nonzero()
+    assert int(reach[:, 0].max() - reach[:, 0].min()) + 1 == 9, "7x7 group conv + 3x3 ghost: 9x9 field"
+    out = FastGhostConv(12, 16, groups=8)(torch.rand(1, 12, 6, 6))   # groups fall back to gcd(8, 12, 8) = 4
+    assert out.shape == (1, 16, 6, 6) and bool((out >= 0).all())
+    with pytest.raises(ValueError, match="even output width"):
+        FastGhostConv(8, 7)
