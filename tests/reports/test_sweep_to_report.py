@@ -1,0 +1,132 @@
+"""End to end on 32x32 renders (issue 5, "What it must show"): a two-job sweep (rows A and F, real Mitsuba
+renders, real training steps), a failing job recorded without stopping anything, a rerun that skips the
+finished jobs, the bench on the same methods, and `python -m mcd.report` producing every table and figure with
+its provenance."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
+#: The tiny profile cut to one 32x32 scene of 14 frames and a few training steps.
+SMALL = [
+    "data.width=32",
+    "data.height=32",
+    "data.segments=1",
+    "data.frames_per_segment=14",
+    "data.ref_spp=16",
+    "data.gbuffer_spp=4",
+    "data.train_scenes=[cbox]",
+    "data.test_scenes=[cbox]",
+    "~data.scenes.staircase2",
+    "data.train_crop=32",
+    "data.val_crop=32",
+    "train.epochs=1",
+    "train.batch_size=2",
+    "train.limit_train_batches=2",
+    "trainer.enable_progress_bar=false",
+]
+
+
+def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
+    if LLVM.is_file():
+        env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
+    proc = subprocess.run(
+        [sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert proc.returncode == 0, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
+    return proc
+
+
+@pytest.mark.slow
+def test_two_job_sweep_failure_rerun_and_report(tmp_path):
+    data = [f"paths.data_dir={tmp_path / 'data'}", f"paths.scenes_dir={REPO / 'scenes'}"]
+    sweep = ["-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=A,F", *data, *SMALL]
+    _run(sweep, tmp_path)
+    sweep_dir = tmp_path / "multirun" / "ablation" / "tiny"
+    for exp in ("A", "F"):
+        metrics = json.loads((sweep_dir / f"{exp}_spp4" / "metrics.json").read_text())
+        assert metrics["experiment"] == exp and metrics["budget"] == 4
+
+    # a failing job (KP without AS) in the same sweep: recorded, the command still succeeds
+    _run(
+        ["-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=C", "method.AS=false", *data, *SMALL],
+        tmp_path,
+    )
+    error = json.loads((sweep_dir / "C_spp4" / "error.json").read_text())
+    assert "AS" in error["error"] and not (sweep_dir / "C_spp4" / "metrics.json").exists()
+
+    # a rerun of the sweep skips both finished jobs
+    stamps = {e: (sweep_dir / f"{e}_spp4" / "metrics.json").stat().st_mtime_ns for e in ("A", "F")}
+    rerun = _run(sweep, tmp_path)
+    assert (rerun.stdout + rerun.stderr).count("skip:") == 2
+    assert stamps == {e: (sweep_dir / f"{e}_spp4" / "metrics.json").stat().st_mtime_ns for e in ("A", "F")}
+
+    bench_csv = tmp_path / "bench" / "bench.csv"
+    _run(
+        [
+            "-m",
+            "mcd.bench",
+            "--methods",
+            "A,F",
+            "--sizes",
+            "32x32",
+            "--devices",
+            "cpu",
+            "--warmup",
+            "1",
+            "--reps",
+            "2",
+            "--out",
+            str(bench_csv),
+            "model=cpu",
+        ],
+        tmp_path,
+    )
+
+    _run(["-m", "mcd.report", str(sweep_dir), "--name", "t32", "--bench", str(bench_csv)], tmp_path)
+    report = tmp_path / "reports" / "t32"
+    for name in (
+        "table1.md",
+        "table1.csv",
+        "components.md",
+        "components.csv",
+        "spp.csv",
+        "spp.png",
+        "speed_vs_error.png",
+        "README.md",
+        "strips/cbox.png",
+        "strips/cbox_methods.png",
+        "per_frame/cbox_psnr.png",
+        "per_frame/per_frame.csv",
+    ):
+        assert (report / name).is_file() and (report / name).stat().st_size > 0, name
+
+    comp = pd.read_csv(report / "components.csv").set_index("row")
+    for exp in ("A", "F"):
+        run_metrics = json.loads((sweep_dir / f"{exp}_spp4" / "metrics.json").read_text())
+        assert comp.loc[exp, "PSNR"] == pytest.approx(run_metrics["psnr"])
+        assert comp.loc[exp, "SSIM"] == pytest.approx(100 * run_metrics["ssim"])
+    assert comp.loc["F", "PSNR paper"] == 33.39 and comp.loc["F", "KP"] == "✓"
+    assert comp.loc["C", "status"].startswith("failed: ")
+    t1 = pd.read_csv(report / "table1.csv").set_index("experiment")
+    assert t1.loc["A", "method"] == "U-Net (row A)"  # no unet job: row A's identical network stands in
+    speed = pd.read_csv(report / "speed_vs_error.csv")
+    assert set(speed["experiment"]) == {"A", "F"}
+
+    readme = (report / "README.md").read_text()
+    assert "python -m mcd.run -m +sweep=ablation +experiment=A,F" in readme  # command
+    assert "Data profile(s): tiny" in readme and "model=cpu" in readme  # profile and config
+    assert "Commit(s) of the runs: " in readme and "Commit(s) of the runs: unknown" not in readme
+    assert "Device(s): CPU" in readme and "Wall time:" in readme
+    assert "C_spp4" in readme and "failed" in readme  # the failed job is listed with its error
+    assert "F above A" in readme
