@@ -101,6 +101,7 @@ def write_readme(
         f"- Data profile(s): {prov.data_profiles}",
         f"- Config: {prov.config_groups}; each job's full config is in `<run>/.hydra/config.yaml` "
         "(and `resolved_config.yaml`)",
+        f"- Training: {prov.training}",
         f"- Commit(s) of the runs: {prov.commits}",
         f"- Device(s): {prov.devices}",
         f"- Wall time: {prov.wall_s / 60:.1f} min summed over {n_ok} finished runs "

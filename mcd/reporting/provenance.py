@@ -87,6 +87,29 @@ class Provenance:
         """Total wall time of the finished runs, seconds (as each run's metrics.json recorded it)."""
         return float(sum(float(r.metrics.get("wall_s") or 0.0) for r in self._ok()))
 
+    @property
+    def training(self) -> str:
+        """Training budget of the trained runs (epochs, optimiser steps) and the perceptual loss status."""
+        trained = [
+            r.metrics for r in self._ok() if r.metrics.get("trained", True) and "train_steps" in r.metrics
+        ]
+        if not trained:
+            return "no trained runs"
+        epochs = sorted({int(m.get("epochs", 0)) for m in trained})
+        steps = sorted({int(m["train_steps"]) for m in trained})
+        perceptual = _distinct(
+            [
+                "on"
+                if (m.get("perceptual_loss") or {}).get("on")
+                else f"off ({(m.get('perceptual_loss') or {}).get('reason', 'no reason recorded')})"
+                for m in trained
+            ]
+        )
+        return (
+            f"{len(trained)} trained runs, epochs {epochs[0]}..{epochs[-1]}, optimiser steps "
+            f"{steps[0]}..{steps[-1]}; perceptual loss: {perceptual}"
+        )
+
     def commands(self) -> list[str]:
         return [s.command for s in self.sweeps]
 
