@@ -66,7 +66,13 @@ class Provenance:
 
     @property
     def commits(self) -> str:
-        return _distinct([r.metrics.get("commit") for r in self._ok()])
+        return _distinct(
+            [
+                f"{r.metrics.get('commit')}{'+dirty' if r.metrics.get('dirty') else ''}"
+                for r in self._ok()
+                if r.metrics.get("commit")
+            ]
+        )
 
     @property
     def devices(self) -> str:
@@ -105,9 +111,13 @@ class Provenance:
                 for m in trained
             ]
         )
+
+        def span(v: list[int]) -> str:
+            return str(v[0]) if v[0] == v[-1] else f"{v[0]}..{v[-1]}"
+
         return (
-            f"{len(trained)} trained runs, epochs {epochs[0]}..{epochs[-1]}, optimiser steps "
-            f"{steps[0]}..{steps[-1]}; perceptual loss: {perceptual}"
+            f"{len(trained)} trained runs, epochs {span(epochs)}, optimiser steps {span(steps)}; "
+            f"perceptual loss: {perceptual}"
         )
 
     def commands(self) -> list[str]:
