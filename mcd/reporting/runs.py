@@ -97,7 +97,19 @@ class Run:
     def transfer(self) -> dict[str, Any] | None:
         """The transfer settings of a transfer job (metrics.json `transfer`), None for ordinary jobs."""
         value = self._get("transfer")
-        return value if isinstance(value, dict) and value else None
+        if isinstance(value, dict) and value:
+            return value
+        if (
+            self.config.get("sweep_name") == "transfer"
+        ):  # sweeps/transfer.yaml: tested on held-out scenes only
+            data = self.config.get("data", {})
+            scenes = data.get("test_scenes") or data.get("transfer_scenes") or []
+            return {
+                "scene": ", ".join(map(str, scenes)) if isinstance(scenes, list) else str(scenes),
+                "finetune": False,
+                "finetune_epochs": 0,
+            }
+        return None
 
     @property
     def data_profile(self) -> str:
