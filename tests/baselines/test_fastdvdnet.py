@@ -15,8 +15,17 @@ def model() -> FastDVDnet:
     return FastDVDnet(4, (8, 12, 16), 6)
 
 
+def test_starts_as_the_identity_on_the_centre_frame() -> None:
+    x = frame(t=5)
+    with torch.no_grad():
+        out = model().eval()(x)["output"]
+    torch.testing.assert_close(out, x["c4"][:, 2], rtol=1e-5, atol=1e-5)
+
+
 def test_output_depends_on_all_five_frames() -> None:
     net = model().eval()
+    for block in (net.stage1, net.stage2):  # as after training: the zero-initialised residual convs are not 0
+        torch.nn.init.normal_(block.outc[-1].weight, std=0.1)
     x = frame(t=5)
     x["c4"].requires_grad_(True)
     out = net(x)["output"]

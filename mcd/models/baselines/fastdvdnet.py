@@ -44,6 +44,7 @@ class DenBlock(nn.Module):
         self.up1 = nn.Sequential(*cbr(c1, c1), *cbr(c1, c1), nn.Conv2d(c1, c0 * 4, 3, padding=1, bias=False),
                                  nn.PixelShuffle(2))
         self.outc = nn.Sequential(*cbr(c0, c0), nn.Conv2d(c0, 3, 3, padding=1, bias=False))
+        nn.init.zeros_(self.outc[-1].weight)  # start as the identity (residual 0), learns faster
 
     def forward(self, frames: Tensor, centre: Tensor) -> Tensor:
         """``frames`` ``[B, 3 * per_frame, H, W]`` (frame-major), ``centre`` ``[B, 3, H, W]``; H, W multiples

@@ -35,6 +35,8 @@ class OIDN(nn.Module):
     """OIDN's ``RT`` filter (``quality``: high/balanced/fast) on ``c{budget}`` with albedo and normal."""
 
     window = (0, 0)
+    #: Its network is OIDN's own, not torch: FlopCounterMode cannot count its MACs (report them as unknown).
+    macs_countable = False
 
     def __init__(self, budget: int, quality: str = "high") -> None:
         super().__init__()
