@@ -39,6 +39,8 @@ REQUIRED_KEYS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "inpu
                  "experiment", "method", "budget", "data_profile", "commit", "device", "wall_s", "per_scene",
                  "perceptual_loss")
 REPO = Path(__file__).resolve().parent.parent
+#: Methods whose ``method.UN..SA`` switches mean something (the component study; ``unet`` is row A).
+SWITCHED_METHODS = ("two_stage", "unet")
 
 
 def is_complete(path: Path) -> bool:
@@ -102,16 +104,25 @@ def _json_safe(value: object) -> object:
 def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                    started: float) -> dict[str, object]:
     """The whole run; returns what it wrote to ``metrics.json``."""
-    from mcd.complexity import complexity
+    from mcd.complexity import complexity, count_params
     from mcd.data import MCDDataModule, Store
+    from mcd.lit import transfer
     from mcd.models import build
 
-    check_switches(cfg.method)
+    if cfg.method.name in SWITCHED_METHODS:
+        check_switches(cfg.method)
+    resume = cfg.get("ckpt_path")
+    if resume and not Path(resume).is_file():
+        raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
+                                "(give a run's checkpoints/last.ckpt)")
     L.seed_everything(int(cfg.seed), workers=True)
+    cfg, transfer_info = transfer.prepare(cfg)  # held-out scenes from trained weights (mcd/lit/transfer.py)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
 
     model = build(cfg)
+    if transfer_info is not None:
+        transfer.load_weights(model, transfer_info)
     buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
     store = Store.from_cfg(cfg)
     t0 = time.perf_counter()
@@ -126,15 +137,20 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                            save_last=True)
     trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True), default_root_dir=str(out_dir),
                         callbacks=[best], logger=CSVLogger(str(out_dir), name="logs", version=""))
-    resume = cfg.get("ckpt_path")
-    if resume and not Path(resume).is_file():
-        raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
-                                "(give a run's checkpoints/last.ckpt)")
+    trainable = bool(cfg.method.get("trainable", True))
+    trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
+    if trainable and not any(p.requires_grad for p in model.parameters()):
+        raise ValueError(f"method.name={cfg.method.name!r} has no trainable parameters: set "
+                         "method.trainable=false to test it without training")
     t0 = time.perf_counter()
-    trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None)
+    if trainable:
+        trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None)
+        tested = best.best_model_path or best.last_model_path
+        log.info("testing checkpoint %s (best val/loss %s)", tested, best.best_model_score)
+    else:
+        tested = None
+        log.info("method %s is not trained (method.trainable=false): testing it as built", cfg.method.name)
     train_s = time.perf_counter() - t0
-    tested = best.best_model_path or best.last_model_path
-    log.info("testing checkpoint %s (best val/loss %s)", tested, best.best_model_score)
     t0 = time.perf_counter()
     trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False)
     test_s = time.perf_counter() - t0
@@ -142,19 +158,26 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     rows = pd.DataFrame(lit.test_rows, columns=["scene", "frame", *FRAME_METRICS])
     rows.to_csv(out_dir / "frames.csv", index=False)
     averages = aggregate(lit.test_rows)
-    params_m, macs_g = complexity(cfg)
+    params_m = count_params(model) / 1e6
+    try:
+        macs_g: float | None = complexity(cfg)[1]
+    except (NotImplementedError, RuntimeError) as err:
+        macs_g = None
+        log.warning("MACs of %s not counted (%s: %s): macs_g is null", cfg.method.name,
+                    type(err).__name__, err)
     metrics = {
         **{k: averages[k] for k in FRAME_METRICS},
         "macs_g": macs_g,
         "params_m": params_m,
         "experiment": str(cfg.experiment),
         "method": OmegaConf.to_container(cfg.method, resolve=True),
-        "switches": switch_row(cfg.method),
+        "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None,
         "budget": int(cfg.budget),
         "data_profile": choices.get("data"),
         "model_profile": choices.get("model"),
         "train_profile": choices.get("train"),
         "per_scene": averages["per_scene"],
+        "scenes_test": list(averages["frames"]),
         "test_frames": averages["frames"],
         "perceptual_loss": lit.loss_fn.perceptual_status.as_dict(),
         **git_commit(),
@@ -163,6 +186,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         "torch": torch.__version__,
         "config": str(out_dir / "resolved_config.yaml"),
         "data": report,
+        "trained": trainable,
+        "transfer": transfer_info,
         "checkpoint": tested,
         "best_val_loss": float(best.best_model_score) if best.best_model_score is not None else None,
         "train_steps": int(trainer.global_step),
@@ -174,10 +199,11 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     }
     metrics = _json_safe(metrics)
     (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    (out_dir / "error.json").unlink(missing_ok=True)  # a retried job that failed before
     log.info("%s: PSNR %.2f dB (noisy %.2f), SSIM %.4f, rMSE %.4g, L_t %.4g, %.1f GMACs, %.3f M params, "
              "%.0f s -> %s",
              cfg.experiment, metrics["psnr"], metrics["input_psnr"], metrics["ssim"], metrics["rmse"],
-             metrics["lt"] or math.nan, macs_g, params_m, metrics["wall_s"], out_dir)
+             metrics["lt"] or math.nan, macs_g or math.nan, params_m, metrics["wall_s"], out_dir)
     return metrics
 
 

@@ -143,5 +143,5 @@ class DenoiseModule(L.LightningModule):
         if self.sample_dir is not None and self._seq_pos in self.sample_frames:
             images = {k: _hwc(v[0]) for k, v in out.items() if isinstance(v, Tensor) and v.ndim == 4}
             images.update(noisy=noisy, reference=ref)
-            save_samples(self.sample_dir / scene, frame, images, self.budget)
+            save_samples(self.sample_dir / scene, frame, images)
         self._seq_pos += 1

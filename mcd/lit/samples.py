@@ -32,10 +32,10 @@ def picture(name: str, image: np.ndarray) -> np.ndarray:
     return to_display(image)
 
 
-def save_samples(folder: Path, frame: int, images: dict[str, np.ndarray], budget: int) -> None:
-    """Save each ``H x W x C`` image of one frame as EXR and PNG under ``folder`` (budget: input spp)."""
+def save_samples(folder: Path, frame: int, images: dict[str, np.ndarray]) -> None:
+    """Save each ``H x W x C`` image of one frame as EXR and PNG under ``folder``."""
     folder.mkdir(parents=True, exist_ok=True)
     for name, image in images.items():
-        stem = f"{frame:04d}_{f'noisy_{budget}spp' if name == 'noisy' else name}"
+        stem = f"{frame:04d}_{name}"
         write_exr(folder / f"{stem}.exr", image)
         imsave(folder / f"{stem}.png", picture(name, image))
