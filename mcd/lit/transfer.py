@@ -83,12 +83,17 @@ def load_weights(model: nn.Module, info: dict[str, Any]) -> None:
     state = torch.load(info["init_from"], map_location="cpu", weights_only=False)
     weights = state.get("state_dict", state)
     own = {k.removeprefix("model."): v for k, v in weights.items() if k.startswith("model.")} or weights
-    missing, unexpected = model.load_state_dict(own, strict=False)
+    hint = "same experiment and model profile as the run it came from?"
+    try:
+        missing, unexpected = model.load_state_dict(own, strict=False)
+    except RuntimeError as err:  # shape mismatches
+        first = str(err).strip().splitlines()[-1].strip()
+        raise ValueError(f"transfer.init_from={info['init_from']}: the checkpoint does not fit this model "
+                         f"({first}): {hint}") from err
     if missing or unexpected:
         raise ValueError(
             f"transfer.init_from={info['init_from']}: the checkpoint does not fit this model "
-            f"(missing {sorted(missing)[:5]}, unexpected {sorted(unexpected)[:5]}): same experiment and "
-            "model profile as the run it came from?"
+            f"(missing {sorted(missing)[:5]}, unexpected {sorted(unexpected)[:5]}): {hint}"
         )
     log.info("transfer: weights from %s; %s", info["init_from"],
              f"fine-tuning {info['finetune_epochs']} epochs on {info['scene']}" if info["finetune"]
