@@ -9,9 +9,10 @@ from mcd.models.baselines.warp import warp
 
 
 def test_zero_motion_is_identity() -> None:
-    prev = torch.rand(2, 3, 17, 23) * 100
+    prev = torch.rand(2, 3, 17, 23, generator=torch.Generator().manual_seed(0)) * 100
     out = warp(prev, torch.zeros(2, 2, 17, 23))
-    torch.testing.assert_close(out, prev, rtol=1e-5, atol=1e-4)
+    # float32 round trip of the sampling grid: ~1e-6 px, i.e. ~1e-4 on values up to 100
+    torch.testing.assert_close(out, prev, rtol=1e-5, atol=1e-3)
 
 
 @pytest.mark.parametrize(("dx", "dy"), [(3, 0), (0, -2), (4, 5)])
