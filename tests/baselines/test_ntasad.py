@@ -21,7 +21,7 @@ def test_first_frame_feeds_back_the_uniform_render_then_the_warped_output() -> N
     a, b = frame(seed=1), frame(seed=2)
     assert net.previous(a) is a["c4"]
     out_a = net(a)["output"]
-    torch.testing.assert_close(net.previous(b), out_a, rtol=1e-5, atol=1e-5)  # zero motion: identity warp
+    torch.testing.assert_close(net.previous(b), out_a, rtol=1e-4, atol=1e-4)  # zero motion: identity warp
     b_after_a = net(b)["output"]
     net.reset()
     assert net.prev is None
@@ -37,7 +37,7 @@ def test_feedback_is_warped_by_the_motion_vectors() -> None:
     a, b = frame(seed=1, w=40), frame(seed=2, w=40)
     out_a = net(a)["output"]
     b["motion"][:, 0] = -3.0  # frame b = frame a moved 3 px right
-    torch.testing.assert_close(net.previous(b)[..., 3:], out_a[..., :-3], rtol=1e-5, atol=1e-5)
+    torch.testing.assert_close(net.previous(b)[..., 3:], out_a[..., :-3], rtol=1e-4, atol=1e-4)
 
 
 def test_map_keeps_budget_and_both_networks_learn() -> None:
