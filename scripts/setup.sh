@@ -13,4 +13,4 @@ fi
 .venv/bin/python -m pip install -q --upgrade pip
 # The pinned CPU wheel first: an unpinned torch would pull several GB of CUDA packages.
 .venv/bin/python -c "import torch" 2>/dev/null || .venv/bin/python -m pip install -q torch==2.13.0
-.venv/bin/python -m pip install -q -e '.[dev]'
+.venv/bin/python -m pip install -q -e '.[dev,oidn]'
