@@ -95,19 +95,21 @@ class Run:
 
     @property
     def transfer(self) -> dict[str, Any] | None:
-        """The transfer settings of a transfer job (metrics.json `transfer`), None for ordinary jobs."""
-        value = self._get("transfer")
+        """The transfer settings of a transfer job (metrics.json `transfer`, else its config's `transfer`
+        block with `init_from` set, or a job of sweeps/transfer.yaml); None for ordinary jobs."""
+        value = self.metrics.get("transfer") if self.metrics is not None else None
         if isinstance(value, dict) and value:
             return value
-        if (
-            self.config.get("sweep_name") == "transfer"
-        ):  # sweeps/transfer.yaml: tested on held-out scenes only
+        t = self.config.get("transfer")
+        t = t if isinstance(t, dict) else {}
+        if t.get("init_from") or self.config.get("sweep_name") == "transfer":
             data = self.config.get("data", {})
-            scenes = data.get("test_scenes") or data.get("transfer_scenes") or []
+            scenes = data.get("transfer_scenes") or data.get("test_scenes") or []
+            epochs = int(t.get("finetune_epochs") or 0)
             return {
                 "scene": ", ".join(map(str, scenes)) if isinstance(scenes, list) else str(scenes),
-                "finetune": False,
-                "finetune_epochs": 0,
+                "finetune": epochs > 0,
+                "finetune_epochs": epochs,
             }
         return None
 

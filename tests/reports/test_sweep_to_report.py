@@ -1,7 +1,7 @@
 """End to end on 32x32 renders (issue 5, "What it must show"): a two-job sweep (rows A and F, real Mitsuba
 renders, real training steps), a failing job recorded without stopping anything, a rerun that skips the
-finished jobs, the bench on the same methods, and `python -m mcd.report` producing every table and figure with
-its provenance."""
+finished jobs, F transferred to a held-out scene, the bench on the same methods, and `python -m mcd.report`
+producing every table and figure with its provenance."""
 
 from __future__ import annotations
 
@@ -71,6 +71,30 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     assert (rerun.stdout + rerun.stderr).count("skip:") == 2
     assert stamps == {e: (sweep_dir / f"{e}_spp4" / "metrics.json").stat().st_mtime_ns for e in ("A", "F")}
 
+    # transfer of the trained F to a held-out scene, as loaded and after one fine-tuning epoch
+    held_out = [
+        "+scene@data.scenes.cornell-box-picture=cornell-box-picture",
+        "data.transfer_scenes=[cornell-box-picture]",
+    ]
+    _run(
+        [
+            "-m",
+            "mcd.run",
+            "-m",
+            "+sweep=transfer",
+            "+experiment=F",
+            "transfer.finetune_epochs=0,1",
+            f"transfer.init_from={sweep_dir / 'F_spp4'}",
+            *data,
+            *SMALL,
+            *held_out,
+        ],
+        tmp_path,
+    )
+    transfer_dir = tmp_path / "multirun" / "transfer" / "tiny"
+    ft = json.loads((transfer_dir / "F_spp4_ft1" / "metrics.json").read_text())
+    assert ft["transfer"]["finetune"] and ft["scenes_test"] == ["cornell-box-picture"]
+
     bench_csv = tmp_path / "bench" / "bench.csv"
     _run(
         [
@@ -93,7 +117,10 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
         tmp_path,
     )
 
-    _run(["-m", "mcd.report", str(sweep_dir), "--name", "t32", "--bench", str(bench_csv)], tmp_path)
+    _run(
+        ["-m", "mcd.report", str(sweep_dir), str(transfer_dir), "--name", "t32", "--bench", str(bench_csv)],
+        tmp_path,
+    )
     report = tmp_path / "reports" / "t32"
     for name in (
         "table1.md",
@@ -120,6 +147,8 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     assert comp.loc["C", "status"].startswith("failed: ")
     t1 = pd.read_csv(report / "table1.csv").set_index("experiment")
     assert t1.loc["A", "method"] == "U-Net (row A)"  # no unet job: row A's identical network stands in
+    tr = pd.read_csv(report / "transfer.csv")
+    assert sorted(tr["fine-tuned"]) == [False, True] and set(tr["scene"]) == {"cornell-box-picture"}
     speed = pd.read_csv(report / "speed_vs_error.csv")
     assert set(speed["experiment"]) == {"A", "F"}
 
