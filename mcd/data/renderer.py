@@ -57,6 +57,7 @@ class SceneRenderer:
             }
         )
         self._params = mi.traverse(self.sensor)
+        self.to_world = np.eye(4)
         self._aov = mi.load_dict({"type": "aov", "aovs": AOVS})
         self.samples_rendered = 0
 
@@ -64,6 +65,8 @@ class SceneRenderer:
         return Camera(np.asarray(to_world, dtype=np.float64), self.fov, self.width, self.height)
 
     def set_camera(self, to_world: np.ndarray) -> None:
+        """Move the sensor to the camera transform `to_world` (4x4) for the next renders."""
+        self.to_world = np.asarray(to_world, dtype=np.float64)
         self._params["to_world"] = self.mi.ScalarTransform4f(np.ascontiguousarray(to_world, dtype=np.float32))
         self._params.update()
 

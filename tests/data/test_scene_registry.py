@@ -1,0 +1,155 @@
+"""Scene configs, profiles, procedural rooms and variant selection (issue 2)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mcd.data.procedural import build_room
+from mcd.data.scenes import SceneNotFoundError, SceneSpec
+from tests.conftest import compose_cfg
+
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "scenes"
+REAL = [
+    "bathroom",
+    "classroom",
+    "staircase",
+    "staircase2",
+    "living-room",
+    "dining-room",
+    "veach-ajar",
+    "cornell-box-picture",
+    "kitchenette",
+    "matpreview",
+    "cbox",
+]
+
+
+def test_missing_scene_names_the_path_and_the_setting():
+    spec = SceneSpec.from_cfg("x", {"kind": "xml", "file": "nowhere/scene.xml"}, "/no/such/dir")
+    with pytest.raises(SceneNotFoundError) as err:
+        spec.check_exists()
+    assert "/no/such/dir/nowhere/scene.xml" in str(err.value) and "MCD_SCENES_DIR" in str(err.value)
+    with pytest.raises(ValueError, match="unknown kind"):
+        SceneSpec.from_cfg("y", {"kind": "obj"}, ".")
+
+
+@pytest.mark.parametrize("profile", ["tiny", "small", "paper"])
+def test_profiles(profile):
+    d = compose_cfg(f"data={profile}").data
+    assert set(d.train_scenes) <= set(d.scenes) and set(d.test_scenes) <= set(d.scenes)
+    assert not set(d.train_scenes) & set(d.transfer_scenes)
+    assert set(d.transfer_scenes) <= set(d.test_scenes)
+    if profile == "tiny":
+        assert "cbox" in d.train_scenes and "staircase2" in d.train_scenes  # a paper interior + cbox
+    else:
+        assert set(REAL) <= set(d.scenes)  # every shipped real scene is registered
+        assert len([s for s in d.transfer_scenes if s in REAL]) >= 2
+        assert any(d.scenes[s].kind == "procedural" for s in d.train_scenes)
+    if profile == "paper":
+        assert (d.width, d.height, d.ref_spp, d.segments * d.frames_per_segment) == (1920, 1080, 2048, 500)
+
+
+def test_procedural_room_is_reproducible_and_varied():
+    from mcd.data.mitsuba_env import select_variant
+
+    select_variant("auto")
+    kinds, textures = set(), set()
+    for seed in range(6):
+        scene, nodes, fov = build_room(seed, None, 3, 6)
+        lights = [v for k, v in scene.items() if k.startswith("light")]
+        assert len(lights) >= 2 and len(nodes) == 4
+        sizes = {round(float(np.linalg.norm(np.asarray(v["to_world"].matrix)[:3, 0])), 4) for v in lights}
+        assert len(sizes) == len(lights)  # different sizes
+        for v in scene.values():
+            if isinstance(v, dict) and "bsdf" in v:
+                b = v["bsdf"]
+                inner = b.get("material", b)
+                kinds.add(inner["type"])
+                for key in ("reflectance", "diffuse_reflectance"):
+                    if key in inner:
+                        textures.add(inner[key]["type"])
+    assert {"diffuse", "roughplastic", "roughconductor", "dielectric"} <= kinds
+    assert {"checkerboard", "bitmap", "rgb"} <= textures
+    a, b = build_room(3, None, 2, 6), build_room(3, None, 2, 6)
+    assert all(np.allclose(x, y) for x, y in zip(a[1], b[1], strict=True))
+
+
+def test_procedural_room_renders_inside(tmp_path):
+    from mcd.data import Store
+
+    cfg = compose_cfg(
+        "data=small",
+        f"paths.data_dir={tmp_path}",
+        "data.width=24",
+        "data.height=24",
+        "data.segments=1",
+        "data.frames_per_segment=2",
+        "data.ref_spp=16",
+        "data.train_scenes=[room1]",
+        "data.transfer_scenes=[]",
+        "data.test_scenes=[room1]",
+    )
+    store = Store.from_cfg(cfg)
+    store.ensure({"c4"}, progress=False)
+    ref = store.load("room1", 1, "ref")
+    assert (ref.mean(-1) > 1e-3).mean() > 0.9 and store.manifest("room1")["source"]["kind"] == "procedural"
+
+
+def test_variant_selection():
+    from mcd.data.mitsuba_env import AUTO_ORDER, select_variant
+
+    v = select_variant("auto")
+    import mitsuba as mi
+
+    assert v in AUTO_ORDER and mi.variant() == v
+    with pytest.raises(RuntimeError, match="render.variant"):
+        select_variant("no_such_variant")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not SHARED.is_dir(), reason=f"the real scenes folder {SHARED} is absent (MCD_SCENES_DIR)")
+@pytest.mark.parametrize("name", REAL)
+def test_camera_path_never_inside_a_wall(name):
+    """Every frame of the small profile's path (every 3rd, at 16x16) renders the inside of a room."""
+    from mcd.data.check_paths import check_scene
+    from mcd.data.mitsuba_env import select_variant
+
+    select_variant("auto")
+    cfg = compose_cfg("data=small", f"paths.scenes_dir={SHARED}")
+    spec = SceneSpec.from_cfg(name, cfg.data.scenes[name], SHARED)
+    assert (
+        check_scene(spec, int(cfg.data.segments), int(cfg.data.frames_per_segment), size=16, spp=8, stride=3)
+        == []
+    )
+
+
+def test_path_checks_catch_a_camera_against_a_wall():
+    from mcd.data.check_paths import check_scene
+    from mcd.data.mitsuba_env import select_variant
+
+    select_variant("auto")
+    start = {"origin": [278, 480, -800], "target": [278, 480, 0], "up": [0, 1, 0]}
+    at_wall = {"origin": [278, 480, 545], "target": [278, 480, 600], "up": [0, 1, 0]}  # back wall at z ~ 559
+    spec = SceneSpec.from_cfg(
+        "cbox",
+        {
+            "kind": "xml",
+            "file": "cbox/scene.xml",
+            "vendored": True,
+            "path": {"nodes": [start, at_wall, at_wall]},
+        },
+        ".",
+    )
+    problems = check_scene(spec, segments=2, frames_per_segment=2, size=16, spp=4)
+    assert any("frame 2" in p and "depth" in p for p in problems), problems
+    through = {"origin": [278, 480, 700], "target": [278, 480, 800], "up": [0, 1, 0]}  # behind the wall
+    spec = SceneSpec.from_cfg(
+        "cbox",
+        {"kind": "xml", "file": "cbox/scene.xml", "vendored": True, "path": {"nodes": [start, through]}},
+        ".",
+    )
+    with pytest.raises(ValueError, match="passes through geometry"):
+        check_scene(spec, segments=1, frames_per_segment=2, size=16, spp=4)
