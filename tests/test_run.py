@@ -112,5 +112,5 @@ def test_multirun_records_a_failed_job_and_goes_on(f_run, tmp_path):
                    "hydra.sweep.subdir=${hydra.job.num}")
     assert proc.returncode == 0, proc.stderr[-4000:]
     err = json.loads((sweep / "0" / "error.json").read_text())
-    assert "method.FG=true" in err["overrides"] and "needs method.AS" in err["error"]
+    assert "method.fg=true" in [o.lower() for o in err["overrides"]] and "needs method.AS" in err["error"]
     assert "skip:" in proc.stdout + proc.stderr and not (sweep / "1" / "checkpoints").exists()
