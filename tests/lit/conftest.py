@@ -1,28 +1,22 @@
-"""A tiny real store (Cornell box, 32x32, 12 frames, every buffer) rendered once per test session."""
+"""The session's 32x32 Cornell-box store (``cbox_store`` of tests/conftest.py) with 32x32 training crops."""
 
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
 
-from mcd.data import BUFFERS, Store
+from tests.conftest import compose_cfg as compose_root
+from tests.conftest import store32_overrides
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
-#: 12 frames: 2 test frames, one validation clip and one training clip of 5 (data.test_fraction 0.2).
-TINY = ["data.width=32", "data.height=32", "data.frames_per_segment=6", "data.ref_spp=16",
-        "data.gbuffer_spp=2", "data.train_crop=32", "data.val_crop=32", "data.train_scenes=[cbox]",
-        "data.test_scenes=[cbox]", "train.batch_size=1"]
+#: Whole 32x32 frames as training and validation clips (the shared store's profile crops 16 / 24).
+CROPS = ["data.train_crop=32", "data.val_crop=32", "train.batch_size=1"]
 
 
 def compose_cfg(data_dir: Path, *overrides: str):
-    """The run config of ``python -m mcd.run`` with the tiny store's overrides."""
-    with initialize_config_dir(config_dir=str(CONF), version_base=None):
-        return compose(config_name="config", overrides=[*TINY, f"paths.data_dir={data_dir}", *overrides])
+    """The run config of ``python -m mcd.run`` on the shared 32x32 store in ``data_dir``."""
+    return compose_root(*store32_overrides(data_dir), *CROPS, *overrides)
 
 
 @pytest.fixture(scope="session")
-def tiny_store(tmp_path_factory) -> Path:
-    """Data dir of a rendered 32x32 Cornell-box store holding every buffer."""
-    data_dir = tmp_path_factory.mktemp("data")
-    Store.from_cfg(compose_cfg(data_dir)).ensure(BUFFERS, progress=False)
-    return data_dir
+def tiny_store(cbox_store) -> Path:
+    """Data dir of the rendered 32x32 Cornell-box store (every buffer, 12 frames)."""
+    return cbox_store[1].data_dir
