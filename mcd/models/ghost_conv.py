@@ -4,6 +4,11 @@ A large-kernel group convolution gathers a wide neighbourhood cheaply; a point-w
 channels into half the output; a depth-wise 3x3 convolution on that half makes the other ("ghost") half;
 concatenation and ReLU. It replaces every 3x3 conv + ReLU block of the sampling network ``F_s``.
 
+PyTorch's CPU backward of grouped convolutions is an order of magnitude slower than a dense one of the same
+shape, so when training on the CPU the group and depth-wise convolutions run as dense convolutions with
+block-diagonal (masked) weights: the same function, parameters and gradients. Inference, MAC counting and
+other devices use the grouped convolutions (whose MACs are the block's true cost).
+
 The group convolution's output width is not given by the paper; it is ``mid_ratio * cout`` (default 0.5),
 which makes the block cheaper than the 3x3 block it replaces, as the paper's component table requires (rows
 E, G, H, L lose params and MACs against D, C, J, B). Groups fall back to ``gcd(groups, cin, mid)`` when
@@ -15,6 +20,7 @@ from __future__ import annotations
 import math
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 
 
@@ -37,5 +43,15 @@ class FastGhostConv(nn.Module):
         self.act = nn.ReLU(inplace=True)
 
     def forward(self, x: Tensor) -> Tensor:
-        primary = self.point(self.group(x))
-        return self.act(torch.cat([primary, self.ghost(primary)], 1))
+        primary = self.point(grouped_conv(self.group, x))
+        return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
+
+
+def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
+    """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight."""
+    g = conv.groups
+    if g == 1 or x.device.type != "cpu" or not torch.is_grad_enabled():
+        return conv(x)
+    cout, cin_g = conv.weight.shape[:2]
+    mask = torch.block_diag(*[x.new_ones(cout // g, cin_g) for _ in range(g)])[:, :, None, None]
+    return F.conv2d(x, conv.weight.repeat(1, g, 1, 1) * mask, conv.bias, padding=conv.padding)

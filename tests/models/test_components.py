@@ -4,7 +4,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from mcd.models.ghost_conv import FastGhostConv
+from mcd.models.ghost_conv import FastGhostConv, grouped_conv
 from mcd.models.kernel_pool import KernelPool, apply_pixel_kernels, identity_kernel, interpolate_kernels
 from mcd.models.position_pooling import PositionAwarePool
 from mcd.models.semantic_alignment import SemanticAlignment
@@ -133,3 +133,18 @@ def test_fast_ghostconv_is_cheaper_than_a_3x3_block_and_widens_the_field():
     assert out.shape == (1, 16, 6, 6) and bool((out >= 0).all())
     with pytest.raises(ValueError, match="even output width"):
         FastGhostConv(8, 7)
+
+
+def test_cpu_training_path_of_grouped_convs_equals_the_grouped_conv():
+    torch.manual_seed(0)
+    conv = torch.nn.Conv2d(12, 8, 7, padding=3, groups=4)
+    x = torch.randn(2, 12, 9, 10, requires_grad=True)
+    dense = grouped_conv(conv, x)                            # grad enabled on CPU: masked dense weight
+    dense.square().sum().backward()
+    grads = (x.grad.clone(), conv.weight.grad.clone())
+    x.grad, conv.weight.grad = None, None
+    plain = conv(x)
+    plain.square().sum().backward()
+    torch.testing.assert_close(dense, plain)
+    torch.testing.assert_close(grads[0], x.grad)
+    torch.testing.assert_close(grads[1], conv.weight.grad)
