@@ -72,11 +72,14 @@ def count_macs(model: nn.Module, height: int = 1080, width: int = 1920, device: 
 
 
 def complexity(cfg, height: int = 1080, width: int = 1920, device: str = "meta") -> tuple[float, float]:
-    """``(params in M, GMACs)`` of the method ``cfg`` describes, built on ``device``."""
+    """``(params in M, GMACs)`` of the method ``cfg`` describes, built on ``device``; GMACs is NaN for a
+    model that sets ``macs_countable = False`` (one whose network torch cannot see, e.g. OIDN)."""
     from mcd.models import build
 
     with torch.device(device):
         model = build(cfg)
+    if not getattr(model, "macs_countable", True):
+        return count_params(model) / 1e6, math.nan
     return count_params(model) / 1e6, count_macs(model, height, width, device) / 1e9
 
 
