@@ -38,8 +38,13 @@ def compress(c: Tensor, transform: str = "log1p") -> Tensor:
 
 
 def expand(y: Tensor, transform: str = "log1p") -> Tensor:
-    """Network range -> linear HDR colour, in fp32, never negative, never Inf/NaN for finite ``y``."""
-    y = y.float().clamp(0, MAX_COMPRESSED)
+    """Network range -> linear HDR colour, in fp32, never negative, never Inf/NaN for finite ``y``.
+
+    The clamp to ``[0, MAX_COMPRESSED]`` passes gradients straight through, so an output pushed below zero
+    (e.g. at initialisation) still learns instead of sitting in the clamp's flat region.
+    """
+    y = y.float()
+    y = y + (y.clamp(0, MAX_COMPRESSED) - y).detach()
     if transform == "log1p":
         return torch.expm1(y)
     if transform == "none":

@@ -56,3 +56,14 @@ def test_forward_backward_finite(row, case, dtype):
     for n, p in model.named_parameters():
         if p.grad is not None:
             assert torch.isfinite(p.grad).all(), f"gradient of {n} not finite"
+
+
+def test_expand_is_non_negative_and_passes_gradients_through_the_clamp():
+    from mcd.models.inputs import compress, expand
+
+    y = torch.tensor([-3.0, 0.5, 50.0], requires_grad=True)
+    out = expand(y)
+    assert out[0] == 0 and torch.isfinite(out).all() and bool((out >= 0).all())
+    out.sum().backward()
+    assert bool((y.grad > 0).all()), "negative outputs still get a gradient"
+    torch.testing.assert_close(expand(compress(torch.tensor([0.0, 3.0, 1e5]))), torch.tensor([0.0, 3.0, 1e5]))
