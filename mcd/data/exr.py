@@ -28,8 +28,12 @@ class CorruptEXRError(RuntimeError):
         super().__init__(f"{path}: truncated or corrupt EXR ({reason}). Fix: {fix}")
 
 
-def write_exr(path: Path, image: np.ndarray) -> None:
-    """Write an ``(H, W)`` or ``(H, W, C)`` array (C in 1..3) as a float32 ZIP-compressed EXR, atomically."""
+def write_exr(path: Path, image: np.ndarray, compress: bool = True) -> None:
+    """Write an ``(H, W)`` or ``(H, W, C)`` array (C in 1..3) as a float32 EXR, atomically.
+
+    ``compress`` picks ZIP compression: worth it for smooth images (G-buffers, motion: 2-5x smaller), not for
+    noisy renders, which it shrinks by about 1% at 7x the write time (measured on 960x540 float images).
+    """
     img = np.asarray(image, dtype=np.float32)
     if img.ndim == 2:
         img = img[..., None]
@@ -37,7 +41,8 @@ def write_exr(path: Path, image: np.ndarray) -> None:
         raise ValueError(f"{path}: cannot store an array of shape {img.shape} (need H x W x C, C in 1..3)")
     names = CHANNEL_NAMES[img.shape[2]]
     channels = {n: np.ascontiguousarray(img[..., i]) for i, n in enumerate(names)}
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    compression = OpenEXR.ZIP_COMPRESSION if compress else OpenEXR.NO_COMPRESSION
+    header = {"compression": compression, "type": OpenEXR.scanlineimage}
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp.exr")
     os.close(fd)

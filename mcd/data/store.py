@@ -431,7 +431,7 @@ class Store:
         variant: str,
     ) -> None:
         p = self.path(scene, frame, buffer)
-        write_exr(p, img)
+        write_exr(p, img, compress=buffer not in COLOUR_BUFFERS)
         man["files"][f"{frame:04d}/{buffer}.exr"] = {
             "key": self._file_key(man, frame, buffer),
             "spp": spp,
