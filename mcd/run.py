@@ -136,7 +136,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                            auto_insert_metric_name=False, monitor="val/loss", mode="min", save_top_k=1,
                            save_last=True)
     trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True), default_root_dir=str(out_dir),
-                        callbacks=[best], logger=CSVLogger(str(out_dir), name="logs", version=""))
+                        callbacks=[best],
+                        logger=CSVLogger(str(out_dir), name="logs", version="", flush_logs_every_n_steps=10))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
     if trainable and not any(p.requires_grad for p in model.parameters()):

@@ -59,9 +59,13 @@ def build_loss(cfg: DictConfig) -> nn.Module:
 
 
 def compress(x: Tensor, space: str) -> Tensor:
-    """Colour compression for losses: ``log1p`` (odd-symmetric: negatives stay finite) or ``linear``."""
+    """Colour compression for losses: ``log1p`` (odd-symmetric: negatives stay finite) or ``linear``.
+
+    The slope at 0 is 1 (not ``sign``'s or ``abs``'s 0), so an output that is exactly 0, e.g. clamped at
+    initialisation, still gets a gradient.
+    """
     if space == "log1p":
-        return torch.sign(x) * torch.log1p(x.abs())
+        return torch.where(x >= 0, torch.log1p(x.clamp_min(0)), -torch.log1p((-x).clamp_min(0)))
     if space == "linear":
         return x
     raise ValueError(f"loss.space must be 'log1p' or 'linear', got {space!r}")

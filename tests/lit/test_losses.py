@@ -86,6 +86,20 @@ def test_perceptual_on_with_a_weights_file(tmp_path):
     assert pred.grad[:, -1].abs().sum() > 0
 
 
+def test_log1p_compression_is_odd_and_has_slope_one_at_zero():
+    x = torch.tensor([-3.0, -0.0, 0.0, 2.0, 1e4], requires_grad=True)
+    y = losses.compress(x, "log1p")
+    assert torch.allclose(y, torch.sign(x) * torch.log1p(x.abs()))
+    y.sum().backward()
+    assert torch.allclose(x.grad, 1 / (1 + x.detach().abs()))  # 1 at exactly 0: a zero output still learns
+
+
+def test_all_zero_output_gets_a_gradient():
+    pred = torch.zeros(1, 2, 3, 4, 4, requires_grad=True)
+    losses.build_loss(cfg())(pred, torch.ones(1, 2, 3, 4, 4))["loss"].backward()
+    assert (pred.grad[:, -1] < 0).all()
+
+
 def test_clip_of_one_frame_with_temporal_weight_is_an_error():
     with pytest.raises(ValueError, match="clip_len"):
         losses.build_loss(cfg())(clip(0, (1, 1, 3, 4, 4)), clip(1, (1, 1, 3, 4, 4)))
