@@ -171,3 +171,14 @@ def test_exposure_and_depth_scale_in_manifest(cbox_store):
     assert man["exposure"] > 0 and man["depth_scale"] > 0
     ref0 = store.load("cbox", 0, "ref")
     assert abs(ref0.mean() - 0.5) < 1e-3  # exposure: auto brings frame 0's reference to data.exposure_target
+
+
+def test_all_black_frames(tmp_path, monkeypatch, caplog):
+    monkeypatch.setattr(SceneRenderer, "color", lambda self, spp, seed: np.zeros((32, 32, 3), np.float32))
+    store = _store(tmp_path, "data.segments=1", "data.frames_per_segment=2")
+    with caplog.at_level(logging.WARNING, logger="mcd.data.store"):
+        store.ensure({"c4"}, progress=False)
+    assert store.manifest("cbox")["exposure"] == 1.0 and any(
+        "black" in r.getMessage() for r in caplog.records
+    )
+    assert not store.load("cbox", 1, "ref").any()
