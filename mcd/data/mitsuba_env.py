@@ -3,8 +3,9 @@
 `select_variant` must run before anything else imports drjit or mitsuba in the process: it sets
 ``DRJIT_LIBLLVM_PATH`` to Debian's ``libLLVM-19.so`` when that file exists and the variable is unset (an older
 LLVM aborts the LLVM backend, rendering.md), then tries ``cuda_ad_rgb``, ``llvm_ad_rgb`` and ``scalar_rgb`` in
-that order and keeps the first that renders a 4x4 test image. The LLVM probe runs in a child process because a
-bad LLVM library aborts the interpreter instead of raising.
+that order and keeps the first that renders a 4x4 test image. The CUDA and LLVM probes run in a child process
+because a bad LLVM library aborts the interpreter instead of raising, and a GPU without OptiX fails only when
+rendering.
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ def select_variant(requested: str = "auto") -> str:
             continue
         if variant.startswith("llvm") and not dr.has_backend(dr.JitBackend.LLVM):
             continue
-        if variant != "scalar_rgb" and not _probe(variant):
+        if variant != "scalar_rgb" and not _probe(variant):  # CUDA without OptiX, LLVM too old: fails here
             log.info("Mitsuba variant %s is present but failed a test render; trying the next", variant)
             continue
         mi.set_variant(variant)

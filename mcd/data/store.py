@@ -358,6 +358,8 @@ class Store:
         s = self._settings()
         r = SceneRenderer(loaded.scene, s["width"], s["height"], loaded.fov, s["max_samples_per_pass"])
         man["variant"] = mi.variant()
+        for stale in (self.root / spec.name).glob("*/.*.tmp*"):  # temp files of a killed run
+            stale.unlink(missing_ok=True)
         frames = [f for f in range(self.n_frames) if todo[f]]
         t0 = time.perf_counter()
         bar = tqdm(frames, desc=f"{self.profile}/{spec.name}", unit="frame", disable=not progress, leave=True)

@@ -182,3 +182,53 @@ def test_all_black_frames(tmp_path, monkeypatch, caplog):
         "black" in r.getMessage() for r in caplog.records
     )
     assert not store.load("cbox", 1, "ref").any()
+
+
+def test_killed_render_process_resumes(tmp_path):
+    """A real `python -m mcd.render` killed (SIGKILL) mid-run: the next ensure keeps its finished frames."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    base = [o for o in store32_overrides(tmp_path) if not o.startswith(("data.segments=", "data.ref_spp="))]
+    args = [
+        *base,
+        "data.segments=1",
+        "data.ref_spp=1024",
+        "render.buffers=[c1]",
+        f"hydra.run.dir={tmp_path}/h",
+    ]
+    env = {**os.environ, "PYTHONPATH": f"{repo}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mcd.render", *args],
+        cwd=repo,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    manifest = tmp_path / "test32" / "cbox" / "manifest.json"
+    deadline = time.time() + 120
+    done: dict = {}
+    while time.time() < deadline and proc.poll() is None:
+        if manifest.is_file():
+            done = json.loads(manifest.read_text())["files"]
+            if len(done) >= 4:  # two frames (ref + c1) finished
+                break
+        time.sleep(0.05)
+    assert proc.poll() is None, "the render finished before it could be interrupted"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = json.loads(manifest.read_text())["files"]
+    n_done = len({k.split("/")[0] for k in done if k.endswith("ref.exr")} & {k.split("/")[0] for k in done})
+    assert 2 <= n_done < 6
+    root = manifest.parent
+    mtimes = {k: (root / k).stat().st_mtime_ns for k in done}
+    resumed = Store.from_cfg(compose_cfg(*args[:-1])).ensure({"c1"}, progress=False)
+    assert resumed["reused"]["ref"] == len([k for k in done if k.endswith("ref.exr")])
+    assert resumed["rendered"]["ref"] == 6 - resumed["reused"]["ref"]
+    assert all((root / k).stat().st_mtime_ns == t for k, t in mtimes.items())
+    assert not list(root.glob("*/.*.tmp*"))
