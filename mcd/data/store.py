@@ -253,7 +253,7 @@ class Store:
         }
         if (
             man is not None
-        ):  # keep entries whose keys still match (e.g. only the path of another buffer changed)
+        ):  # keep the old file entries: their keys decide which files are still valid
             new["files"] = man.get("files", {})
             new["exposure"] = man.get("exposure")
             new["depth_scale"] = man.get("depth_scale")
