@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+from mcd.models.switches import SWITCHES
+
 #: Table 1: method -> PSNR, SSIM x1e2, GMACs, M params. Keys are ``method.name`` values; "two_stage" is "Ours"
 #: (row F of the component study).
 TABLE1: dict[str, dict[str, float]] = {
@@ -31,8 +33,6 @@ L 110010 32.43 86.88 2.43 4.72 439.43 1.269
 M 110001 32.39 87.02 2.48 4.68 464.56 1.309
 """
 
-#: Switch order of the component study's bit strings.
-SWITCHES = ("UN", "AS", "KP", "PP", "FG", "SA")
 
 
 def _components() -> dict[str, dict]:

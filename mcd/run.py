@@ -29,8 +29,9 @@ from lightning.pytorch.callbacks import ModelCheckpoint
 from lightning.pytorch.loggers import CSVLogger
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.lit import DenoiseModule, build_loss, check_switches, switch_row
+from mcd.lit import DenoiseModule, build_loss
 from mcd.metrics import FRAME_METRICS, aggregate
+from mcd.models.switches import check_switches, switch_row
 
 log = logging.getLogger("mcd.run")
 

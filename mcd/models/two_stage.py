@@ -20,31 +20,10 @@ from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import compress, expand, gbuffers, grey, need
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
+from mcd.models.switches import check_switches
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
 
-SWITCHES = ("UN", "AS", "KP", "PP", "FG", "SA")
 GBUFFERS = ("depth", "normal", "albedo")
-
-
-def check_switches(method) -> dict[str, bool]:
-    """The six switches as booleans; ``ValueError`` saying why for an impossible combination."""
-    missing = [s for s in SWITCHES if s not in method]
-    if missing:
-        raise ValueError(f"method config lacks switches {missing}; set method.{{{','.join(SWITCHES)}}} "
-                         "(true/false)")
-    sw = {s: method[s] for s in SWITCHES}
-    bad = [s for s, v in sw.items() if not isinstance(v, bool)]
-    if bad:
-        raise ValueError(f"switches {bad} must be booleans (true/false); got {[sw[s] for s in bad]}")
-    if not sw["UN"]:
-        raise ValueError("method.UN=false: the denoiser F_d is part of every row of the component study; "
-                         "use method.name=noisy for the noisy input")
-    for s, why in (("KP", "the kernel map and kernel pool are predicted by the sampling network F_s"),
-                   ("FG", "Fast GhostConv is the building block of the sampling network F_s")):
-        if sw[s] and not sw["AS"]:
-            raise ValueError(f"method.{s}=true needs method.AS=true: {why}, which exists only with adaptive "
-                             "sampling (method.md, switch table)")
-    return sw
 
 
 class TwoStage(nn.Module):
@@ -124,7 +103,7 @@ class TwoStage(nn.Module):
 def build_two_stage(cfg: DictConfig) -> TwoStage:
     """``TwoStage`` from ``cfg.method`` (switches, ``sampling.levels``, ``colour``), ``cfg.budget`` and
     ``cfg.model.two_stage`` (widths)."""
-    switches = check_switches(cfg.method)
+    switches = check_switches(cfg.method, complete=True)
     if "model" not in cfg or "two_stage" not in cfg.model:
         raise KeyError("cfg.model.two_stage (the widths of the two-stage networks) is missing; pick a "
                        "capacity profile, e.g. model=cpu or model=paper")

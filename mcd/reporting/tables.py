@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from mcd.models.switches import SWITCHES
 from mcd.reporting import paper
 from mcd.reporting.runs import Run, display_name
 from mcd.reporting.select import metric, pick, run_label, write_table
@@ -15,7 +16,6 @@ from mcd.reporting.select import metric, pick, run_label, write_table
 #: Table 1's rows, in the paper's order, then the two references it does not print.
 TABLE1_ROWS = ("unet", "fastdvdnet", "rae", "dasr", "ntasad", "F", "oidn", "noisy")
 COMPONENT_ROWS = tuple("ABCDEFGHIJKLM")
-SWITCHES = ("UN", "AS", "KP", "PP", "FG", "SA")
 #: The chain that adds one component at a time (method.md): B adds AS to A, C adds KP, D PP, E FG, F SA.
 STEPS = ("A", "B", "C", "D", "E", "F")
 TABLE1_BUDGET = 4.0

@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from mcd.lit.switches import check_switches, switch_row
+from mcd.models.switches import check_switches, switch_row
 
 EXPERIMENTS = Path(__file__).resolve().parents[2] / "conf" / "experiment"
 ROWS = dict(A="100000", B="110000", C="111000", D="111100", E="111110", F="111111", G="111010", H="111011",

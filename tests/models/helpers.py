@@ -7,10 +7,11 @@ from pathlib import Path
 import torch
 from omegaconf import OmegaConf
 
+from mcd.models.switches import SWITCHES
+
 CONF = Path(__file__).resolve().parents[2] / "conf"
 ROWS = dict(A="100000", B="110000", C="111000", D="111100", E="111110", F="111111", G="111010", H="111011",
             I="111101", J="111001", K="110100", L="110010", M="110001")
-SWITCHES = ("UN", "AS", "KP", "PP", "FG", "SA")
 
 
 def row_cfg(row: str, profile: str = "cpu", budget: float = 4):

@@ -4,7 +4,7 @@ import pytest
 import torch
 
 from mcd.models import build
-from mcd.models.two_stage import check_switches
+from mcd.models.switches import check_switches
 from tests.models.helpers import ROWS, frame, row_cfg, switch_cfg
 
 STACK = {"c1", "c2", "c4", "c8", "c16", "c32"}
@@ -45,11 +45,13 @@ def test_impossible_switches_fail_at_build_time_and_say_why(bits, name):
 
 def test_switch_errors():
     with pytest.raises(ValueError, match="UN=false"):
-        check_switches({"UN": False, "AS": False, "KP": False, "PP": False, "FG": False, "SA": False})
+        check_switches({"UN": False, "AS": False, "KP": False, "PP": False, "FG": False, "SA": False},
+                       complete=True)
     with pytest.raises(ValueError, match="booleans"):
-        check_switches({"UN": True, "AS": "yes", "KP": False, "PP": False, "FG": False, "SA": False})
+        check_switches({"UN": True, "AS": "yes", "KP": False, "PP": False, "FG": False, "SA": False},
+                       complete=True)
     with pytest.raises(ValueError, match="lacks switches"):
-        check_switches({"UN": True})
+        check_switches({"UN": True}, complete=True)
 
 
 def test_bad_budgets_are_named():

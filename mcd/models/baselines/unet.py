@@ -8,7 +8,8 @@ from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
 from mcd.models.registry import register
-from mcd.models.two_stage import SWITCHES, build_two_stage
+from mcd.models.switches import SWITCHES
+from mcd.models.two_stage import build_two_stage
 
 ROW_A = {s: s == "UN" for s in SWITCHES}
 
