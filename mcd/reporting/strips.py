@@ -89,10 +89,15 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
     if run is None:
         return written
     others = []
-    for exp in dict.fromkeys((*TABLE1_ROWS, "A")):
+    # Table 1's methods; the noisy input is already the first column; row A stands in for a U-Net that did
+    # not run (as in table1), under the same title.
+    for exp in (e for e in TABLE1_ROWS if e != "noisy"):
         other = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
+        title = display_name(exp)
+        if exp == "unet" and (other is None or other.status != "ok"):
+            other, title = pick(runs, "A", TABLE1_BUDGET, prefer_sweep="ablation"), f"{title} (row A)"
         if other is not None and other.status == "ok":
-            others.append((exp, samples(other)))
+            others.append((title, samples(other)))
     for scene, frames in sorted(samples(run).items()):
         complete = [f for f, names in frames.items() if "output" in names and "reference" in names]
         if not complete:
@@ -125,10 +130,10 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         written.append(path)
 
         crops = [("noisy input", picture("noisy", imgs["noisy"]))] if "noisy" in imgs else []
-        for exp, smp in others:
+        for title, smp in others:
             exr = smp.get(scene, {}).get(frame, {}).get("output")
             if exr is not None:
-                crops.append((display_name(exp), picture("output", read_exr(exr))))
+                crops.append((title, picture("output", read_exr(exr))))
         crops.append(("reference", picture("reference", ref)))
         fig, axes = plt.subplots(1, len(crops), figsize=(2.2 * len(crops), 3.2), squeeze=False)
         for j, (title, pic) in enumerate(crops):
