@@ -14,6 +14,7 @@ import pandas as pd  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run, display_name  # noqa: E402
 from mcd.reporting.select import metric, pick, run_label  # noqa: E402
+from mcd.reporting.tables import COMPONENT_ROWS  # noqa: E402
 
 PANELS = (
     ("psnr", 1.0, "PSNR (dB)"),
@@ -44,11 +45,15 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = 
     df = spp_frame(runs, root)
     df.to_csv(out_dir / "spp.csv", index=False)
     fig, axes = plt.subplots(1, 4, figsize=(16, 4.6))
-    ok = df[df["status"] == "ok"]
+    # the figure shows Table 1's methods (the component rows other than F are single 4 spp points: spp.csv)
+    ok = df[(df["status"] == "ok") & ~df["experiment"].isin([r for r in COMPONENT_ROWS if r != "F"])]
+    colours = plt.get_cmap("tab10").colors
     for ax, (key, _, label) in zip(axes, PANELS, strict=True):
-        for exp, group in ok.groupby("experiment", sort=True):
+        for i, (exp, group) in enumerate(ok.groupby("experiment", sort=True)):
             group = group.sort_values("budget")
-            ax.plot(group["budget"], group[key], marker="o", label=display_name(str(exp)))
+            ax.plot(
+                group["budget"], group[key], marker="o", color=colours[i % 10], label=display_name(str(exp))
+            )
         ax.set_xscale("log", base=2)
         ax.set_xlabel("average spp")
         ax.set_title(label)
@@ -56,7 +61,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = 
     if ok.empty:
         fig.suptitle("spp sweep: no finished runs")
     else:
-        axes[0].legend(fontsize=7)
+        axes[-1].legend(fontsize=7)
         fig.suptitle("Error against sample budget (lower rMSE / L_t is better)")
     prov.stamp(fig, ["spp"])
     fig.savefig(out_dir / "spp.png", dpi=120)
