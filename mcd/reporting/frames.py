@@ -57,9 +57,6 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         ax.set_title(f"Per-frame PSNR over the test sequence: {scene} (4 spp)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, ncol=2)
-        prov.stamp(fig)
-        path = folder / f"{scene}_psnr.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        path = prov.save(fig, folder / f"{scene}_psnr.png", dpi=110)
         pngs.append(path)
     return pngs

@@ -143,3 +143,12 @@ class Provenance:
         fig.text(0.005, 0.005, "\n".join(lines), fontsize=6, family="monospace", va="bottom")
         footer = (len(lines) * 6 * 1.2 + 4) / 72 / height_in
         fig.subplots_adjust(bottom=footer + max(fig.subplotpars.bottom, 0.1))
+
+    def save(self, fig: Figure, path: Path, dpi: int = 120, sweep_names: list[str] | None = None) -> Path:
+        """Stamp the provenance footer on a figure, write it as PNG to ``path`` and close it."""
+        import matplotlib.pyplot as plt
+
+        self.stamp(fig, sweep_names)
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+        return path

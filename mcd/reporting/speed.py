@@ -92,7 +92,5 @@ def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenan
             f"{profiles}) against error (4 spp runs: {prov.config_groups})",
             fontsize=9,
         )
-    prov.stamp(fig)
-    fig.savefig(out_dir / "speed_vs_error.png", dpi=120)
-    plt.close(fig)
+    prov.save(fig, out_dir / "speed_vs_error.png")
     return df

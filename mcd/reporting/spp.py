@@ -63,7 +63,5 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = 
     else:
         axes[-1].legend(fontsize=7)
         fig.suptitle("Error against sample budget (lower rMSE / L_t is better)")
-    prov.stamp(fig, ["spp"])
-    fig.savefig(out_dir / "spp.png", dpi=120)
-    plt.close(fig)
+    prov.save(fig, out_dir / "spp.png", sweep_names=["spp"])
     return df

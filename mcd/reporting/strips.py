@@ -123,10 +123,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
             f"({run.path.name})",
             fontsize=9,
         )
-        prov.stamp(fig)
-        path = folder / f"{scene}.png"
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        path = prov.save(fig, folder / f"{scene}.png")
         written.append(path)
 
         crops = [("noisy input", picture("noisy", imgs["noisy"]))] if "noisy" in imgs else []
@@ -141,9 +138,6 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         fig.suptitle(
             f"Outputs at 4 spp, {scene}, test frame {frame}, crop at (x={x}, y={y}), {size}px", fontsize=9
         )
-        prov.stamp(fig)
-        path = folder / f"{scene}_methods.png"
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        path = prov.save(fig, folder / f"{scene}_methods.png")
         written.append(path)
     return written
