@@ -45,7 +45,7 @@ def main() -> None:
 
     variant = select_variant("auto")
     overrides = [
-        "data=small",
+        "data=medium",
         f"data.width={args.size}",
         f"data.height={args.size}",
         "data.segments=1",

@@ -24,6 +24,9 @@ RMSE_EPS = 1e-2
 
 #: Per-frame metric names, in the order of ``frames.csv``.
 FRAME_METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse")
+#: Per-frame statistics of a model's internals, present only for the models that have them: the kernel map's
+#: identity share (KP, ``mcd.lit.module.kernel_map_identity_share``).
+MODEL_METRICS = ("kp_identity",)
 
 
 def to_display(x: np.ndarray) -> np.ndarray:

@@ -30,7 +30,7 @@ from lightning.pytorch.loggers import CSVLogger
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.lit import DenoiseModule, build_loss
-from mcd.metrics import FRAME_METRICS, aggregate
+from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate
 from mcd.models.switches import check_switches, switch_row
 
 log = logging.getLogger("mcd.run")
@@ -157,9 +157,10 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False)
     test_s = time.perf_counter() - t0
 
-    rows = pd.DataFrame(lit.test_rows, columns=["scene", "frame", *FRAME_METRICS])
+    extra = [k for k in MODEL_METRICS if any(k in row for row in lit.test_rows)]
+    rows = pd.DataFrame(lit.test_rows, columns=["scene", "frame", *FRAME_METRICS, *extra])
     rows.to_csv(out_dir / "frames.csv", index=False)
-    averages = aggregate(lit.test_rows)
+    averages = aggregate(lit.test_rows, (*FRAME_METRICS, *extra))
     params_m = count_params(model) / 1e6
     try:
         macs_g: float | None = complexity(cfg)[1]
@@ -169,6 +170,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                     type(err).__name__, err)
     metrics = {
         **{k: averages[k] for k in FRAME_METRICS},
+        **{k: averages.get(k) for k in MODEL_METRICS},
         "macs_g": macs_g,
         "params_m": params_m,
         "experiment": str(cfg.experiment),

@@ -7,7 +7,7 @@
 - Test: whole frames, one current frame per batch, in sequence order; ``reset()`` where ``batch["reset"]``
   is set, so state is carried across a whole test sequence. Per-frame metrics (``mcd.metrics``) of the output
   and of the noisy uniform input at the same budget (``c{budget}``) are collected in
-  :attr:`DenoiseModule.test_rows`.
+  :attr:`DenoiseModule.test_rows`; with KP also the kernel map's identity share (``kp_identity``).
 - Models with a frame window ``(past, future) != (0, 0)`` get ``[B, past+1+future, C, H, W]`` per step, edge
   frames repeated at clip ends (as the test datamodule does at sequence ends).
 """
@@ -43,6 +43,12 @@ def check_finite(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
 def _hwc(x: Tensor) -> np.ndarray:
     """``[C, H, W]`` tensor -> ``H x W x C`` float32 NumPy array."""
     return x.detach().float().permute(1, 2, 0).cpu().numpy()
+
+
+def kernel_map_identity_share(kernel_map: Tensor) -> float:
+    """Mean weight of the identity kernel, ``(h[1] + 1) / 2``, over a frame (paper Sec. 3.1, kernel
+    interpolation): 1 means ``i_bar == i`` (the kernel pool unused), 0 means pool kernels only."""
+    return float(((kernel_map[:, 1].float() + 1) / 2).mean())
 
 
 class DenoiseModule(L.LightningModule):
@@ -138,6 +144,8 @@ class DenoiseModule(L.LightningModule):
         row: dict[str, object] = {"scene": scene, "frame": frame, **frame_metrics(pred, ref),
                                   **frame_metrics(noisy, ref, prefix="input_")}
         row["lt"] = math.nan if self._prev is None else temporal_l1(pred, self._prev[0], ref, self._prev[1])
+        if "kernel_map" in out:
+            row["kp_identity"] = kernel_map_identity_share(out["kernel_map"])
         self.test_rows.append(row)
         self._prev = (pred, ref)
         if self.sample_dir is not None and self._seq_pos in self.sample_frames:

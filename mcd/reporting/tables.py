@@ -62,7 +62,8 @@ def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
 
 
 def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
-    """Rows A-M: switches as ticks, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, params; paper beside."""
+    """Rows A-M: switches as ticks, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, params; paper beside; the
+    kernel map's identity share for the KP rows (1 = the pool unused, ``i_bar == i``)."""
     rows = []
     for exp in COMPONENT_ROWS:
         run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="ablation")
@@ -81,6 +82,7 @@ def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
         ):
             row[col] = metric(run, key, scale)
             row[f"{col} paper"] = ref[pkey]
+        row["KP identity"] = metric(run, "kp_identity")
         row["status"] = _status(run)
         row["run"] = run_label(run, root)
         rows.append(row)
@@ -115,6 +117,15 @@ def component_checks(df: pd.DataFrame) -> list[str]:
             f"(F {psnr['F']:.2f} dB vs A {psnr['A']:.2f} dB, {f_vs_a:+.2f} dB); "
             f"C's gain over B is the largest single step: {verdict_c}. Steps: {step_txt}."
         )
+    if "KP identity" in df:
+        shares = dict(zip(df["row"], df["KP identity"].astype(float), strict=True))
+        used = {row: v for row, v in shares.items() if not math.isnan(v)}
+        if used:
+            lo, hi = min(used, key=used.get), max(used, key=used.get)
+            note = (" (near 1: i_bar == i, the kernel pool is bypassed and KP adds only its heads' capacity)"
+                    if used[lo] > 0.95 else "")
+            lines.append(f"ours: the kernel map's identity share, mean of (h[1]+1)/2 over test pixels, is "
+                         f"{used[lo]:.3f} ({lo}) to {used[hi]:.3f} ({hi}){note}.")
     return lines
 
 

@@ -36,7 +36,7 @@ def test_missing_scene_names_the_path_and_the_setting():
         SceneSpec.from_cfg("y", {"kind": "obj"}, ".")
 
 
-@pytest.mark.parametrize("profile", ["tiny", "small", "paper"])
+@pytest.mark.parametrize("profile", ["tiny", "small", "medium", "paper"])
 def test_profiles(profile):
     d = compose_cfg(f"data={profile}").data
     assert set(d.train_scenes) <= set(d.scenes) and set(d.test_scenes) <= set(d.scenes)
@@ -44,6 +44,10 @@ def test_profiles(profile):
     assert set(d.transfer_scenes) <= set(d.test_scenes)
     if profile == "tiny":
         assert "cbox" in d.train_scenes and "staircase2" in d.train_scenes  # a paper interior + cbox
+    elif profile == "small":
+        assert d.transfer_scenes and set(d.transfer_scenes) <= set(REAL)  # a real held-out scene
+        assert any(d.scenes[s].kind == "procedural" for s in d.train_scenes)
+        assert (d.width, d.height) == (128, 128)
     else:
         assert set(REAL) <= set(d.scenes)  # every shipped real scene is registered
         assert len([s for s in d.transfer_scenes if s in REAL]) >= 2
@@ -81,7 +85,7 @@ def test_procedural_room_renders_inside(tmp_path):
     from mcd.data import Store
 
     cfg = compose_cfg(
-        "data=small",
+        "data=medium",
         f"paths.data_dir={tmp_path}",
         "data.width=24",
         "data.height=24",
@@ -113,12 +117,12 @@ def test_variant_selection():
 @pytest.mark.skipif(not SHARED.is_dir(), reason=f"the real scenes folder {SHARED} is absent (MCD_SCENES_DIR)")
 @pytest.mark.parametrize("name", REAL)
 def test_camera_path_never_inside_a_wall(name):
-    """Every frame of the small profile's path (every 3rd, at 16x16) renders the inside of a room."""
+    """Every frame of the medium profile's path (every 3rd, at 16x16) renders the inside of a room."""
     from mcd.data.check_paths import check_scene
     from mcd.data.mitsuba_env import select_variant
 
     select_variant("auto")
-    cfg = compose_cfg("data=small", f"paths.scenes_dir={SHARED}")
+    cfg = compose_cfg("data=medium", f"paths.scenes_dir={SHARED}")
     spec = SceneSpec.from_cfg(name, cfg.data.scenes[name], SHARED)
     assert (
         check_scene(spec, int(cfg.data.segments), int(cfg.data.frames_per_segment), size=16, spp=8, stride=3)

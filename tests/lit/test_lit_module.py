@@ -59,6 +59,7 @@ def test_test_phase_carries_state_and_writes_metrics_and_samples(tiny_store, tmp
     assert math.isnan(rows[0]["lt"]) and rows[1]["lt"] >= 0
     for r in rows:
         assert 0 <= r["ssim"] <= 1 and r["input_psnr"] > 5 and r["rmse"] >= 0
+        assert 0 <= r["kp_identity"] <= 1  # F has KP: its kernel map's identity share is recorded
     names = {p.name for p in (tmp_path / "cbox").iterdir()}
     for what in ("output", "reference", "noisy", "sampling_map", "kernel_map", "initial", "adaptive"):
         assert {f"0001_{what}.exr", f"0001_{what}.png"} <= names, what
@@ -109,3 +110,16 @@ def test_non_finite_input_that_bypasses_the_loader_is_refused(tiny_store):
     batch["c4"][0, 0, 0, 0, 0] = float("nan")
     with pytest.raises(ValueError, match="non-finite values in buffer 'c4'"):
         lit.run_clip(batch, with_ref=True)
+
+
+def test_kernel_map_identity_share():
+    from mcd.lit.module import kernel_map_identity_share
+
+    h = torch.zeros(2, 2, 4, 4)
+    h[:, 1] = 1.0
+    assert kernel_map_identity_share(h) == 1.0  # every pixel takes the identity kernel
+    h[:, 1] = -1.0
+    assert kernel_map_identity_share(h) == 0.0  # every pixel takes its pool kernel
+    h[:, 1, :2] = 1.0
+    assert kernel_map_identity_share(h) == pytest.approx(0.5)
+

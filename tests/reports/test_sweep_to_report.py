@@ -144,6 +144,9 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
         assert comp.loc[exp, "PSNR"] == pytest.approx(run_metrics["psnr"])
         assert comp.loc[exp, "SSIM"] == pytest.approx(100 * run_metrics["ssim"])
     assert comp.loc["F", "PSNR paper"] == 33.39 and comp.loc["F", "KP"] == "✓"
+    f_metrics = json.loads((sweep_dir / "F_spp4" / "metrics.json").read_text())
+    assert comp.loc["F", "KP identity"] == pytest.approx(f_metrics["kp_identity"])
+    assert 0 <= f_metrics["kp_identity"] <= 1 and pd.isna(comp.loc["A", "KP identity"])
     assert comp.loc["C", "status"].startswith("failed: ")
     t1 = pd.read_csv(report / "table1.csv").set_index("experiment")
     assert t1.loc["A", "method"] == "U-Net (row A)"  # no unet job: row A's identical network stands in
@@ -158,4 +161,4 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     assert "Commit(s) of the runs: " in readme and "Commit(s) of the runs: unknown" not in readme
     assert "Device(s): CPU" in readme and "Wall time:" in readme
     assert "C_spp4" in readme and "failed" in readme  # the failed job is listed with its error
-    assert "F above A" in readme
+    assert "F above A" in readme and "identity share" in readme
