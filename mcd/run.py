@@ -161,7 +161,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     rows = pd.DataFrame(lit.test_rows, columns=["scene", "frame", *FRAME_METRICS, *extra])
     rows.to_csv(out_dir / "frames.csv", index=False)
     averages = aggregate(lit.test_rows, (*FRAME_METRICS, *extra))
-    params_m = count_params(model) / 1e6
+    # a network torch cannot see (OIDN) has unknown parameters, not zero
+    params_m = count_params(model) / 1e6 if getattr(model, "macs_countable", True) else None
     try:
         macs_g: float | None = complexity(cfg)[1]
     except (NotImplementedError, RuntimeError) as err:
@@ -207,7 +208,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     log.info("%s: PSNR %.2f dB (noisy %.2f), SSIM %.4f, rMSE %.4g, L_t %.4g, %.1f GMACs, %.3f M params, "
              "%.0f s -> %s",
              cfg.experiment, metrics["psnr"], metrics["input_psnr"], metrics["ssim"], metrics["rmse"],
-             metrics["lt"] or math.nan, macs_g or math.nan, params_m, metrics["wall_s"], out_dir)
+             metrics["lt"] or math.nan, macs_g or math.nan, math.nan if params_m is None else params_m,
+             metrics["wall_s"], out_dir)
     return metrics
 
 

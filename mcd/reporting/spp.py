@@ -25,18 +25,29 @@ PANELS = (
 
 
 def spp_frame(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
-    """One row per (experiment, budget) with a finished or failed run, preferring the spp sweep's jobs."""
-    keys = sorted({(r.experiment, r.budget) for r in runs if r.budget is not None and r.transfer is None})
+    """One row per (experiment, budget) with a finished or failed run, preferring the spp sweep's jobs.
+
+    Where the U-Net has no finished run at a budget, row A's (the same network, baselines.md) stands in,
+    (``source`` A), as in Table 1.
+    """
+    keys = {(r.experiment, r.budget) for r in runs if r.budget is not None and r.transfer is None}
+    if any(exp == "unet" for exp, _ in keys):  # row A is the U-Net's network: it fills the U-Net's gaps
+        keys |= {("unet", b) for exp, b in keys if exp == "A"}
     rows = []
-    for exp, budget in keys:
+    for exp, budget in sorted(keys):
         run = pick(runs, exp, budget, prefer_sweep="spp")
-        row = {"method": display_name(exp), "experiment": exp, "budget": budget}
+        stand_in = exp == "unet" and (run is None or run.status != "ok")
+        if stand_in:
+            run = pick(runs, "A", budget, prefer_sweep="ablation")
+        row = {"method": display_name(exp), "experiment": exp, "source": "A" if stand_in else exp,
+               "budget": budget}
         row.update({key: metric(run, key, scale) for key, scale, _ in PANELS})
         row["status"] = run.status if run is not None else "not run"
         row["run"] = run_label(run, root)
         rows.append(row)
     return pd.DataFrame(
-        rows, columns=["method", "experiment", "budget", *(k for k, _, _ in PANELS), "status", "run"]
+        rows,
+        columns=["method", "experiment", "source", "budget", *(k for k, _, _ in PANELS), "status", "run"],
     )
 
 

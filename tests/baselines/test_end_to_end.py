@@ -52,3 +52,4 @@ def test_every_baseline_runs_end_to_end(tmp_path: Path) -> None:
     if HAS_PYOIDN:
         oidn = json.loads((tmp_path / "runs" / "oidn" / "metrics.json").read_text())
         assert oidn["psnr"] > oidn["input_psnr"], "OIDN should improve on its noisy input"
+        assert oidn["params_m"] is None and oidn["macs_g"] is None  # its own network: unknown, not 0

@@ -15,10 +15,10 @@ from mcd.reporting.strips import crop_box
 from mcd.reporting.tables import component_checks
 
 
-def _job(root, name, metrics=None, error=None, metrics_text=None, experiment="F"):
+def _job(root, name, metrics=None, error=None, metrics_text=None, experiment="F", budget=4, sweep="ablation"):
     d = root / name
     (d / ".hydra").mkdir(parents=True)
-    (d / ".hydra" / "config.yaml").write_text(f"experiment: {experiment}\nbudget: 4\nsweep_name: ablation\n")
+    (d / ".hydra" / "config.yaml").write_text(f"experiment: {experiment}\nbudget: {budget}\nsweep_name: {sweep}\n")
     (d / ".hydra" / "overrides.yaml").write_text(f"- +experiment={experiment}\n")
     if metrics is not None:
         (d / "metrics.json").write_text(json.dumps(metrics))
@@ -57,6 +57,17 @@ def test_pick_prefers_finished_runs_of_the_preferred_sweep(tmp_path):
     assert pick(runs, "F", 4.0, prefer_sweep="abl").metrics["psnr"] == 2.0
     assert pick(runs, "F", 4.0, prefer_sweep="spp").metrics["psnr"] == 1.0
     assert pick(runs, "F", 8.0, prefer_sweep="abl") is None
+
+
+def test_spp_rows_fill_the_unet_gaps_with_row_a(tmp_path):
+    from mcd.reporting.spp import spp_frame
+
+    _job(tmp_path, "u8", metrics={"psnr": 20.0, "experiment": "unet", "budget": 8}, experiment="unet", budget=8,
+         sweep="spp")
+    _job(tmp_path, "a4", metrics={"psnr": 18.0, "experiment": "A", "budget": 4}, experiment="A")
+    df = spp_frame(find_runs([tmp_path])).set_index(["experiment", "budget"])
+    assert df.loc[("unet", 4.0), "psnr"] == 18.0 and df.loc[("unet", 4.0), "source"] == "A"
+    assert df.loc[("unet", 8.0), "psnr"] == 20.0 and df.loc[("unet", 8.0), "source"] == "unet"
 
 
 def _comp(psnr):
