@@ -70,16 +70,20 @@ class TwoStage(nn.Module):
     def reset(self) -> None:
         self.denoiser.reset()
 
+    def sampler_input(self, x: dict[str, Tensor | None]) -> Tensor:
+        """``F_s``'s input (method.md "Inputs"): ``c_1``, ``g``, grey ``c_1`` and grey albedo."""
+        who = "two_stage"
+        c1, albedo = need(x, "c1_in", who), need(x, "albedo", who)
+        return torch.cat([compress(c1, self.colour), gbuffers(x, who), compress(grey(c1), self.colour),
+                          grey(albedo)], 1)
+
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         who = "two_stage"
         g = gbuffers(x, who)
         out: dict[str, Tensor] = {}
         if self.sampler is not None:
             c1 = need(x, "c1_in", who)
-            albedo = need(x, "albedo", who)
-            colour = self.colour
-            fs_in = torch.cat([compress(c1, colour), g, compress(grey(c1), colour), grey(albedo)], 1)
-            s = self.sampler(fs_in)
+            s = self.sampler(self.sampler_input(x))
             stack = stack_buffers(x, self.levels)
             image, m = adaptive_render(s["logits"], c1, stack, x.get("ref"), self.budget)
             ic = compress(image, self.colour)
