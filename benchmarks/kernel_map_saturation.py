@@ -28,7 +28,7 @@ CONF = str(Path(__file__).resolve().parent.parent / "conf")
 
 
 def l1_log(x: torch.Tensor, ref: torch.Tensor) -> float:
-    return float((torch.log1p(x.clamp_min(0)) - torch.log1p(ref.clamp_min(0))).abs().mean())
+    return (torch.log1p(x.detach().clamp_min(0)) - torch.log1p(ref.clamp_min(0))).abs().mean().item()
 
 
 def main() -> None:
