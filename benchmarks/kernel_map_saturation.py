@@ -23,6 +23,7 @@ from hydra import compose, initialize_config_dir
 from mcd.data import MCDDataModule, Store
 from mcd.lit import build_loss
 from mcd.models import build
+from mcd.models.kernel_pool import identity_weight
 
 CONF = str(Path(__file__).resolve().parent.parent / "conf")
 
@@ -72,7 +73,7 @@ def main() -> None:
             step += 1
             if step % args.every == 0:
                 z, last, ref = pre_tanh["z"], outs[-1], clip["ref"][:, -1]
-                identity = ((last["kernel_map"][:, 1] + 1) / 2 > 0.975).float().mean()
+                identity = (identity_weight(last["kernel_map"]) > 0.975).float().mean()
                 with torch.no_grad():
                     coarsest = model.sampler(model.sampler_input({k: v[:, -1] for k, v in clip.items()}))
                     tap = pool.normalised(pool.adjust(coarsest["coarsest"]))  # this input's adjusted pool

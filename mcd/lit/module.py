@@ -25,6 +25,7 @@ from torch import Tensor, nn
 
 from mcd.lit.samples import save_samples
 from mcd.metrics import frame_metrics, temporal_l1
+from mcd.models.kernel_pool import identity_weight
 
 
 def clip_buffers(batch: dict[str, object]) -> dict[str, Tensor]:
@@ -48,7 +49,7 @@ def _hwc(x: Tensor) -> np.ndarray:
 def kernel_map_identity_share(kernel_map: Tensor) -> float:
     """Mean weight of the identity kernel, ``(h[1] + 1) / 2``, over a frame (paper Sec. 3.1, kernel
     interpolation): 1 means ``i_bar == i`` (the kernel pool unused), 0 means pool kernels only."""
-    return float(((kernel_map[:, 1].float() + 1) / 2).mean())
+    return float(identity_weight(kernel_map).mean())
 
 
 class DenoiseModule(L.LightningModule):

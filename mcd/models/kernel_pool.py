@@ -63,6 +63,12 @@ def interpolate_kernels(pool: Tensor, h: Tensor) -> Tensor:
     return F.grid_sample(table, grid, mode="bilinear", padding_mode="border", align_corners=True)
 
 
+def identity_weight(h: Tensor) -> Tensor:
+    """Per-pixel weight ``[B, H, W]`` of the identity kernel in :func:`interpolate_kernels`,
+    ``(h[1] + 1) / 2``: 1 = ``i_bar`` is ``i`` at that pixel, 0 = the pool kernel only."""
+    return (h[:, 1].float() + 1) / 2
+
+
 class KernelPool(nn.Module):
     """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features."""
 
