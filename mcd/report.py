@@ -3,7 +3,8 @@ of one or more sweeps (benchmark.md "Reports"), generated from the run directori
 ``reports/<name>/``:
 
 - ``table1.md/.csv`` (methods at 4 spp) and ``components.md/.csv`` (A-M), the paper's numbers beside ours,
-  ``transfer.md/.csv`` when transfer jobs ran;
+  ``transfer.md/.csv`` when transfer jobs ran, ``seeds.md/.csv`` and ``seeds_differences.csv`` when the
+  seeds sweep ran (run-to-run spread, the paper's claims with standard errors);
 - ``spp.csv/.png`` (error against budget), ``speed_vs_error.png/.csv`` (from the bench CSV);
 - ``strips/<scene>.png`` and ``strips/<scene>_methods.png`` (qualitative, with crops),
   ``per_frame/<scene>_psnr.png`` (per-frame PSNR over each test sequence);
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from mcd.reporting import frames, speed, spp, strips, tables
+from mcd.reporting import frames, seeds, speed, spp, strips, tables
 from mcd.reporting.provenance import Provenance
 from mcd.reporting.runs import Run, Sweep, display_name, find_runs, find_sweeps
 from mcd.reporting.select import to_markdown
@@ -114,6 +115,7 @@ def write_readme(
         "",
         *[f"- {line}" for line in _headline(results["table1"])],
         *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],
+        *[f"- Over seeds, {line}" for line in seeds.checks(results.get("seeds_differences", pd.DataFrame()))],
         "",
         "## Table 1 (4 spp)",
         "",
@@ -124,6 +126,10 @@ def write_readme(
     ]
     if "transfer" in results:
         lines += ["## Transfer", "", to_markdown(results["transfer"].drop(columns=["run"]))]
+    if "seeds" in results:
+        lines += ["## Run-to-run spread (seeds sweep)", "", to_markdown(results["seeds"])]
+        if not results["seeds_differences"].empty:
+            lines += [to_markdown(results["seeds_differences"])]
     lines += ["## Failed and incomplete jobs", ""]
     lines += [to_markdown(fails) if not fails.empty else "None."]
     lines += ["", "## Files", ""]
@@ -159,6 +165,7 @@ def make_report(
     prov = Provenance.gather(sweeps, runs, command)
 
     results = tables.write_all(runs, out_dir, root)
+    results.update(seeds.write(runs, out_dir))
     spp.write(runs, out_dir, prov, root)
     speed.write(runs, bench, out_dir, prov)
     strip_files = strips.write(runs, out_dir, prov)
@@ -167,6 +174,10 @@ def make_report(
     files = [out_dir / f for f in ("table1.md", "table1.csv", "components.md", "components.csv")]
     if "transfer" in results:
         files += [out_dir / "transfer.md", out_dir / "transfer.csv"]
+    if "seeds" in results:
+        files += [out_dir / "seeds.md", out_dir / "seeds.csv"]
+        if not results["seeds_differences"].empty:
+            files.append(out_dir / "seeds_differences.csv")
     files += [out_dir / f for f in ("spp.png", "spp.csv", "speed_vs_error.png", "speed_vs_error.csv")]
     files += strip_files + frame_files
     if frame_files:

@@ -88,6 +88,15 @@ class Run:
         return None if value is None else float(value)
 
     @property
+    def seed(self) -> int | None:
+        """The seed the job trained from (config `seed`; run.py seeds weights, crops and sampling with it)."""
+        value = self._get("seed")
+        try:
+            return None if value is None else int(value)
+        except (TypeError, ValueError):
+            return None
+
+    @property
     def sweep(self) -> str:
         """The sweep the job belongs to (`sweep_name`, from `sweeps/<name>.yaml`), else its grandparent."""
         name = self.config.get("sweep_name")

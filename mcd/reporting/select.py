@@ -13,9 +13,10 @@ from mcd.reporting.runs import Run
 def pick(runs: list[Run], experiment: str, budget: float | None, prefer_sweep: str) -> Run | None:
     """The run of `experiment` at `budget` (any budget if None), excluding transfer jobs.
 
-    Finished runs first; among them the preferred sweep's, then any other sweep's (the same experiment at 4
-    spp is a job of several sweeps: ablation, baselines, spp). Without a finished run, the failed or
-    incomplete one, so that tables show the failure instead of a silent gap.
+    Finished runs first; among them the default seed's (0: the seeds sweep trains the same config from other
+    seeds, summarised apart in seeds.md), then the preferred sweep's, then any other sweep's (the same
+    experiment at 4 spp is a job of several sweeps: ablation, baselines, spp). Without a finished run, the
+    failed or incomplete one, so that tables show the failure instead of a silent gap.
     """
     cands = [
         r
@@ -25,8 +26,8 @@ def pick(runs: list[Run], experiment: str, budget: float | None, prefer_sweep: s
     if not cands:
         return None
 
-    def rank(r: Run) -> tuple[int, int, str]:
-        return (r.status != "ok", r.sweep != prefer_sweep, str(r.path))
+    def rank(r: Run) -> tuple[bool, bool, bool, str]:
+        return (r.status != "ok", r.seed not in (0, None), r.sweep != prefer_sweep, str(r.path))
 
     return sorted(cands, key=rank)[0]
 

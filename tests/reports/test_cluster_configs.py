@@ -1,5 +1,5 @@
 """`trainer=ddp` and `hydra/launcher=slurm` compose with a sweep, and what they compose to is accepted by
-Lightning and by hydra-submitit-launcher (issue 5, "Beyond one machine")."""
+Lightning and by hydra-submitit-launcher (issue 5, "Beyond one machine"); the seeds sweep's job dirs."""
 
 from __future__ import annotations
 
@@ -64,3 +64,10 @@ def test_slurm_launcher_without_ddp_runs_one_gpu_jobs():
     cfg = _compose(["+sweep=baselines", "hydra/launcher=slurm"])
     assert cfg.hydra.launcher.nodes == 1 and cfg.hydra.launcher.tasks_per_node == 1
     assert cfg.trainer.devices == 1
+
+
+def test_seeds_sweep_names_each_job_by_its_seed():
+    cfg = _compose(["+sweep=seeds", "+experiment=F", "seed=3"])
+    raw = OmegaConf.to_container(cfg.hydra, resolve=False)
+    assert raw["sweep"]["subdir"] == "${experiment}_spp${budget}_seed${seed}"
+    assert cfg.hydra.sweeper.params["seed"] == "0,1,2,3,4" and cfg.seed == 3 and cfg.sweep_name == "seeds"

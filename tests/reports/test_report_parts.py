@@ -109,3 +109,49 @@ def test_crop_lands_on_the_noisiest_window():
 def test_markdown_marks_missing_values():
     md = to_markdown(pd.DataFrame({"m": ["x"], "v": [math.nan], "w": [1.234]}))
     assert md.splitlines()[2] == "| x | — | 1.23 |"
+
+
+def _seed_job(root, exp, seed, psnr):
+    metrics = {"psnr": psnr, "ssim": 0.5 + psnr / 100, "experiment": exp, "budget": 4, "seed": seed}
+    return _job(root, f"{exp}_spp4_seed{seed}", metrics=metrics, experiment=exp, sweep="seeds")
+
+
+def test_seeds_table_gives_spread_and_differences_with_standard_errors(tmp_path):
+    from mcd.reporting import seeds
+
+    for s, (a, b, c, f) in enumerate([(20.0, 20.5, 21.5, 22.0), (21.0, 20.5, 22.5, 21.0), (20.0, 21.5, 21.5, 23.0)]):
+        for exp, v in zip("ABCF", (a, b, c, f), strict=True):
+            _seed_job(tmp_path, exp, s, v)
+    _job(tmp_path, "A_spp4_failed", error={"error": "x"}, experiment="A", sweep="seeds")  # not counted
+    _job(tmp_path, "F_abl", metrics={"psnr": 99.0, "experiment": "F", "budget": 4}, sweep="ablation")  # other sweep
+    out = seeds.write(find_runs([tmp_path]), tmp_path)
+    table = out["seeds"].set_index("row")
+    assert list(table.index) == ["A", "B", "C", "F"] and (table["n"] == 3).all()
+    assert table.loc["A", "PSNR mean"] == 61 / 3 and table.loc["F", "PSNR max"] == 23.0
+    assert math.isclose(table.loc["F", "PSNR std"], 1.0)  # 22, 21, 23
+    diffs = out["seeds_differences"].set_index("difference")
+    assert list(diffs.index) == ["B - A", "C - B", "F - C", "F - A"]
+    assert diffs.loc["F - C", "adds"] == "PP+FG+SA" and diffs.loc["F - A", "adds"] == "AS+KP+PP+FG+SA"
+    fa = diffs.loc["F - A"]
+    assert math.isclose(fa["mean dB"], 22.0 - 61 / 3)
+    assert math.isclose(fa["se dB"], math.sqrt(1.0 / 3 + (1 / 3) / 3))  # s_F^2 = 1, s_A^2 = 1/3
+    assert fa["ranges"] == "overlap"
+    lines = seeds.checks(out["seeds_differences"])
+    assert lines[0].startswith("4 spp: F - A = +1.67 dB (standard error 0.67")
+    assert "C - B = +1.00 dB is the largest mean step" in lines[1]
+    md = (tmp_path / "seeds.md").read_text()
+    assert "Differences of mean PSNR" in md and (tmp_path / "seeds_differences.csv").is_file()
+
+
+def test_seeds_absent_writes_nothing(tmp_path):
+    from mcd.reporting import seeds
+
+    _job(tmp_path, "F", metrics={"psnr": 30.0, "experiment": "F", "budget": 4})
+    assert seeds.write(find_runs([tmp_path]), tmp_path) == {}
+    assert not (tmp_path / "seeds.md").exists() and seeds.checks(pd.DataFrame()) == []
+
+
+def test_pick_takes_the_default_seed_over_other_seeds(tmp_path):
+    _seed_job(tmp_path, "F", 1, 25.0)
+    _seed_job(tmp_path, "F", 0, 24.0)
+    assert pick(find_runs([tmp_path]), "F", 4.0, prefer_sweep="ablation").metrics["psnr"] == 24.0

@@ -1,0 +1,160 @@
+"""Run-to-run spread (``sweeps/seeds.yaml``): each row of the component chain trained from several seeds.
+
+One seed per job cannot tell a real gain from noise at a small training budget. This table gives, per row
+and budget, the mean, sample standard deviation and range of PSNR and SSIM over seeds, and the differences
+the paper's claims rest on (benchmark.md "What it must show": F above A, C's step over B the largest) with
+their standard errors. Differences are of means, not paired by seed: rows draw crops and initial weights
+from one generator in different orders, so the same seed value gives two rows nothing in common.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from mcd.reporting.runs import Run
+from mcd.reporting.select import to_markdown, write_table
+from mcd.reporting.tables import STEPS
+
+SEEDS_SWEEP = "seeds"
+
+
+def seed_runs(runs: list[Run]) -> list[Run]:
+    """Finished, non-transfer jobs of the seeds sweep that know their seed."""
+    return [
+        r
+        for r in runs
+        if r.sweep == SEEDS_SWEEP and r.status == "ok" and r.transfer is None and r.seed is not None
+    ]
+
+
+def _psnr_by_seed(runs: list[Run]) -> dict[tuple[str, float], dict[int, tuple[float, float]]]:
+    """(experiment, budget) -> seed -> (PSNR, SSIM); the first run by path wins a duplicated seed."""
+    out: dict[tuple[str, float], dict[int, tuple[float, float]]] = {}
+    for r in sorted(runs, key=lambda r: str(r.path)):
+        assert r.metrics is not None and r.seed is not None and r.budget is not None
+        per_seed = out.setdefault((r.experiment, r.budget), {})
+        per_seed.setdefault(r.seed, (float(r.metrics["psnr"]), float(r.metrics["ssim"])))
+    return out
+
+
+def _std(values: list[float]) -> float:
+    """Sample standard deviation (n-1); NaN below two values."""
+    return float(pd.Series(values).std(ddof=1)) if len(values) > 1 else math.nan
+
+
+def spread(runs: list[Run]) -> pd.DataFrame:
+    """One row per (experiment, budget): seeds, PSNR and SSIM x1e2 mean / std / min / max."""
+    rows = []
+    for (exp, budget), per_seed in sorted(_psnr_by_seed(seed_runs(runs)).items()):
+        psnr = [v[0] for v in per_seed.values()]
+        ssim = [v[1] * 1e2 for v in per_seed.values()]
+        rows.append(
+            {
+                "row": exp,
+                "spp": int(budget),
+                "seeds": " ".join(str(s) for s in sorted(per_seed)),
+                "n": len(per_seed),
+                "PSNR mean": sum(psnr) / len(psnr),
+                "PSNR std": _std(psnr),
+                "PSNR min": min(psnr),
+                "PSNR max": max(psnr),
+                "SSIM mean": sum(ssim) / len(ssim),
+                "SSIM std": _std(ssim),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+#: What each row of the chain adds to the row before it (method.md "Component study").
+ADDS = {"B": "AS", "C": "KP", "D": "PP", "E": "FG", "F": "SA"}
+
+
+def _chain_pairs(experiments: set[str]) -> list[tuple[str, str]]:
+    """Consecutive rows of the chain A→...→F among those that ran, and F-A when both ran."""
+    present = [e for e in STEPS if e in experiments]
+    pairs = list(zip(present, present[1:], strict=False))
+    if "A" in experiments and "F" in experiments and ("A", "F") not in pairs:
+        pairs.append(("A", "F"))
+    return pairs
+
+
+def differences(runs: list[Run]) -> pd.DataFrame:
+    """Mean PSNR of `b` minus mean PSNR of `a` over their seeds, for consecutive chain rows and F - A, with
+    the standard error of that difference and whether the two rows' seed ranges overlap."""
+    by = _psnr_by_seed(seed_runs(runs))
+    rows = []
+    for budget in sorted({b for _, b in by}):
+        for a, b in _chain_pairs({e for e, bb in by if bb == budget}):
+            pa = [v[0] for v in by[(a, budget)].values()]
+            pb = [v[0] for v in by[(b, budget)].values()]
+            se = math.sqrt(_std(pa) ** 2 / len(pa) + _std(pb) ** 2 / len(pb))
+            diff = sum(pb) / len(pb) - sum(pa) / len(pa)
+            rows.append(
+                {
+                    "difference": f"{b} - {a}",
+                    "adds": "+".join(ADDS[x] for x in STEPS[STEPS.index(a) + 1 : STEPS.index(b) + 1]),
+                    "spp": int(budget),
+                    "n": f"{len(pb)}/{len(pa)}",
+                    "mean dB": diff,
+                    "se dB": se,
+                    "mean/se": diff / se if se > 0 else math.nan,
+                    "ranges": "separate" if min(pb) > max(pa) or max(pb) < min(pa) else "overlap",
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def checks(diffs: pd.DataFrame) -> list[str]:
+    """The paper's two claims restated over seeds: F above A, and B→C the largest of the measured steps,
+    each with the difference's standard error."""
+    lines: list[str] = []
+    if diffs.empty:
+        return lines
+    for budget, df in diffs.groupby("spp"):
+        rows = df.set_index("difference")
+        if "F - A" in rows.index:
+            r = rows.loc["F - A"]
+            lines.append(
+                f"{budget:g} spp: F - A = {r['mean dB']:+.2f} dB (standard error {r['se dB']:.2f}, seeds "
+                f"{r['n']}, ranges {r['ranges']})."
+            )
+        steps = df[df["difference"] != "F - A"]
+        if "C - B" in rows.index and len(steps) > 1:
+            best = steps.loc[steps["mean dB"].idxmax()]
+            r = rows.loc["C - B"]
+            verdict = "is" if best["difference"] == "C - B" else f"is NOT (largest: {best['difference']})"
+            listed = ", ".join(
+                f"{d} {m:+.2f} ± {e:.2f}"
+                for d, m, e in zip(steps["difference"], steps["mean dB"], steps["se dB"], strict=True)
+            )
+            lines.append(
+                f"{budget:g} spp: C - B = {r['mean dB']:+.2f} dB {verdict} the largest mean step among those "
+                f"measured ({listed} dB, mean ± standard error)."
+            )
+    return lines
+
+
+def write(runs: list[Run], out_dir: Path) -> dict[str, pd.DataFrame]:
+    """`seeds.md/.csv` (spread per row) and `seeds_paired.csv` when the seeds sweep ran; {} otherwise."""
+    table = spread(runs)
+    if table.empty:
+        return {}
+    diffs = differences(runs)
+    notes = [
+        "SSIM x1e2; std: sample standard deviation over seeds (n-1). A seed sets the weights' "
+        "initialisation, the training crops and the sample order (run.py seeds everything).",
+        *checks(diffs),
+    ]
+    write_table(table, out_dir, "seeds", "Run-to-run spread over seeds", notes)
+    if not diffs.empty:
+        diffs.to_csv(out_dir / "seeds_differences.csv", index=False)
+        with (out_dir / "seeds.md").open("a") as md:
+            md.write("\n## Differences of mean PSNR between rows (dB)\n\n")
+            md.write(
+                "`se`: standard error of the difference, sqrt(s_a^2/n_a + s_b^2/n_b); `ranges`: whether "
+                "the two rows' PSNR over seeds overlap.\n\n" + to_markdown(diffs)
+            )
+    return {"seeds": table, "seeds_differences": diffs}
