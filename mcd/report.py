@@ -116,6 +116,7 @@ def write_readme(
         *[f"- {line}" for line in _headline(results["table1"])],
         *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],
         *[f"- Over seeds, {line}" for line in seeds.checks(results.get("seeds_differences", pd.DataFrame()))],
+        *[f"- {line}" for line in seeds.reproducibility(runs)],
         "",
         "## Table 1 (4 spp)",
         "",

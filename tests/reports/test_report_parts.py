@@ -137,10 +137,24 @@ def test_seeds_table_gives_spread_and_differences_with_standard_errors(tmp_path)
     assert math.isclose(fa["se dB"], math.sqrt(1.0 / 3 + (1 / 3) / 3))  # s_F^2 = 1, s_A^2 = 1/3
     assert fa["ranges"] == "overlap"
     lines = seeds.checks(out["seeds_differences"])
-    assert lines[0].startswith("4 spp: F - A = +1.67 dB (standard error 0.67")
-    assert "C - B = +1.00 dB is the largest mean step" in lines[1]
+    assert lines[0].startswith("4 spp: F - A = +1.67 ± 0.67 dB")
+    assert "2.5 standard errors from zero: resolved" in lines[0] and "F above A holds" in lines[0]
+    # F - C spans three components: listed, not ranked against the single steps B - A and C - B
+    assert "C - B (KP) = +1.00 ± 0.47 dB, 2.1 standard errors from zero: resolved" in lines[1]
+    assert "it is the largest of the 2 single-component steps" in lines[1] and "F - C (PP+FG+SA)" in lines[1]
     md = (tmp_path / "seeds.md").read_text()
     assert "Differences of mean PSNR" in md and (tmp_path / "seeds_differences.csv").is_file()
+
+
+def test_repeatability_compares_a_seed_with_the_same_job_of_another_sweep(tmp_path):
+    from mcd.reporting import seeds
+
+    _seed_job(tmp_path, "F", 0, 21.25)
+    _seed_job(tmp_path, "F", 1, 22.0)
+    _job(tmp_path, "F_abl", metrics={"psnr": 21.0, "experiment": "F", "budget": 4}, sweep="ablation")
+    _job(tmp_path, "A_abl", metrics={"psnr": 5.0, "experiment": "A", "budget": 4}, sweep="ablation")
+    (line,) = seeds.reproducibility(find_runs([tmp_path]))
+    assert "1 seeds-sweep job(s) (F)" in line and line.endswith("largest PSNR difference 0.2500 dB.")
 
 
 def test_seeds_absent_writes_nothing(tmp_path):
