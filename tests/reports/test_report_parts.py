@@ -169,3 +169,11 @@ def test_pick_takes_the_default_seed_over_other_seeds(tmp_path):
     _seed_job(tmp_path, "F", 1, 25.0)
     _seed_job(tmp_path, "F", 0, 24.0)
     assert pick(find_runs([tmp_path]), "F", 4.0, prefer_sweep="ablation").metrics["psnr"] == 24.0
+
+
+def test_a_difference_under_two_standard_errors_is_called_unresolved():
+    from mcd.reporting.seeds import _resolved
+
+    assert _resolved(0.33, 0.24) == "1.4 standard errors from zero: NOT resolved by these seeds"
+    assert _resolved(-0.6, 0.2).startswith("3.0 standard errors from zero: resolved")
+    assert _resolved(0.5, math.nan) == "spread unknown"
