@@ -15,28 +15,32 @@ from pathlib import Path
 import pandas as pd
 
 from mcd.reporting.runs import Run
-from mcd.reporting.select import to_markdown, write_table
+from mcd.reporting.select import metric, to_markdown, write_table
 from mcd.reporting.tables import STEPS
 
 SEEDS_SWEEP = "seeds"
 
 
 def seed_runs(runs: list[Run]) -> list[Run]:
-    """Finished, non-transfer jobs of the seeds sweep that know their seed."""
+    """Finished, non-transfer jobs of the seeds sweep that know their seed and budget."""
     return [
         r
         for r in runs
-        if r.sweep == SEEDS_SWEEP and r.status == "ok" and r.transfer is None and r.seed is not None
+        if r.sweep == SEEDS_SWEEP
+        and r.status == "ok"
+        and r.transfer is None
+        and r.seed is not None
+        and r.budget is not None
     ]
 
 
-def _psnr_by_seed(runs: list[Run]) -> dict[tuple[str, float], dict[int, tuple[float, float]]]:
-    """(experiment, budget) -> seed -> (PSNR, SSIM); the first run by path wins a duplicated seed."""
+def _by_seed(runs: list[Run]) -> dict[tuple[str, float], dict[int, tuple[float, float]]]:
+    """(experiment, budget) -> seed -> (PSNR, SSIM; NaN if absent); the first run by path wins a duplicated
+    seed."""
     out: dict[tuple[str, float], dict[int, tuple[float, float]]] = {}
     for r in sorted(runs, key=lambda r: str(r.path)):
-        assert r.metrics is not None and r.seed is not None and r.budget is not None
         per_seed = out.setdefault((r.experiment, r.budget), {})
-        per_seed.setdefault(r.seed, (float(r.metrics["psnr"]), float(r.metrics["ssim"])))
+        per_seed.setdefault(r.seed, (metric(r, "psnr"), metric(r, "ssim")))
     return out
 
 
@@ -48,7 +52,7 @@ def _std(values: list[float]) -> float:
 def spread(runs: list[Run]) -> pd.DataFrame:
     """One row per (experiment, budget): seeds, PSNR and SSIM x1e2 mean / std / min / max."""
     rows = []
-    for (exp, budget), per_seed in sorted(_psnr_by_seed(seed_runs(runs)).items()):
+    for (exp, budget), per_seed in sorted(_by_seed(seed_runs(runs)).items()):
         psnr = [v[0] for v in per_seed.values()]
         ssim = [v[1] * 1e2 for v in per_seed.values()]
         rows.append(
@@ -84,7 +88,7 @@ def _chain_pairs(experiments: set[str]) -> list[tuple[str, str]]:
 def differences(runs: list[Run]) -> pd.DataFrame:
     """Mean PSNR of `b` minus mean PSNR of `a` over their seeds, for consecutive chain rows and F - A, with
     the standard error of that difference and whether the two rows' seed ranges overlap."""
-    by = _psnr_by_seed(seed_runs(runs))
+    by = _by_seed(seed_runs(runs))
     rows = []
     for budget in sorted({b for _, b in by}):
         for a, b in _chain_pairs({e for e, bb in by if bb == budget}):
@@ -155,24 +159,24 @@ def checks(diffs: pd.DataFrame) -> list[str]:
     return lines
 
 
+def _job_key(run: Run) -> tuple[object, ...]:
+    """Two jobs are the same job when experiment, budget, seed (default 0), profile and steps agree."""
+    steps = run.metrics.get("train_steps") if run.metrics is not None else None
+    return (run.experiment, run.budget, run.seed or 0, run.data_profile, steps)
+
+
 def reproducibility(runs: list[Run]) -> list[str]:
-    """Seeds-sweep jobs that repeat another sweep's job (same experiment, budget, seed, data profile and
-    optimiser steps): how far apart their PSNRs are. Same code and config should give the same number."""
-    others = [r for r in runs if r.sweep != SEEDS_SWEEP and r.status == "ok" and r.transfer is None]
-    gaps = []
-    for r in seed_runs(runs):
-        assert r.metrics is not None
-        for o in others:
-            assert o.metrics is not None
-            same = (
-                o.experiment,
-                o.budget,
-                o.seed if o.seed is not None else 0,
-                o.data_profile,
-                o.metrics.get("train_steps"),
-            ) == (r.experiment, r.budget, r.seed, r.data_profile, r.metrics.get("train_steps"))
-            if same:
-                gaps.append((abs(float(r.metrics["psnr"]) - float(o.metrics["psnr"])), r.experiment))
+    """Seeds-sweep jobs that repeat another sweep's job (same :func:`_job_key`): how far apart their PSNRs
+    are. Same code and config should give the same number."""
+    others: dict[tuple[object, ...], list[Run]] = {}
+    for o in runs:
+        if o.sweep != SEEDS_SWEEP and o.status == "ok" and o.transfer is None:
+            others.setdefault(_job_key(o), []).append(o)
+    gaps = [
+        (abs(metric(r, "psnr") - metric(o, "psnr")), r.experiment)
+        for r in seed_runs(runs)
+        for o in others.get(_job_key(r), [])
+    ]
     if not gaps:
         return []
     worst = max(gaps)

@@ -177,3 +177,12 @@ def test_a_difference_under_two_standard_errors_is_called_unresolved():
     assert _resolved(0.33, 0.24) == "1.4 standard errors from zero: NOT resolved by these seeds"
     assert _resolved(-0.6, 0.2).startswith("3.0 standard errors from zero: resolved")
     assert _resolved(0.5, math.nan) == "spread unknown"
+
+
+def test_seeds_run_without_ssim_shows_a_gap_not_a_crash(tmp_path):
+    from mcd.reporting import seeds
+
+    _job(tmp_path, "F_spp4_seed0", metrics={"psnr": 21.0, "experiment": "F", "budget": 4, "seed": 0}, sweep="seeds")
+    _seed_job(tmp_path, "F", 1, 22.0)
+    row = seeds.spread(find_runs([tmp_path])).iloc[0]
+    assert row["n"] == 2 and row["PSNR mean"] == 21.5 and math.isnan(row["SSIM mean"])
