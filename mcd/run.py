@@ -25,11 +25,12 @@ import pandas as pd
 import torch
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
+from hydra.utils import instantiate
 from lightning.pytorch.callbacks import ModelCheckpoint
-from lightning.pytorch.loggers import CSVLogger
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.lit import DenoiseModule, build_loss
+from mcd.lit import DenoiseModule, budget, build_loss
+from mcd.lit import precision as lit_precision
 from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate
 from mcd.models.switches import check_switches, switch_row
 
@@ -133,12 +134,20 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     loss = build_loss(cfg)
     lit = DenoiseModule(cfg, model, loss, sample_dir=out_dir / "samples")
 
-    best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-epoch{epoch:03d}",
-                           auto_insert_metric_name=False, monitor="val/loss", mode="min", save_top_k=1,
+    best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-step{step:06d}",
+                           auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1,
                            save_last=True)
-    trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True), default_root_dir=str(out_dir),
-                        callbacks=[best],
-                        logger=CSVLogger(str(out_dir), name="logs", version="", flush_logs_every_n_steps=10))
+    stopper = budget.early_stopping(cfg.train)
+    trainer_cfg = OmegaConf.to_container(cfg.trainer, resolve=True)
+    trainer_cfg["precision"] = lit_precision.resolve(str(trainer_cfg.get("precision", "32-true")),
+                                                     str(trainer_cfg.get("accelerator", "auto")))
+    if lit_precision.on_cpu(str(trainer_cfg.get("accelerator", "auto"))):
+        torch.set_flush_denormal(True)  # denormal floats are slow on x86 and meaningless for images
+    lit.max_seconds = 60 * float(cfg.train.max_minutes) if cfg.train.get("max_minutes") else None
+    trainer = L.Trainer(**trainer_cfg, **budget.trainer_limits(cfg.train), default_root_dir=str(out_dir),
+                        callbacks=[best, budget.LearningCurve(out_dir / "curve.csv"),
+                                   *([stopper] if stopper is not None else [])],
+                        logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
     if trainable and not any(p.requires_grad for p in model.parameters()):
@@ -148,11 +157,12 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     if trainable:
         trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None)
         tested = best.best_model_path or best.last_model_path
-        log.info("testing checkpoint %s (best val/loss %s)", tested, best.best_model_score)
+        log.info("testing checkpoint %s (best val/psnr %s dB)", tested, best.best_model_score)
     else:
         tested = None
         log.info("method %s is not trained (method.trainable=false): testing it as built", cfg.method.name)
     train_s = time.perf_counter() - t0
+    stopped = budget.stop_reason(trainer, cfg.train, stopper, train_s) if trainable else "not trained"
     t0 = time.perf_counter()
     trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False)
     test_s = time.perf_counter() - t0
@@ -188,15 +198,16 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         "perceptual_loss": lit.loss_fn.perceptual_status.as_dict(),
         **git_commit(),
         "device": device_name(lit.device),
-        "precision": str(cfg.trainer.precision),
+        "precision": str(trainer_cfg["precision"]),
         "torch": torch.__version__,
         "config": str(out_dir / "resolved_config.yaml"),
         "data": report,
         "trained": trainable,
         "transfer": transfer_info,
         "checkpoint": tested,
-        "best_val_loss": float(best.best_model_score) if best.best_model_score is not None else None,
+        "best_val_psnr": float(best.best_model_score) if best.best_model_score is not None else None,
         "train_steps": int(trainer.global_step),
+        "stop_reason": stopped,
         "epochs": int(trainer.current_epoch),
         "data_s": data_s,
         "train_s": train_s,

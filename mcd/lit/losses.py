@@ -9,7 +9,8 @@ compressed colour range (``loss.space``, default ``log1p``).
 Every loss is an ``nn.Module`` called as ``loss(pred, ref) -> dict`` with ``pred`` and ``ref`` the clip's
 outputs and references ``[B, T, 3, H, W]`` (linear HDR); the dict holds the total under ``"loss"`` and each
 term under its own name (logged as ``train/<name>``). It has a ``perceptual_status``
-(:class:`PerceptualStatus`).
+(:class:`PerceptualStatus`) and may say how many of the clip's last outputs it reads (``frames_needed``;
+absent = all): the training module then computes only those (docs/training.md, "Throughput").
 
 Other losses (baselines) register themselves with :func:`register_loss` in their own module; a loss config
 names that module in ``loss.module`` so that :func:`build_loss` imports it first.
@@ -86,6 +87,9 @@ class PaperLoss(nn.Module):
         self.space = str(cfg.loss.space)
         compress(torch.zeros(1), self.space)  # validate early
         self.w_s, self.w_t, self.w_p = float(cfg.loss.w_s), float(cfg.loss.w_t), float(cfg.loss.w_p)
+        #: The loss reads the clip's last output (L_s, L_p) and the one before it (L_t): mcd.lit.module runs
+        #: only what it needs.
+        self.frames_needed = 2 if self.w_t > 0 else 1
         if self.w_p > 0:
             self.vgg, self.perceptual_status = perceptual_from_cfg(cfg)
         else:

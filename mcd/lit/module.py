@@ -1,9 +1,16 @@
 """The LightningModule that trains, validates and tests every method (method.md "Training protocol").
 
 - Training / validation: a batch holds clips ``[B, T, C, H, W]``; the model is ``reset()`` at the clip start
-  and run frame by frame so that temporal models carry their state across the clip; the loss sees all ``T``
-  outputs (the paper's loss reads the last one or two). ``ref`` reaches the model in training only (DASR's
-  gradient).
+  and run frame by frame so that temporal models carry their state across the clip. Only the frames the loss
+  reads are computed (docs/training.md, "Throughput"): a loss with ``frames_needed = k`` (the paper's: 2, the
+  last two for ``L_t``) gets the last ``k`` outputs; a model without temporal state (``temporal_state``
+  false) runs only those ``k`` frames, a temporal one runs the whole clip and, with ``train.grad_frames = n``,
+  the frames before the last ``n`` without gradient (truncated backpropagation through time). ``ref``
+  reaches the model in training only (DASR's gradient).
+- Validation logs ``val/loss`` and ``val/psnr``, ``val/ssim`` of the last frame of each clip (the test
+  metrics of ``mcd.metrics``); the best checkpoint is the one with the highest ``val/psnr``.
+- The learning rate follows a cosine from ``train.lr`` to ``train.lr_min`` over the training budget
+  (:func:`cosine_factor`; the budget's progress is ``DenoiseModule.progress``).
 - Test: whole frames, one current frame per batch, in sequence order; ``reset()`` where ``batch["reset"]``
   is set, so state is carried across a whole test sequence. Per-frame metrics (``mcd.metrics``) of the output
   and of the noisy uniform input at the same budget (``c{budget}``) are collected in
@@ -15,6 +22,7 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import lightning as L
@@ -39,6 +47,13 @@ def check_finite(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
         if not torch.isfinite(value).all():
             raise ValueError(f"non-finite values in buffer {name!r} of scenes {batch.get('scene')} frames "
                              f"{batch.get('frame')}: the datamodule must sanitise NaN/Inf at load")
+
+
+def cosine_factor(progress: float, lr: float, lr_min: float) -> float:
+    """Multiplier of ``lr`` at ``progress`` (0..1) of the budget: cosine annealing from ``lr`` to ``lr_min``."""
+    p = min(max(progress, 0.0), 1.0)
+    floor = lr_min / lr if lr > 0 else 0.0
+    return floor + (1.0 - floor) * 0.5 * (1.0 + math.cos(math.pi * p))
 
 
 def _hwc(x: Tensor) -> np.ndarray:
@@ -68,6 +83,15 @@ class DenoiseModule(L.LightningModule):
         self.test_rows: list[dict[str, object]] = []
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
         self._seq_pos = 0
+        grad_frames = cfg.train.get("grad_frames")
+        self.grad_frames = None if grad_frames is None else int(grad_frames)
+        if self.grad_frames is not None and self.grad_frames < 1:
+            raise ValueError(f"train.grad_frames={grad_frames}: give the number of last clip frames that get "
+                             "gradient (>= 1), or null for all")
+        #: Budget of the cosine schedule: seconds (``train.max_minutes``), set by ``mcd.run``; ``None`` = steps.
+        self.max_seconds: float | None = None
+        self._fit_started: float | None = None
+        self._total_steps = math.inf
         self.save_hyperparameters({"cfg": OmegaConf.to_container(cfg, resolve=True)})
 
     # -- frame-by-frame execution -------------------------------------------------------------------------
@@ -83,30 +107,63 @@ class DenoiseModule(L.LightningModule):
             x["ref"] = None
         return x
 
+    def clip_plan(self, steps: int) -> tuple[int, int, int]:
+        """``(first frame run, first frame with gradient, first frame returned)`` for a clip of ``steps``.
+
+        The loss reads its last ``frames_needed`` outputs (all when it does not say); a model without
+        temporal state need not run the frames before those; a temporal model runs the whole clip, the frames
+        before the last ``train.grad_frames`` without gradient.
+        """
+        needed = getattr(self.loss_fn, "frames_needed", None)
+        returned = steps - min(int(needed), steps) if needed else 0
+        if not getattr(self.model, "temporal_state", True):
+            return returned, returned, returned
+        grad = 0 if self.grad_frames is None else max(steps - max(self.grad_frames, steps - returned), 0)
+        return 0, grad, returned
+
     def run_clip(self, batch: dict[str, object], with_ref: bool) -> Tensor:
-        """Outputs ``[B, T, 3, H, W]`` of a clip, the model reset at its start and stepped frame by frame."""
+        """Outputs ``[B, T', 3, H, W]`` of a clip's last ``T'`` frames (:meth:`clip_plan`), the model reset at
+        the clip start and stepped frame by frame."""
         buffers = clip_buffers(batch)
         check_finite(buffers, batch)
         self.model.reset()
-        steps = buffers["ref"].shape[1]
-        return torch.stack([self.model(self._frame_input(buffers, t, with_ref))["output"]
-                            for t in range(steps)], dim=1)
+        first, grad_from, returned = self.clip_plan(buffers["ref"].shape[1])
+        outputs = []
+        for t in range(first, buffers["ref"].shape[1]):
+            with torch.set_grad_enabled(torch.is_grad_enabled() and t >= grad_from):
+                y = self.model(self._frame_input(buffers, t, with_ref))["output"]
+            if t >= returned:
+                outputs.append(y)
+        return torch.stack(outputs, dim=1)
 
-    def _loss(self, batch: dict[str, object], stage: str, with_ref: bool) -> Tensor:
+    def _loss(self, batch: dict[str, object], stage: str, with_ref: bool) -> tuple[Tensor, Tensor]:
         pred = self.run_clip(batch, with_ref)
-        terms = self.loss_fn(pred, clip_buffers(batch)["ref"])
+        terms = self.loss_fn(pred, clip_buffers(batch)["ref"][:, -pred.shape[1]:])
         size = pred.shape[0]
         for name, value in terms.items():
             self.log(f"{stage}/{name}", value, prog_bar=name == "loss", on_step=stage == "train",
                      on_epoch=True, batch_size=size)
-        return terms["loss"]
+        return terms["loss"], pred
 
     # -- Lightning hooks ----------------------------------------------------------------------------------
     def on_fit_start(self) -> None:
         self.loss_fn.to(self.device)
 
+    def on_train_start(self) -> None:
+        self._fit_started = time.perf_counter()
+        self._total_steps = float(self.trainer.estimated_stepping_batches)
+
+    def progress(self, step: int) -> float:
+        """How much of the training budget ``step`` has used (0..1): the larger of the step share
+        (``max_steps`` or the epochs' steps) and the wall-clock share (``max_seconds``)."""
+        total = self._total_steps
+        shares = [step / total] if math.isfinite(total) and total > 0 else []
+        if self.max_seconds and self._fit_started is not None:
+            shares.append((time.perf_counter() - self._fit_started) / self.max_seconds)
+        return max(shares, default=0.0)
+
     def training_step(self, batch: dict[str, object], batch_idx: int) -> Tensor:
-        loss = self._loss(batch, "train", with_ref=True)
+        loss, _ = self._loss(batch, "train", with_ref=True)
         if not torch.isfinite(loss):
             raise FloatingPointError(f"non-finite training loss at step {self.global_step} (scenes "
                                      f"{batch.get('scene')}, frames {batch.get('frame')}); lower train.lr "
@@ -114,14 +171,21 @@ class DenoiseModule(L.LightningModule):
         return loss
 
     def validation_step(self, batch: dict[str, object], batch_idx: int) -> Tensor:
-        return self._loss(batch, "val", with_ref=False)
+        loss, pred = self._loss(batch, "val", with_ref=False)
+        ref = clip_buffers(batch)["ref"][:, -1]
+        for b in range(pred.shape[0]):
+            scores = frame_metrics(_hwc(pred[b, -1]), _hwc(ref[b]))
+            for name in ("psnr", "ssim"):
+                self.log(f"val/{name}", scores[name], on_epoch=True, batch_size=1)
+        return loss
 
     def configure_optimizers(self) -> dict[str, object]:
         train = self.cfg.train
-        opt = torch.optim.Adam(self.model.parameters(), lr=float(train.lr),
-                               weight_decay=float(train.weight_decay))
-        steps = max(int(self.trainer.estimated_stepping_batches), 1)
-        sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=steps, eta_min=float(train.lr_min))
+        lr, lr_min = float(train.lr), float(train.lr_min)
+        opt = torch.optim.Adam(self.model.parameters(), lr=lr, weight_decay=float(train.weight_decay))
+        self._total_steps = float(self.trainer.estimated_stepping_batches)
+        sched = torch.optim.lr_scheduler.LambdaLR(
+            opt, lambda step: cosine_factor(self.progress(step), lr, lr_min))
         return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
 
     def on_test_start(self) -> None:

@@ -67,8 +67,11 @@ def prepare(cfg: DictConfig) -> tuple[DictConfig, dict[str, Any] | None]:
     with open_dict(cfg):
         cfg.data.train_scenes = scenes
         cfg.data.test_scenes = scenes
-        cfg.train.epochs = epochs
-        cfg.trainer.max_epochs = epochs
+        cfg.train.epochs = epochs  # the fine-tuning budget is epochs alone (mcd.lit.budget)
+        cfg.train.max_steps = None
+        cfg.train.max_minutes = None
+        cfg.train.patience = None
+        cfg.train.val_every_steps = None
         if epochs > 0:
             cfg.train.batch_size = 1
             cfg.train.limit_train_batches = int(t.get("finetune_clips", 1))

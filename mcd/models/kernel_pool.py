@@ -1,12 +1,18 @@
 """Kernel pool: adjustment, interpolation, per-pixel application (paper Sec. 3.1; method.md "Kernel pool").
 
-- Pool ``pi``: ``q`` learnable ``l x l`` kernels, initialised Bernoulli(0.5) in {0, 1}.
+- Pool ``pi``: ``q`` learnable ``l x l`` kernels, initialised Bernoulli(0.5) in {0, 1} (times
+  ``pool_init_scale``, default 1 = the paper; a larger scale gives sharper kernels under the softmax).
 - Adjustment: ``F_s``'s coarsest features -> adaptive average pool to ``l x l`` -> MLP lifting channels to
   ``q`` -> 1-D convolution over the kernel index (window 5) = residual ``r``; gate ``alpha = sigmoid(MLP(pi +
   r))`` per kernel; ``pi_bar = (1 - alpha) pi + alpha r``.
 - Descriptor: a convolution with an ``l x l`` kernel reduces ``pi_bar`` (``q`` channels) to a short vector.
 - Kernel map ``h`` (2 channels, tanh): from ``F_s``'s finest features, ``g``, the adaptive image ``i`` and the
-  descriptor, through a few conv blocks (Fast GhostConv when FG is on, as every block of ``F_s``).
+  descriptor, through a few conv blocks (Fast GhostConv when FG is on, as every block of ``F_s``). What
+  enters the final ``tanh`` is ``method.kp.head_output`` (docs/kernel_pool.md): ``tanh`` = the head's output
+  ``z`` as it is (the paper's text), ``tempered`` = ``z / temperature``, ``rms`` (default) = ``z`` divided by
+  its root mean square over the image, per channel: ``tanh`` then cannot saturate everywhere, so the pool
+  keeps receiving gradient (without it the map saturates at the identity within ~100 steps and the pool is
+  never used).
 - Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
   over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
   between that kernel and the identity.
@@ -73,11 +79,12 @@ class KernelPool(nn.Module):
     """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features."""
 
     def __init__(self, coarse_channels: int, q: int = 128, size: int = 5, lift_hidden: int = 128,
-                 alpha_hidden: int = 64, window: int = 5, descriptor: int = 16) -> None:
+                 alpha_hidden: int = 64, window: int = 5, descriptor: int = 16,
+                 pool_init_scale: float = 1.0) -> None:
         super().__init__()
         self.q, self.size = q, size
         taps = size * size
-        self.pool = nn.Parameter(torch.bernoulli(torch.full((q, taps), 0.5)))
+        self.pool = nn.Parameter(pool_init_scale * torch.bernoulli(torch.full((q, taps), 0.5)))
         self.lift = nn.Sequential(nn.Linear(coarse_channels, lift_hidden), nn.ReLU(inplace=True),
                                   nn.Linear(lift_hidden, q))
         self.neighbours = nn.Conv1d(taps, taps, window, padding=window // 2)
@@ -104,11 +111,21 @@ class KernelPool(nn.Module):
         return torch.softmax(adjusted.float(), dim=-1)
 
 
+#: What enters the kernel-map head's final ``tanh`` (``method.kp.head_output``; see the module docstring).
+HEAD_OUTPUTS = ("tanh", "tempered", "rms")
+
+
 class KernelMapHead(nn.Module):
     """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor)."""
 
-    def __init__(self, cin: int, widths: list[int], block: BlockFactory) -> None:
+    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms",
+                 temperature: float = 1.0) -> None:
         super().__init__()
+        if output not in HEAD_OUTPUTS:
+            raise ValueError(f"method.kp.head_output={output!r}: expected one of {HEAD_OUTPUTS}")
+        if not temperature > 0:
+            raise ValueError(f"method.kp.temperature={temperature!r}: expected a positive number")
+        self.output, self.temperature = output, float(temperature)
         layers: list[nn.Module] = []
         for w in widths:
             layers.append(block(cin, w))
@@ -117,4 +134,9 @@ class KernelMapHead(nn.Module):
         self.out = nn.Conv2d(cin, 2, 3, padding=1)
 
     def forward(self, features: Tensor) -> Tensor:
-        return torch.tanh(self.out(self.blocks(features)))
+        z = self.out(self.blocks(features))
+        if self.output == "tempered":
+            z = z / self.temperature
+        elif self.output == "rms":
+            z = z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
+        return torch.tanh(z)

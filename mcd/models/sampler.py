@@ -26,7 +26,8 @@ class SamplingNetwork(nn.Module):
     """``F_s``: logits for the sampling map and, with KP, the kernel pool and kernel-map head."""
 
     def __init__(self, widths: list[int], convs: int, kernel_pool: bool, ghost: bool,
-                 ghost_cfg: dict | None = None, kp_cfg: dict | None = None) -> None:
+                 ghost_cfg: dict | None = None, kp_cfg: dict | None = None,
+                 kp_options: dict | None = None) -> None:
         super().__init__()
         block: BlockFactory = partial(FastGhostConv, **(ghost_cfg or {})) if ghost else ConvReLU
         self.unet = UNet(SAMPLER_IN, 1, widths, convs, block=block)
@@ -35,9 +36,11 @@ class SamplingNetwork(nn.Module):
         if kernel_pool:
             kp = dict(kp_cfg or {})
             head_widths = list(kp.pop("head_widths", [32, 32]))
-            self.pool = KernelPool(widths[-1], **kp)
+            options = dict(kp_options or {})
+            self.pool = KernelPool(widths[-1], **kp, pool_init_scale=float(options.get("pool_init_scale", 1.0)))
             head_in = widths[0] + 7 + 3 + self.pool.describe.out_channels
-            self.head = KernelMapHead(head_in, head_widths, block)
+            self.head = KernelMapHead(head_in, head_widths, block, output=str(options.get("head_output", "rms")),
+                                      temperature=float(options.get("temperature", 1.0)))
 
     def forward(self, x: Tensor) -> dict[str, Tensor]:
         """``{"logits", "finest", "coarsest"}`` for the 12-channel sampler input."""

@@ -4,7 +4,11 @@
 - AS: the sampling network ``F_s`` predicts logits, :func:`mcd.sampling.adaptive_render` turns them into the
   sampling map ``m`` and the adaptive image ``i``; ``F_d`` sees ``i``, ``g`` and ``m / (s - 1)``.
 - KP (needs AS): ``F_s`` also predicts the kernel map; the kernel pool's per-pixel kernels give ``i_bar``;
-  ``F_d`` sees ``i_bar``, ``i``, ``g`` and ``m / (s - 1)``.
+  ``F_d`` sees ``i_bar``, ``g`` and ``m / (s - 1)`` (paper Sec. 3.1: each pixel of ``i_bar`` switches between
+  the filtered and the raw adaptive pixel, so ``F_d`` does not read ``i`` itself). ``method.kp`` holds the
+  kernel pool's options (docs/kernel_pool.md): ``denoiser_reads_adaptive: true`` feeds ``i`` to ``F_d``
+  beside ``i_bar`` (this project's behaviour before; the map then bypasses the pool), ``head_output``,
+  ``temperature`` and ``pool_init_scale`` (mcd.models.kernel_pool).
 - PP: position-aware pooling in ``F_d``'s encoder. FG (needs AS): Fast GhostConv blocks in ``F_s``.
   SA: semantic alignment at ``F_d``'s deepest level (state across frames until :meth:`reset`).
 Colour is compressed inside (``method.colour``, default ``log1p``); inputs and outputs are linear HDR.
@@ -32,7 +36,7 @@ class TwoStage(nn.Module):
     window = (0, 0)
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
-                 colour: str = "log1p") -> None:
+                 colour: str = "log1p", kp: dict | None = None) -> None:
         super().__init__()
         self.sw = dict(switches)
         self.budget, self.levels, self.colour = float(budget), levels, colour
@@ -47,8 +51,10 @@ class TwoStage(nn.Module):
             smp = widths["sampler"]
             self.sampler: SamplingNetwork | None = SamplingNetwork(
                 list(smp["widths"]), smp["convs"], kernel_pool=self.sw["KP"], ghost=self.sw["FG"],
-                ghost_cfg=dict(widths.get("ghost", {})), kp_cfg=dict(widths.get("kernel_pool", {})))
-            cin = (3 if self.sw["KP"] else 0) + 3 + 7 + 1
+                ghost_cfg=dict(widths.get("ghost", {})), kp_cfg=dict(widths.get("kernel_pool", {})),
+                kp_options=kp)
+            self.reads_adaptive = not self.sw["KP"] or bool((kp or {}).get("denoiser_reads_adaptive", False))
+            cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
         else:
             self.sampler = None
             uniform = f"c{int(self.budget)}"
@@ -61,6 +67,12 @@ class TwoStage(nn.Module):
         self.denoiser = Denoiser(cin, list(den["widths"]), den["convs"], position_pooling=self.sw["PP"],
                                  semantic_alignment=self.sw["SA"], pp_hidden=pp.get("hidden", 0),
                                  heads=att.get("heads", 4), ffn_mult=att.get("ffn_mult", 2))
+
+    @property
+    def temporal_state(self) -> bool:
+        """Only semantic alignment carries state from frame to frame (mcd.lit.module skips the clip frames the
+        loss does not read for rows without it)."""
+        return self.sw["SA"]
 
     def required_buffers(self) -> set[str]:
         if self.sw["AS"]:
@@ -91,7 +103,7 @@ class TwoStage(nn.Module):
             feats = [ic, g, smap]
             if self.sw["KP"]:
                 kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic)
-                feats = [kp["initial"], ic, g, smap]
+                feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, smap]
                 out["kernel_map"] = kp["kernel_map"].float()
                 out["initial"] = expand(kp["initial"], self.colour)
             out["sampling_map"] = m
@@ -105,7 +117,7 @@ class TwoStage(nn.Module):
 
 @register("two_stage")
 def build_two_stage(cfg: DictConfig) -> TwoStage:
-    """``TwoStage`` from ``cfg.method`` (switches, ``sampling.levels``, ``colour``), ``cfg.budget`` and
+    """``TwoStage`` from ``cfg.method`` (switches, ``sampling.levels``, ``colour``, ``kp``), ``cfg.budget`` and
     ``cfg.model.two_stage`` (widths)."""
     switches = check_switches(cfg.method, complete=True)
     if "model" not in cfg or "two_stage" not in cfg.model:
@@ -113,5 +125,7 @@ def build_two_stage(cfg: DictConfig) -> TwoStage:
                        "capacity profile, e.g. model=cpu or model=paper")
     widths = OmegaConf.to_container(cfg.model.two_stage, resolve=True)
     sampling = cfg.method.get("sampling", None) or {}
+    kp = cfg.method.get("kp", None)
     return TwoStage(switches, cfg.budget, widths, levels=int(sampling.get("levels", 5)),
-                    colour=cfg.method.get("colour", "log1p"))
+                    colour=cfg.method.get("colour", "log1p"),
+                    kp=OmegaConf.to_container(kp, resolve=True) if kp is not None else None)

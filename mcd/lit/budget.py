@@ -1,0 +1,119 @@
+"""Training budgets, learning curves and why training stopped (docs/training.md, "Budgets").
+
+A run trains until the first of ``train.max_steps`` optimiser steps, ``train.max_minutes`` of wall clock,
+``train.epochs`` epochs, or a plateau of the validation PSNR (``train.patience`` validations without a gain of
+``train.min_delta`` dB) is reached; ``null`` turns a limit off, and at least one of the first three must be
+set. Validation runs every ``train.val_every_steps`` optimiser steps (else every ``train.val_every`` epochs).
+The cosine learning-rate schedule spans the budget (``mcd.lit.module.DenoiseModule.progress``).
+:class:`LearningCurve` appends validation PSNR/SSIM/loss against step and seconds to ``curve.csv``.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from pathlib import Path
+
+import lightning as L
+from lightning.pytorch.callbacks import Callback, EarlyStopping
+from omegaconf import DictConfig
+
+#: Columns of ``curve.csv``: one row per validation.
+CURVE_COLUMNS = ("step", "epoch", "seconds", "lr", "train_loss", "val_loss", "val_psnr", "val_ssim")
+
+
+def _limit(train: DictConfig, key: str) -> float | None:
+    value = train.get(key)
+    if value is None:
+        return None
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"train.{key}={value!r}: expected a positive number or null") from err
+    if not (number > 0 or (key == "epochs" and number == 0)):  # 0 epochs: test as loaded (transfer)
+        raise ValueError(f"train.{key}={value!r}: expected a positive number or null (no limit)")
+    return number
+
+
+def trainer_limits(train: DictConfig) -> dict[str, object]:
+    """Lightning Trainer arguments for the budget and the validation cadence of ``train.*``."""
+    epochs, steps, minutes = (_limit(train, k) for k in ("epochs", "max_steps", "max_minutes"))
+    if epochs is None and steps is None and minutes is None:
+        raise ValueError("no training budget: set train.max_steps, train.max_minutes or train.epochs")
+    every = train.get("val_every_steps")
+    kwargs: dict[str, object] = {
+        "max_epochs": int(epochs) if epochs is not None else -1,
+        "max_steps": int(steps) if steps is not None else -1,
+        "max_time": {"seconds": minutes * 60} if minutes is not None else None,
+    }
+    if every:
+        kwargs.update(val_check_interval=int(every), check_val_every_n_epoch=None)
+    else:
+        kwargs.update(check_val_every_n_epoch=int(train.get("val_every", 1)))
+    return kwargs
+
+
+def early_stopping(train: DictConfig) -> EarlyStopping | None:
+    """Stop when ``val/psnr`` has not risen by ``train.min_delta`` dB for ``train.patience`` validations."""
+    patience = train.get("patience")
+    if patience is None:
+        return None
+    return EarlyStopping(monitor="val/psnr", mode="max", patience=int(patience),
+                         min_delta=float(train.get("min_delta", 0.0)), check_finite=True)
+
+
+def stop_reason(trainer: L.Trainer, train: DictConfig, stopper: EarlyStopping | None, seconds: float) -> str:
+    """Why training ended: ``plateau``, ``max_steps``, ``max_minutes``, ``epochs`` (or ``interrupted``)."""
+    if stopper is not None and stopper.stopped_epoch > 0:
+        return "plateau"
+    steps, minutes = _limit(train, "max_steps"), _limit(train, "max_minutes")
+    if steps is not None and trainer.global_step >= steps:
+        return "max_steps"
+    if minutes is not None and seconds >= 0.98 * minutes * 60:
+        return "max_minutes"
+    epochs = _limit(train, "epochs")
+    if epochs is not None and trainer.current_epoch >= epochs:
+        return "epochs"
+    return "interrupted"
+
+
+class LearningCurve(Callback):
+    """Appends one row of :data:`CURVE_COLUMNS` to ``path`` after every validation (rank 0), so that a
+    resumed run keeps its earlier curve. ``seconds`` is wall clock since training started (a resumed run
+    goes on from its last row's seconds)."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self.started = math.nan
+
+    def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        offset = 0.0  # a resumed run continues its clock from the last row written
+        if trainer.global_step > 0 and self.path.is_file():
+            with self.path.open(newline="") as f:
+                rows = list(csv.DictReader(f))
+            offset = float(rows[-1]["seconds"]) if rows else 0.0
+        self.started = time.perf_counter() - offset
+
+    def on_validation_end(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        if trainer.sanity_checking or not trainer.is_global_zero:
+            return
+        metrics = trainer.callback_metrics
+
+        def value(key: str) -> float:
+            return float(metrics[key]) if key in metrics else math.nan
+
+        opt = trainer.optimizers[0] if trainer.optimizers else None
+        row = {"step": trainer.global_step, "epoch": trainer.current_epoch,
+               "seconds": round(time.perf_counter() - self.started, 3),
+               "lr": opt.param_groups[0]["lr"] if opt is not None else math.nan,
+               "train_loss": value("train/loss_epoch") if "train/loss_epoch" in metrics
+               else value("train/loss_step"),
+               "val_loss": value("val/loss"), "val_psnr": value("val/psnr"), "val_ssim": value("val/ssim")}
+        new = not self.path.is_file()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with self.path.open("a", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=CURVE_COLUMNS)
+            if new:
+                writer.writeheader()
+            writer.writerow(row)

@@ -1,0 +1,53 @@
+"""``trainer.precision=auto``: the fastest training precision that keeps accuracy on this machine
+(docs/training.md, "Throughput", where the choice is measured with ``python -m mcd.bench --train``).
+
+- CUDA: ``bf16-mixed`` where the GPU supports bf16, else ``32-true``.
+- CPU: ``bf16-mixed`` only where the CPU computes bf16 natively (``avx512_bf16`` or ``amx_bf16``) *and*
+  :data:`CPU_BF16_PAYS` says the benchmark found it faster; else ``32-true``.
+Any other value of ``trainer.precision`` is Lightning's and passes through unchanged. The choice is logged.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import torch
+
+log = logging.getLogger(__name__)
+
+#: Whether bf16-mixed training beat fp32 on a bf16-capable CPU in the throughput benchmark
+#: (reports/bench/train.csv; docs/training.md "Throughput").
+CPU_BF16_PAYS = False
+
+
+def cpu_bf16_flags() -> set[str]:
+    """The CPU's native bf16 instruction sets among ``avx512_bf16`` and ``amx_bf16`` (Linux; empty elsewhere)."""
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return set()
+    flags = next((line.split(":", 1)[1].split() for line in text.splitlines() if line.startswith("flags")), [])
+    return {"avx512_bf16", "amx_bf16"} & set(flags)
+
+
+def on_cpu(accelerator: str) -> bool:
+    """Whether a Trainer with this ``accelerator`` trains on the CPU."""
+    return accelerator == "cpu" or (accelerator == "auto" and not torch.cuda.is_available())
+
+
+def resolve(precision: str, accelerator: str) -> str:
+    """Lightning's precision for ``trainer.precision`` (``auto`` resolved as the module docstring says)."""
+    if precision != "auto":
+        return precision
+    if not on_cpu(accelerator):
+        chosen = "bf16-mixed" if torch.cuda.is_bf16_supported() else "32-true"
+        why = "the GPU supports bf16" if chosen == "bf16-mixed" else "the GPU has no bf16"
+    else:
+        flags = cpu_bf16_flags()
+        chosen = "bf16-mixed" if flags and CPU_BF16_PAYS else "32-true"
+        why = (f"this CPU has {', '.join(sorted(flags))} and bf16 measured faster" if chosen == "bf16-mixed"
+               else "this CPU has no native bf16" if not flags
+               else "bf16-mixed measured no faster than fp32 on CPU (docs/training.md, 'Throughput')")
+    log.info("trainer.precision=auto -> %s (%s)", chosen, why)
+    return chosen
