@@ -2,10 +2,11 @@
 variants of the kernel-pool options (paper Sec. 3.1; docs/kernel_pool.md). Not a test: prints figures.
 
     python benchmarks/kernel_map_saturation.py [--experiments C,F] [--steps 300] [--every 100]
-        [--variant NAME=OVERRIDE,OVERRIDE ...] [--table docs/kernel_pool_variants.md] [overrides ...]
+        [--variant NAME=OVERRIDE,OVERRIDE ...] [--table docs/kernel_pool_variants.md]
+        [overrides ...]
 
-Each variant (default: :data:`VARIANTS`) trains each KP row (default C and F) from the same seed on the rendered
-data of the configured profile (default tiny) with the run's loss, Adam at ``train.lr`` cosine-annealed over
+Each variant (default: :data:`VARIANTS`) trains each KP row (default C and F) from the same seed on the
+rendered data of the configured profile (default tiny) with the run's loss, Adam at ``train.lr`` cosine-annealed over
 ``--steps`` steps, batch ``train.batch_size``, running the clip frames the loss needs (mcd.lit.module). Every
 ``--every`` steps and at the end it prints, on the validation clips (last frame, whole val crops):
 - ``z[0]``, ``z[1]``: the kernel-map head's pre-``tanh`` output (mean ± std over pixels, after
@@ -130,7 +131,8 @@ def train_variant(experiment: str, overrides: list[str], steps: int, every: int,
             step += 1
             if step % every == 0 or step == steps:
                 last = {**evaluate(model, lit, dm, z), "steps": step, "s": time.perf_counter() - t0}
-                print(f"{step:4d}  {last['z0']:5.2f}±{last['z0s']:5.2f}  {last['z1']:6.2f}±{last['z1s']:5.2f}  "
+                print(f"{step:4d}  {last['z0']:5.2f}±{last['z0s']:5.2f}  "
+                      f"{last['z1']:6.2f}±{last['z1s']:5.2f}  "
                       f"{last['identity']:8.3f}  {last['id>.975']:5.3f}  {last['index std']:9.3f}  "
                       f"{last['max tap']:7.3f}  {last['L1 i_bar']:8.4f}  {last['L1 i']:.4f}  "
                       f"{last['L1 out']:.4f}  {last['val PSNR']:8.2f}  {last['s']:.0f}", flush=True)
@@ -158,15 +160,18 @@ def main() -> None:
     results = []
     for name, extra in variants.items():
         for experiment in args.experiments.split(","):
-            last = train_variant(experiment, [*args.overrides, *extra], args.steps, args.every, args.seed, name)
+            last = train_variant(experiment, [*args.overrides, *extra], args.steps, args.every, args.seed,
+                                 name)
             results.append({"variant": name, "row": experiment, **last})
     if args.table:
         command = "python " + " ".join(shlex.quote(a) for a in sys.argv)
-        fmt = {"z0": "{:.2f}", "z1": "{:.2f}", "identity": "{:.3f}", "id>.975": "{:.3f}", "index std": "{:.3f}",
+        fmt = {"z0": "{:.2f}", "z1": "{:.2f}", "identity": "{:.3f}", "id>.975": "{:.3f}",
+               "index std": "{:.3f}",
                "max tap": "{:.3f}", "L1 i_bar": "{:.4f}", "L1 i": "{:.4f}", "L1 out": "{:.4f}",
                "val PSNR": "{:.2f}", "s": "{:.0f}", "steps": "{}"}
         lines = [f"`{command}`", "",
-                 f"commit {git_commit()['commit'][:10]}, {device_name(torch.device('cpu'))}, seed {args.seed}, "
+                 f"commit {git_commit()['commit'][:10]}, {device_name(torch.device('cpu'))}, "
+                 f"seed {args.seed}, "
                  f"overrides {args.overrides or 'none'}; variants: "
                  + "; ".join(f"**{k}** = `{' '.join(v)}`" for k, v in variants.items()), "",
                  "| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]

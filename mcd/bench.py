@@ -43,6 +43,8 @@ from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.lit.precision import cpu_bf16_supported
+
 log = logging.getLogger("mcd.bench")
 
 REPO = Path(__file__).resolve().parent.parent
@@ -101,12 +103,6 @@ class InferencePath:
     @property
     def dtype_name(self) -> str:
         return "fp32" if self.dtype is None else {torch.float16: "fp16", torch.bfloat16: "bf16"}[self.dtype]
-
-
-def cpu_bf16_supported() -> bool:
-    """Whether this CPU computes bf16 natively (AVX512-BF16 or AMX); emulated bf16 is slower than fp32."""
-    checks = ("_is_avx512_bf16_supported", "_is_amx_tile_supported")
-    return any(bool(getattr(torch.cpu, c, lambda: False)()) for c in checks)
 
 
 def inference_paths(device: torch.device, cpu_compile: bool) -> list[InferencePath]:
@@ -434,6 +430,13 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float) -
 
 
 def main(argv: list[str] | None = None) -> None:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if "--train" in argv:  # training throughput: mcd/train_bench.py
+        from mcd import train_bench
+
+        argv.remove("--train")
+        train_bench.main(argv)
+        return
     parser = argparse.ArgumentParser(
         prog="python -m mcd.bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -475,7 +478,7 @@ def main(argv: list[str] | None = None) -> None:
         args.frames,
     )
     write_csv(rows, args.out)
-    command = "python -m mcd.bench " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = "python -m mcd.bench " + " ".join(argv)
     write_readme(rows, args.out, command, time.perf_counter() - started)
     print(f"{len(rows)} rows -> {args.out}")
 

@@ -50,7 +50,7 @@ def check_finite(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
 
 
 def cosine_factor(progress: float, lr: float, lr_min: float) -> float:
-    """Multiplier of ``lr`` at ``progress`` (0..1) of the budget: cosine annealing from ``lr`` to ``lr_min``."""
+    """Multiplier of ``lr`` at ``progress`` (0..1) of the budget: a cosine from ``lr`` down to ``lr_min``."""
     p = min(max(progress, 0.0), 1.0)
     floor = lr_min / lr if lr > 0 else 0.0
     return floor + (1.0 - floor) * 0.5 * (1.0 + math.cos(math.pi * p))
@@ -86,9 +86,9 @@ class DenoiseModule(L.LightningModule):
         grad_frames = cfg.train.get("grad_frames")
         self.grad_frames = None if grad_frames is None else int(grad_frames)
         if self.grad_frames is not None and self.grad_frames < 1:
-            raise ValueError(f"train.grad_frames={grad_frames}: give the number of last clip frames that get "
-                             "gradient (>= 1), or null for all")
-        #: Budget of the cosine schedule: seconds (``train.max_minutes``), set by ``mcd.run``; ``None`` = steps.
+            raise ValueError(f"train.grad_frames={grad_frames}: give the number of last clip frames that "
+                             "get gradient (>= 1), or null for all")
+        #: Seconds of the cosine schedule's budget (``train.max_minutes``, set by ``mcd.run``); None: steps only.
         self.max_seconds: float | None = None
         self._fit_started: float | None = None
         self._total_steps = math.inf

@@ -10,7 +10,6 @@ Any other value of ``trainer.precision`` is Lightning's and passes through uncha
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 
 import torch
 
@@ -21,14 +20,10 @@ log = logging.getLogger(__name__)
 CPU_BF16_PAYS = False
 
 
-def cpu_bf16_flags() -> set[str]:
-    """The CPU's native bf16 instruction sets among ``avx512_bf16`` and ``amx_bf16`` (Linux; empty elsewhere)."""
-    try:
-        text = Path("/proc/cpuinfo").read_text()
-    except OSError:
-        return set()
-    flags = next((line.split(":", 1)[1].split() for line in text.splitlines() if line.startswith("flags")), [])
-    return {"avx512_bf16", "amx_bf16"} & set(flags)
+def cpu_bf16_supported() -> bool:
+    """Whether this CPU computes bf16 natively (AVX512-BF16 or AMX); emulated bf16 is slower than fp32."""
+    checks = ("_is_avx512_bf16_supported", "_is_amx_tile_supported")
+    return any(bool(getattr(torch.cpu, c, lambda: False)()) for c in checks)
 
 
 def on_cpu(accelerator: str) -> bool:
@@ -44,10 +39,10 @@ def resolve(precision: str, accelerator: str) -> str:
         chosen = "bf16-mixed" if torch.cuda.is_bf16_supported() else "32-true"
         why = "the GPU supports bf16" if chosen == "bf16-mixed" else "the GPU has no bf16"
     else:
-        flags = cpu_bf16_flags()
-        chosen = "bf16-mixed" if flags and CPU_BF16_PAYS else "32-true"
-        why = (f"this CPU has {', '.join(sorted(flags))} and bf16 measured faster" if chosen == "bf16-mixed"
-               else "this CPU has no native bf16" if not flags
+        native = cpu_bf16_supported()
+        chosen = "bf16-mixed" if native and CPU_BF16_PAYS else "32-true"
+        why = ("this CPU has native bf16 and bf16 measured faster" if chosen == "bf16-mixed"
+               else "this CPU has no native bf16" if not native
                else "bf16-mixed measured no faster than fp32 on CPU (docs/training.md, 'Throughput')")
     log.info("trainer.precision=auto -> %s (%s)", chosen, why)
     return chosen

@@ -37,9 +37,11 @@ class SamplingNetwork(nn.Module):
             kp = dict(kp_cfg or {})
             head_widths = list(kp.pop("head_widths", [32, 32]))
             options = dict(kp_options or {})
-            self.pool = KernelPool(widths[-1], **kp, pool_init_scale=float(options.get("pool_init_scale", 1.0)))
+            self.pool = KernelPool(widths[-1], **kp,
+                                   pool_init_scale=float(options.get("pool_init_scale", 1.0)))
             head_in = widths[0] + 7 + 3 + self.pool.describe.out_channels
-            self.head = KernelMapHead(head_in, head_widths, block, output=str(options.get("head_output", "rms")),
+            self.head = KernelMapHead(head_in, head_widths, block,
+                                      output=str(options.get("head_output", "rms")),
                                       temperature=float(options.get("temperature", 1.0)))
 
     def forward(self, x: Tensor) -> dict[str, Tensor]:

@@ -117,8 +117,8 @@ class TwoStage(nn.Module):
 
 @register("two_stage")
 def build_two_stage(cfg: DictConfig) -> TwoStage:
-    """``TwoStage`` from ``cfg.method`` (switches, ``sampling.levels``, ``colour``, ``kp``), ``cfg.budget`` and
-    ``cfg.model.two_stage`` (widths)."""
+    """``TwoStage`` from ``cfg.method`` (switches, ``sampling.levels``, ``colour``, ``kp``), ``cfg.budget``
+    and ``cfg.model.two_stage`` (widths)."""
     switches = check_switches(cfg.method, complete=True)
     if "model" not in cfg or "two_stage" not in cfg.model:
         raise KeyError("cfg.model.two_stage (the widths of the two-stage networks) is missing; pick a "

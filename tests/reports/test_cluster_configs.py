@@ -10,6 +10,8 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import get_class
 from omegaconf import OmegaConf
 
+from mcd.lit import budget, precision
+
 CONF = Path(__file__).resolve().parents[2] / "conf"
 
 
@@ -25,11 +27,12 @@ def test_ddp_trainer_composes_and_lightning_accepts_it():
     assert cfg.trainer.strategy == "ddp"
     assert cfg.trainer.accelerator == "gpu" and cfg.trainer.devices == -1 and cfg.trainer.num_nodes == 1
     # the default trainer's keys come along (ddp extends it)
-    assert cfg.trainer.max_epochs == cfg.train.epochs
+    assert cfg.trainer.limit_train_batches == cfg.train.limit_train_batches
     # Lightning takes every key; on this GPU-less machine, DDP over 2 CPU processes (nothing is launched here)
     kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
     kwargs.update(accelerator="cpu", devices=2, enable_progress_bar=False)
-    trainer = L.Trainer(**kwargs, logger=False, enable_checkpointing=False)
+    kwargs["precision"] = precision.resolve(kwargs["precision"], "cpu")
+    trainer = L.Trainer(**kwargs, **budget.trainer_limits(cfg.train), logger=False, enable_checkpointing=False)
     assert type(trainer.strategy).__name__ == "DDPStrategy"
     assert trainer.num_devices == 2
 

@@ -7,7 +7,7 @@ import torch
 from omegaconf import OmegaConf
 from torch import nn
 
-from mcd.lit import transfer
+from mcd.lit import budget, transfer
 
 
 def _cfg(tmp_path, **t):
@@ -20,10 +20,7 @@ def _cfg(tmp_path, **t):
                 "transfer_scenes": ["cornell-box-picture"],
             },
             "train": {"epochs": 30, "batch_size": 4, "limit_train_batches": 1.0},
-            "trainer": {
-                "max_epochs": "${train.epochs}",
-                "limit_train_batches": "${train.limit_train_batches}",
-            },
+            "trainer": {"limit_train_batches": "${train.limit_train_batches}"},
             "transfer": {"init_from": None, "finetune_epochs": 0, "finetune_clips": 1, **t},
         }
     )
@@ -47,10 +44,13 @@ def test_transfer_trains_and_tests_on_held_out_scenes_only(tmp_path):
     run = _ckpt(tmp_path, nn.Linear(2, 2))
     cfg, info = transfer.prepare(_cfg(tmp_path, init_from=str(run), finetune_epochs=30, finetune_clips=1))
     assert list(cfg.data.train_scenes) == list(cfg.data.test_scenes) == ["cornell-box-picture"]
-    assert cfg.trainer.max_epochs == 30 and cfg.trainer.limit_train_batches == 1 and cfg.train.batch_size == 1
+    assert cfg.trainer.limit_train_batches == 1 and cfg.train.batch_size == 1
+    # the fine-tuning budget is its epochs alone, whatever step or time budget the profile had
+    assert budget.trainer_limits(cfg.train) | {"max_epochs": 30, "max_steps": -1, "max_time": None} == \
+        budget.trainer_limits(cfg.train)
     assert info["finetune"] and info["init_from"].endswith("best-epoch004.ckpt")
     cfg0, info0 = transfer.prepare(_cfg(tmp_path, init_from=str(run)))
-    assert not info0["finetune"] and cfg0.trainer.max_epochs == 0
+    assert not info0["finetune"] and budget.trainer_limits(cfg0.train)["max_epochs"] == 0
 
 
 def test_weights_are_loaded_and_a_mismatch_is_named(tmp_path):

@@ -30,7 +30,7 @@ class DASR(nn.Module):
     """Sampler + denoiser (two non-recurrent RAE U-Nets), adaptive sampling at average budget ``budget``."""
 
     window = (0, 0)
-    temporal_state = False  # single-frame (mcd.lit.module: frames the loss does not read are skipped)
+    temporal_state = False  # single-frame
 
     def __init__(self, budget: float, encoder: Sequence[int], bottleneck: int, last: Sequence[int],
                  levels: int = 5) -> None:

@@ -60,7 +60,7 @@ class FastDVDnet(nn.Module):
     """Two-stage FastDVDnet on uniform renders at the budget, ``window = (2, 2)``."""
 
     window = (2, 2)
-    temporal_state = False  # each output depends only on its window (mcd.lit.module: frames the loss does not read are skipped)
+    temporal_state = False  # each output depends only on its window
 
     def __init__(self, budget: int, widths: tuple[int, int, int], interm: int) -> None:
         super().__init__()

@@ -15,7 +15,7 @@ class Noisy(nn.Module):
     """Returns ``c{budget}`` unchanged."""
 
     window = (0, 0)
-    temporal_state = False  # no network (mcd.lit.module: frames the loss does not read are skipped)
+    temporal_state = False  # no network
 
     def __init__(self, budget: int) -> None:
         super().__init__()

@@ -100,7 +100,7 @@ class NTASAD(nn.Module):
     """Sampler + hierarchical-kernel denoiser with warped output feedback at average budget ``budget``."""
 
     window = (0, 0)
-    temporal_state = True  # the previous output, warped (mcd.lit.module: frames the loss does not read are skipped)
+    temporal_state = True  # the previous output, warped
 
     def __init__(self, budget: int, enc: int, dec: int, full: int, levels: int = 5) -> None:
         super().__init__()

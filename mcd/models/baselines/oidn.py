@@ -35,7 +35,7 @@ class OIDN(nn.Module):
     """OIDN's ``RT`` filter (``quality``: high/balanced/fast) on ``c{budget}`` with albedo and normal."""
 
     window = (0, 0)
-    temporal_state = False  # single-frame (mcd.lit.module: frames the loss does not read are skipped)
+    temporal_state = False  # single-frame
     #: Its network is OIDN's own, not torch: FlopCounterMode cannot count its MACs (report them as unknown).
     macs_countable = False
 

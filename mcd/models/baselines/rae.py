@@ -123,7 +123,7 @@ class RAE(nn.Module):
     """RAE on the uniform render at the budget: demodulated ``log1p`` colour + G-buffers (10 channels)."""
 
     window = (0, 0)
-    temporal_state = True  # recurrent blocks (mcd.lit.module: frames the loss does not read are skipped)
+    temporal_state = True  # recurrent blocks
 
     def __init__(self, budget: int, encoder: Sequence[int], bottleneck: int, last: Sequence[int]) -> None:
         super().__init__()

@@ -1,0 +1,197 @@
+"""``python -m mcd.bench --train``: training throughput of each method and training path on real batches of
+the store (docs/training.md, "Throughput"); writes ``reports/bench/train.csv`` and prints each path's ratio to
+``today`` (this project's fp32 training path before the throughput work).
+
+A path is a set of training settings; each (method, profile, path) is measured in its own process (so that
+its peak RSS is its own) by a real Lightning ``fit`` of ``--steps`` optimiser steps after ``--warmup`` steps,
+on the profile's training clips (``train.batch_size`` clips of ``data.clip_len`` frames, ``data.train_crop``
+crops), with the validation cadence of the path (validation time counts: it is part of what a run spends):
+
+- ``today``: fp32, every clip frame run (the loss's ``frames_needed`` ignored), validation every epoch,
+  a log row every step;
+- ``fp32``: the clip frames the loss reads (all for temporal models), validation every
+  ``train.val_every_steps``, a log row every 10 steps: the default path;
+- ``tbptt``: ``fp32`` with ``train.grad_frames=2`` (temporal models only: the frames before the last two run
+  without gradient);
+- ``bf16``: ``fp32`` with ``trainer.precision=bf16-mixed`` (where the CPU computes bf16 natively);
+- ``channels-last``: ``fp32`` with the model's weights in channels-last memory format.
+
+``--pair``: also ``fp32`` as two concurrent jobs of one thread each (``x2 jobs``; steps/s summed) beside one
+job on ``--threads`` threads, the question of docs/training.md "CPU threads".
+Columns: ``method, profile, path, steps_per_s, pixels_per_s, peak_rss_mb, threads, cpu`` (pixels/s: crop
+pixels of the frames the network runs, times the batch, per second).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import logging
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+log = logging.getLogger("mcd.train_bench")
+
+REPO = Path(__file__).resolve().parent.parent
+METHODS = ("A", "C", "F", "rae", "fastdvdnet", "dasr", "ntasad")
+PATHS = ("today", "fp32", "tbptt", "bf16", "channels-last")
+COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss_mb", "threads", "cpu")
+
+
+def path_overrides(path: str) -> list[str]:
+    """Hydra overrides of a path (see the module docstring)."""
+    base = ["trainer.precision=32-true", "trainer.enable_progress_bar=false"]
+    if path == "today":
+        return [*base, "train.val_every_steps=null", "train.val_every=1", "trainer.log_every_n_steps=1"]
+    extra = {"fp32": [], "channels-last": [], "tbptt": ["train.grad_frames=2"],
+             "bf16": ["trainer.precision=bf16-mixed"]}
+    if path not in extra:
+        raise ValueError(f"unknown training path {path!r}; expected one of {PATHS}")
+    return [*base, *extra[path]]
+
+
+def measure(method: str, profile: str, path: str, steps: int, warmup: int, threads: int,
+            extra: list[str]) -> dict[str, object]:
+    """One (method, profile, path) in this process: steps/s of a Lightning fit after ``warmup`` steps."""
+    import lightning as L
+    from omegaconf import OmegaConf
+
+    from mcd.bench import compose_cfg, device_name
+    from mcd.data import MCDDataModule, Store
+    from mcd.lit import DenoiseModule, budget, build_loss
+
+    torch.set_num_threads(threads)
+    torch.set_flush_denormal(True)
+    cfg = compose_cfg(method, [f"data={profile}", *path_overrides(path), *extra,
+                               f"train.max_steps={steps + warmup}", "train.max_minutes=null"])
+    L.seed_everything(0)
+    from mcd.models import build
+
+    model = build(cfg)
+    if path == "channels-last":
+        model = model.to(memory_format=torch.channels_last)
+    buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
+    store = Store.from_cfg(cfg)
+    store.ensure(buffers)
+    dm = MCDDataModule(cfg, store, buffers, model.window)
+    loss = build_loss(cfg)
+    if path == "today":
+        loss.frames_needed = None
+    lit = DenoiseModule(cfg, model, loss)
+    frames: list[int] = []
+
+    class Clock(L.Callback):
+        """Times the steps after warm-up and counts the frames each step runs."""
+
+        started = 0.0
+
+        def on_train_batch_start(self, trainer, module, batch, idx):  # noqa: ANN001
+            if trainer.global_step == warmup:
+                self.started = time.perf_counter()
+            steps_in_clip = batch["ref"].shape[1]
+            frames.append(steps_in_clip - lit.clip_plan(steps_in_clip)[0])
+
+    clock = Clock()
+    trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True),
+                        **budget.trainer_limits(cfg.train), callbacks=[clock], logger=False,
+                        enable_checkpointing=False, default_root_dir=tempfile.gettempdir())
+    trainer.fit(lit, datamodule=dm)
+    seconds = time.perf_counter() - clock.started
+    crop = int(cfg.data.train_crop)
+    rate = steps / seconds
+    return {"method": method, "profile": profile, "path": path, "steps_per_s": rate,
+            "pixels_per_s": rate * int(cfg.train.batch_size) * crop * crop * (sum(frames[warmup:]) / steps),
+            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "threads": threads,
+            "cpu": device_name(torch.device("cpu")).rsplit(" (", 1)[0]}
+
+
+def applicable(method: str, path: str) -> str | None:
+    """Why ``path`` does not apply to ``method`` (None: it does)."""
+    from mcd.bench import compose_cfg
+    from mcd.lit.precision import cpu_bf16_supported
+    from mcd.models import build
+
+    if path == "bf16" and not cpu_bf16_supported():
+        return "this CPU has no native bf16"
+    if path == "tbptt" and not getattr(build(compose_cfg(method, [])), "temporal_state", True):
+        return "no temporal state"
+    return None
+
+
+def child(args: list[str]) -> dict[str, object]:
+    """Runs :func:`measure` in a fresh process; returns its row."""
+    env = dict(os.environ)
+    out = subprocess.run([sys.executable, "-m", "mcd.train_bench", "--child", *args], capture_output=True,
+                         text=True, env=env, cwd=REPO)
+    if out.returncode != 0:
+        raise RuntimeError(f"training benchmark {args[:3]} failed:\n{out.stderr[-3000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(prog="python -m mcd.bench --train", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("overrides", nargs="*", help="Hydra overrides for every job (default: model=cpu)")
+    ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--profiles", default="tiny,small")
+    ap.add_argument("--paths", default=",".join(PATHS))
+    ap.add_argument("--steps", type=int, default=30, help="timed optimiser steps per path")
+    ap.add_argument("--warmup", type=int, default=4)
+    ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--pair", action="store_true", help="also two concurrent 1-thread fp32 jobs")
+    ap.add_argument("--out", type=Path, default=REPO / "reports/bench/train.csv")
+    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.child:  # one measurement: method profile path steps warmup threads, overrides
+        print(json.dumps(measure(args.methods, args.profiles, args.paths, args.steps, args.warmup,
+                                 args.threads, args.overrides)))
+        return
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    rows: list[dict[str, object]] = []
+    for profile in [p for p in args.profiles.split(",") if p]:
+        for method in [m for m in args.methods.split(",") if m]:
+            common = [f"--steps={args.steps}", f"--warmup={args.warmup}", *args.overrides]
+            for path in [p for p in args.paths.split(",") if p]:
+                why = applicable(method, path)
+                if why:
+                    log.info("%s %s %s: skipped (%s)", method, profile, path, why)
+                    continue
+                row = child([f"--methods={method}", f"--profiles={profile}", f"--paths={path}",
+                             f"--threads={args.threads}", *common])
+                rows.append(row)
+                log.info("%s %s %-13s %.2f steps/s", method, profile, path, row["steps_per_s"])
+            if args.pair:
+                cmd = [sys.executable, "-m", "mcd.train_bench", "--child", f"--methods={method}",
+                       f"--profiles={profile}", "--paths=fp32", "--threads=1", *common]
+                procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=REPO) for _ in range(2)]
+                pair = [json.loads(p.communicate()[0].strip().splitlines()[-1]) for p in procs]
+                rows.append({**pair[0], "path": "fp32 x2 jobs", "threads": 1,
+                             "steps_per_s": sum(r["steps_per_s"] for r in pair),
+                             "pixels_per_s": sum(r["pixels_per_s"] for r in pair),
+                             "peak_rss_mb": max(r["peak_rss_mb"] for r in pair)})
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with args.out.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerows({k: r[k] for k in COLUMNS} for r in rows)
+    print(f"{'method':10} {'profile':7} {'path':14} {'steps/s':>8} {'x today':>8} {'Mpix/s':>7} "
+          f"{'RSS MB':>7}")
+    for r in rows:
+        today = next((t for t in rows if t["path"] == "today" and t["method"] == r["method"]
+                      and t["profile"] == r["profile"]), None)
+        ratio = r["steps_per_s"] / today["steps_per_s"] if today else float("nan")
+        print(f"{r['method']:10} {r['profile']:7} {r['path']:14} {r['steps_per_s']:8.2f} {ratio:8.2f} "
+              f"{r['pixels_per_s'] / 1e6:7.2f} {r['peak_rss_mb']:7.0f}")
+    print(f"{len(rows)} rows -> {args.out}")
+
+
+if __name__ == "__main__":
+    main()
