@@ -6,9 +6,10 @@ variants of the kernel-pool options (paper Sec. 3.1; docs/kernel_pool.md). Not a
         [overrides ...]
 
 Each variant (default: :data:`VARIANTS`) trains each KP row (default C and F) from the same seed on the
-rendered data of the configured profile (default tiny) with the run's loss, Adam at ``train.lr`` cosine-annealed over
-``--steps`` steps, batch ``train.batch_size``, running the clip frames the loss needs (mcd.lit.module). Every
-``--every`` steps and at the end it prints, on the validation clips (last frame, whole val crops):
+rendered data of the configured profile (default tiny) with the run's loss, Adam at ``train.lr``
+cosine-annealed over ``--steps`` steps, batch ``train.batch_size``, running the clip frames the loss needs
+(mcd.lit.module). Every ``--every`` steps and at the end it prints, on the validation clips (last frame,
+whole val crops):
 - ``z[0]``, ``z[1]``: the kernel-map head's pre-``tanh`` output (mean ± std over pixels, after
   ``head_output``'s scaling); a large ``z[1]`` means ``tanh`` saturates and the pool gets no gradient;
 - ``identity``: mean identity weight ``(h[1] + 1) / 2`` (1 = ``i_bar == i``, the pool unused), ``>.975``: the

@@ -5,7 +5,8 @@ of one or more sweeps (benchmark.md "Reports"), generated from the run directori
 - ``table1.md/.csv`` (methods at 4 spp) and ``components.md/.csv`` (A-M), the paper's numbers beside ours,
   ``transfer.md/.csv`` when transfer jobs ran, ``seeds.md/.csv`` and ``seeds_differences.csv`` when the
   seeds sweep ran (run-to-run spread, the paper's claims with standard errors);
-- ``spp.csv/.png`` (error against budget), ``speed_vs_error.png/.csv`` (from the bench CSV);
+- ``spp.csv/.png`` (error against budget), ``speed_vs_error.png/.csv`` (from the bench CSV),
+  ``curves.png/.csv`` (validation PSNR against training seconds and steps, one line per method);
 - ``strips/<scene>.png`` and ``strips/<scene>_methods.png`` (qualitative, with crops),
   ``per_frame/<scene>_psnr.png`` (per-frame PSNR over each test sequence);
 - ``README.md``: provenance (commands, config, data profile, commit, device, wall time), the paper's claims
@@ -22,7 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from mcd.reporting import frames, seeds, speed, spp, strips, tables
+from mcd.reporting import curves, frames, seeds, speed, spp, strips, tables
 from mcd.reporting.provenance import Provenance
 from mcd.reporting.runs import Run, Sweep, display_name, find_runs, find_sweeps
 from mcd.reporting.select import to_markdown
@@ -171,6 +172,7 @@ def make_report(
     speed.write(runs, bench, out_dir, prov)
     strip_files = strips.write(runs, out_dir, prov)
     frame_files = frames.write(runs, out_dir, prov)
+    curve_files = curves.write(runs, out_dir, prov)
 
     files = [out_dir / f for f in ("table1.md", "table1.csv", "components.md", "components.csv")]
     if "transfer" in results:
@@ -180,7 +182,7 @@ def make_report(
         if not results["seeds_differences"].empty:
             files.append(out_dir / "seeds_differences.csv")
     files += [out_dir / f for f in ("spp.png", "spp.csv", "speed_vs_error.png", "speed_vs_error.csv")]
-    files += strip_files + frame_files
+    files += curve_files + strip_files + frame_files
     if frame_files:
         files.append(out_dir / "per_frame" / "per_frame.csv")
     write_readme(

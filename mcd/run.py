@@ -138,6 +138,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                            auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1,
                            save_last=True)
     stopper = budget.early_stopping(cfg.train)
+    curve = budget.LearningCurve(out_dir / "curve.csv")
     trainer_cfg = OmegaConf.to_container(cfg.trainer, resolve=True)
     trainer_cfg["precision"] = lit_precision.resolve(str(trainer_cfg.get("precision", "32-true")),
                                                      str(trainer_cfg.get("accelerator", "auto")))
@@ -145,8 +146,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         torch.set_flush_denormal(True)  # denormal floats are slow on x86 and meaningless for images
     lit.max_seconds = 60 * float(cfg.train.max_minutes) if cfg.train.get("max_minutes") else None
     trainer = L.Trainer(**trainer_cfg, **budget.trainer_limits(cfg.train), default_root_dir=str(out_dir),
-                        callbacks=[best, budget.LearningCurve(out_dir / "curve.csv"),
-                                   *([stopper] if stopper is not None else [])],
+                        callbacks=[best, curve, *([stopper] if stopper is not None else [])],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
@@ -156,6 +156,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     t0 = time.perf_counter()
     if trainable:
         trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None)
+        budget.finish(trainer, lit, datamodule, best, curve)
         tested = best.best_model_path or best.last_model_path
         log.info("testing checkpoint %s (best val/psnr %s dB)", tested, best.best_model_score)
     else:

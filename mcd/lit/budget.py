@@ -4,7 +4,8 @@ A run trains until the first of ``train.max_steps`` optimiser steps, ``train.max
 ``train.epochs`` epochs, or a plateau of the validation PSNR (``train.patience`` validations without a gain of
 ``train.min_delta`` dB) is reached; ``null`` turns a limit off, and at least one of the first three must be
 set. Validation runs every ``train.val_every_steps`` optimiser steps (else every ``train.val_every`` epochs).
-The cosine learning-rate schedule spans the budget (``mcd.lit.module.DenoiseModule.progress``).
+The cosine learning-rate schedule spans the budget (``mcd.lit.module.DenoiseModule.progress``); :func:`finish`
+validates where the budget ended and writes ``last.ckpt`` with the final weights.
 :class:`LearningCurve` appends validation PSNR/SSIM/loss against step and seconds to ``curve.csv``.
 """
 
@@ -16,7 +17,7 @@ import time
 from pathlib import Path
 
 import lightning as L
-from lightning.pytorch.callbacks import Callback, EarlyStopping
+from lightning.pytorch.callbacks import Callback, EarlyStopping, ModelCheckpoint
 from omegaconf import DictConfig
 
 #: Columns of ``curve.csv``: one row per validation.
@@ -86,6 +87,7 @@ class LearningCurve(Callback):
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self.started = math.nan
+        self.last_step = -1  # the optimiser step of the last validation
 
     def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
         offset = 0.0  # a resumed run continues its clock from the last row written
@@ -98,6 +100,7 @@ class LearningCurve(Callback):
     def on_validation_end(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
         if trainer.sanity_checking or not trainer.is_global_zero:
             return
+        self.last_step = trainer.global_step
         metrics = trainer.callback_metrics
 
         def value(key: str) -> float:
@@ -117,3 +120,22 @@ class LearningCurve(Callback):
             if new:
                 writer.writeheader()
             writer.writerow(row)
+
+
+def finish(trainer: L.Trainer, module: L.LightningModule, datamodule: L.LightningDataModule,
+           best: ModelCheckpoint, curve: LearningCurve) -> None:
+    """After ``fit``: validate the final weights if the last validation came before the last step (a budget
+    that ends between two validations), keep them as the best checkpoint when their ``val/psnr`` is higher,
+    and write ``last.ckpt`` with the final weights (resuming from it continues where training ended)."""
+    folder = Path(best.dirpath)
+    if curve.last_step != trainer.global_step:
+        trainer.validate(module, datamodule=datamodule, verbose=False)
+        score = trainer.callback_metrics.get("val/psnr")
+        previous = best.best_model_score
+        if score is not None and (previous is None or float(score) > float(previous)):
+            path = folder / f"best-step{trainer.global_step:06d}.ckpt"
+            trainer.save_checkpoint(path)
+            if best.best_model_path and Path(best.best_model_path) != path:
+                Path(best.best_model_path).unlink(missing_ok=True)
+            best.best_model_path, best.best_model_score = str(path), score
+    trainer.save_checkpoint(folder / "last.ckpt")

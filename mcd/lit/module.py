@@ -88,7 +88,7 @@ class DenoiseModule(L.LightningModule):
         if self.grad_frames is not None and self.grad_frames < 1:
             raise ValueError(f"train.grad_frames={grad_frames}: give the number of last clip frames that "
                              "get gradient (>= 1), or null for all")
-        #: Seconds of the cosine schedule's budget (``train.max_minutes``, set by ``mcd.run``); None: steps only.
+        #: Seconds of the cosine schedule's budget (``train.max_minutes``, set by mcd.run); None: steps.
         self.max_seconds: float | None = None
         self._fit_started: float | None = None
         self._total_steps = math.inf

@@ -144,6 +144,17 @@ class Run:
         except (OSError, ValueError):
             return None
 
+    @cached_property
+    def curve(self) -> pd.DataFrame | None:
+        """curve.csv (step, seconds, val_psnr, ... per validation; mcd.lit.budget), or None."""
+        path = self.path / "curve.csv"
+        if not path.is_file():
+            return None
+        try:
+            return pd.read_csv(path)
+        except (OSError, ValueError):
+            return None
+
     @property
     def error_message(self) -> str:
         """One line naming what went wrong (for failed and incomplete jobs)."""
