@@ -69,6 +69,17 @@ def interpolate_kernels(pool: Tensor, h: Tensor) -> Tensor:
     return F.grid_sample(table, grid, mode="bilinear", padding_mode="border", align_corners=True)
 
 
+def pool_picture(pool: Tensor, size: int, columns: int = 16) -> Tensor:
+    """The kernels ``[B, q, l*l]`` tiled row-major into one image ``[B, 1, rows*(l+1)-1, columns*(l+1)-1]``
+    (a one-pixel gap of NaN-free zeros between kernels), kernel ``k`` at row ``k // columns``."""
+    b, q, _ = pool.shape
+    rows = -(-q // columns)
+    tiles = pool.new_zeros(b, rows * columns, size + 1, size + 1)
+    tiles[:, :q, :size, :size] = pool.reshape(b, q, size, size)
+    tiles = tiles.reshape(b, rows, columns, size + 1, size + 1).permute(0, 1, 3, 2, 4)
+    return tiles.reshape(b, 1, rows * (size + 1), columns * (size + 1))[..., :-1, :-1]
+
+
 def identity_weight(h: Tensor) -> Tensor:
     """Per-pixel weight ``[B, H, W]`` of the identity kernel in :func:`interpolate_kernels`,
     ``(h[1] + 1) / 2``: 1 = ``i_bar`` is ``i`` at that pixel, 0 = the pool kernel only."""

@@ -59,6 +59,8 @@ class SamplingNetwork(nn.Module):
         b, _, h, w = image.shape
         support = desc[:, :, None, None].expand(b, desc.shape[1], h, w).to(finest.dtype)
         kmap = self.head(torch.cat([finest, g.to(finest.dtype), image.to(finest.dtype), support], 1))
-        kernels = interpolate_kernels(self.pool.normalised(adjusted), kmap.float())
-        return {"kernel_map": kmap, "initial": apply_pixel_kernels(image.float(), kernels)}
+        normalised = self.pool.normalised(adjusted)
+        kernels = interpolate_kernels(normalised, kmap.float())
+        return {"kernel_map": kmap, "initial": apply_pixel_kernels(image.float(), kernels),
+                "pool": normalised}
 

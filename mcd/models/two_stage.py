@@ -22,6 +22,7 @@ from torch import Tensor, nn
 
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import compress, expand, gbuffers, grey, need
+from mcd.models.kernel_pool import pool_picture
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
@@ -105,6 +106,8 @@ class TwoStage(nn.Module):
                 kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic)
                 feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, smap]
                 out["kernel_map"] = kp["kernel_map"].float()
+                if not self.training:  # a picture of this frame's adjusted pool for the samples
+                    out["kernel_pool"] = pool_picture(kp["pool"], self.sampler.pool.size)
                 out["initial"] = expand(kp["initial"], self.colour)
             out["sampling_map"] = m
             out["adaptive"] = image

@@ -27,7 +27,8 @@ from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # n
 COLUMNS = (
     ("noisy", "noisy input"),
     ("sampling_map", "sampling map m"),
-    ("kernel_map", "kernel map h"),
+    ("kernel_index", "kernel index h[0]"),
+    ("identity_weight", "identity weight (h[1]+1)/2"),
     ("initial", "initial denoise ī"),
     ("output", "output"),
     ("reference", "reference"),
@@ -105,6 +106,8 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         frame = min(complete)
         names = frames[frame]
         imgs = {name: read_exr(path) for name, path in names.items()}
+        if "kernel_map" in imgs:  # its two channels as two colour maps (paper Sec. 3.1)
+            imgs["kernel_index"] = imgs["identity_weight"] = imgs["kernel_map"]
         ref = imgs["reference"]
         size = max(8, min(ref.shape[:2]) // 4)
         y, x = crop_box(imgs.get("noisy", imgs["output"]), ref, size)
@@ -115,6 +118,8 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
             if name == "sampling_map":
                 m = imgs[name][..., 0]
                 title = f"{title} ({m.min():.0f}..{m.max():.0f}, mean {m.mean():.2f})"
+            if name == "identity_weight":
+                title = f"{title} (mean {(imgs[name][..., 1].mean() + 1) / 2:.2f})"
             _show(axes[0, j], pic, title)
             axes[0, j].add_patch(Rectangle((x - 0.5, y - 0.5), size, size, fill=False, ec="red", lw=1))
             _show(axes[1, j], pic[y : y + size, x : x + size])
@@ -125,6 +130,12 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         )
         path = prov.save(fig, folder / f"{scene}.png")
         written.append(path)
+        if "kernel_pool" in imgs:
+            fig, ax = plt.subplots(figsize=(8, 4.6))
+            _show(ax, picture("kernel_pool", imgs["kernel_pool"]),
+                  f"adjusted kernel pool of {scene}, test frame {frame}: 5x5 kernels in index order "
+                  f"(largest tap {imgs['kernel_pool'].max():.3f}; a uniform 5x5 box is 0.04)")
+            written.append(prov.save(fig, folder / f"{scene}_pool.png"))
 
         crops = [("noisy input", picture("noisy", imgs["noisy"]))] if "noisy" in imgs else []
         for title, smp in others:
