@@ -25,8 +25,8 @@ RMSE_EPS = 1e-2
 #: Per-frame metric names, in the order of ``frames.csv``.
 FRAME_METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse")
 #: Per-frame statistics of a model's internals, present only for the models that have them: the kernel map's
-#: identity share (KP, ``mcd.lit.module.kernel_map_identity_share``).
-MODEL_METRICS = ("kp_identity",)
+#: identity share and the spread of its kernel index across the frame (KP, ``mcd.lit.module``).
+MODEL_METRICS = ("kp_identity", "kp_index_std")
 
 
 def to_display(x: np.ndarray) -> np.ndarray:

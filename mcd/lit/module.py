@@ -14,7 +14,9 @@
 - Test: whole frames, one current frame per batch, in sequence order; ``reset()`` where ``batch["reset"]``
   is set, so state is carried across a whole test sequence. Per-frame metrics (``mcd.metrics``) of the output
   and of the noisy uniform input at the same budget (``c{budget}``) are collected in
-  :attr:`DenoiseModule.test_rows`; with KP also the kernel map's identity share (``kp_identity``).
+  :attr:`DenoiseModule.test_rows`; with KP also the kernel map's identity share (``kp_identity``) and the
+  standard deviation of its kernel index ``h[0]`` over the frame's pixels (``kp_index_std``; 0 = one kernel
+  everywhere).
 - Models with a frame window ``(past, future) != (0, 0)`` get ``[B, past+1+future, C, H, W]`` per step, edge
   frames repeated at clip ends (as the test datamodule does at sequence ends).
 """
@@ -211,6 +213,7 @@ class DenoiseModule(L.LightningModule):
         row["lt"] = math.nan if self._prev is None else temporal_l1(pred, self._prev[0], ref, self._prev[1])
         if "kernel_map" in out:
             row["kp_identity"] = kernel_map_identity_share(out["kernel_map"])
+            row["kp_index_std"] = float(out["kernel_map"][0, 0].float().std())
         self.test_rows.append(row)
         self._prev = (pred, ref)
         if self.sample_dir is not None and self._seq_pos in self.sample_frames:

@@ -83,6 +83,7 @@ def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
             row[col] = metric(run, key, scale)
             row[f"{col} paper"] = ref[pkey]
         row["KP identity"] = metric(run, "kp_identity")
+        row["KP index std"] = metric(run, "kp_index_std")
         row["status"] = _status(run)
         row["run"] = run_label(run, root)
         rows.append(row)
@@ -126,6 +127,12 @@ def component_checks(df: pd.DataFrame) -> list[str]:
                     if used[lo] > 0.95 else "")
             lines.append(f"ours: the kernel map's identity share, mean of (h[1]+1)/2 over test pixels, is "
                          f"{used[lo]:.3f} ({lo}) to {used[hi]:.3f} ({hi}){note}.")
+        spreads = {r["row"]: float(r["KP index std"]) for _, r in df.iterrows()
+                   if "KP index std" in df and not math.isnan(float(r["KP index std"]))}
+        if spreads:
+            lines.append("ours: the kernel index h[0] varies across each test frame with a standard deviation "
+                         f"of {min(spreads.values()):.3f} to {max(spreads.values()):.3f} (0 = one kernel "
+                         "everywhere; h[0] spans [-1, 1] over the pool's kernels).")
     return lines
 
 
