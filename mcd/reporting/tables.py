@@ -131,8 +131,8 @@ def component_checks(df: pd.DataFrame) -> list[str]:
                    if "KP index std" in df and not math.isnan(float(r["KP index std"]))}
         if spreads:
             lines.append("ours: the kernel index h[0] varies across each test frame with a standard "
-                         f"deviation of {min(spreads.values()):.3f} to {max(spreads.values()):.3f} (0 = one kernel "
-                         "everywhere; h[0] spans [-1, 1] over the pool's kernels).")
+                         f"deviation of {min(spreads.values()):.3f} to {max(spreads.values()):.3f} "
+                         "(0 = one kernel everywhere; h[0] spans [-1, 1] over the pool's kernels).")
     return lines
 
 
