@@ -107,7 +107,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     """The whole run; returns what it wrote to ``metrics.json``."""
     from mcd.complexity import complexity, count_params
     from mcd.data import MCDDataModule, Store
-    from mcd.lit import transfer
+    from mcd.lit import checkpoint, transfer
     from mcd.models import build
 
     if cfg.method.name in SWITCHED_METHODS:
@@ -122,6 +122,9 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     (out_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
 
     model = build(cfg)
+    if resume:  # read safely, and refuse another experiment's checkpoint before anything is rendered
+        weights = checkpoint.model_weights(checkpoint.safe_load(resume, "ckpt_path"))
+        checkpoint.check_fits(model, weights, "ckpt_path", resume)
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
     buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
@@ -146,7 +149,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                          "method.trainable=false to test it without training")
     t0 = time.perf_counter()
     if trainable:
-        trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None)
+        trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None, weights_only=True)
         tested = best.best_model_path or best.last_model_path
         log.info("testing checkpoint %s (best val/loss %s)", tested, best.best_model_score)
     else:
@@ -154,7 +157,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         log.info("method %s is not trained (method.trainable=false): testing it as built", cfg.method.name)
     train_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False)
+    trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False,
+                 weights_only=True)
     test_s = time.perf_counter() - t0
 
     extra = [k for k in MODEL_METRICS if any(k in row for row in lit.test_rows)]
