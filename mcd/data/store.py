@@ -26,6 +26,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import tempfile
 import time
 from collections import Counter
@@ -50,6 +51,8 @@ BUFFERS = (*COLOUR_BUFFERS, *GBUFFERS, "motion")
 CHANNELS = {**dict.fromkeys(COLOUR_BUFFERS, 3), "depth": 1, "normal": 3, "albedo": 3, "motion": 2}
 NEGATIVE_OK = {"normal", "motion"}
 MANIFEST_VERSION = 1
+#: A profile or scene name is one folder name of the store: letters, digits, ``_``, ``-``, ``.`` (not leading).
+SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 
 def _hash(obj: Any) -> str:
@@ -77,6 +80,20 @@ def buffer_spp(buffer: str, data_cfg: DictConfig) -> int:
     return SPP_BUFFERS[buffer]
 
 
+def check_name(name: str, key: str) -> str:
+    """``name`` if it is a single safe folder name (:data:`SAFE_NAME`), else ValueError naming ``key``.
+
+    Profile and scene names become folders of the store; ``..`` or ``/`` would write outside
+    ``paths.data_dir``.
+    """
+    if not SAFE_NAME.fullmatch(name):
+        raise ValueError(
+            f"{key}={name!r}: not a plain folder name (letters, digits, '_', '-', '.', not leading '.'); the "
+            "store writes <paths.data_dir>/<data.name>/<scene>/, so a name must not hold '/' or '..'"
+        )
+    return name
+
+
 def validate_buffers(buffers: Iterable[str]) -> set[str]:
     bad = sorted(set(buffers) - set(BUFFERS))
     if bad:
@@ -96,12 +113,13 @@ class Store:
     ):
         self.data_cfg = data_cfg
         self.render_cfg = render_cfg if render_cfg is not None else OmegaConf.create({})
-        self.profile = str(data_cfg.name)
+        self.profile = check_name(str(data_cfg.name), "data.name")
         self.data_dir = Path(data_dir)
         self.root = self.data_dir / self.profile
         self.scenes_dir = scenes_dir
         self.specs: dict[str, SceneSpec] = {
-            name: SceneSpec.from_cfg(name, scfg, scenes_dir) for name, scfg in data_cfg.scenes.items()
+            check_name(str(name), "data.scenes key"): SceneSpec.from_cfg(name, scfg, scenes_dir)
+            for name, scfg in data_cfg.scenes.items()
         }
         for key in ("train_scenes", "transfer_scenes", "test_scenes"):
             for name in data_cfg.get(key) or []:
