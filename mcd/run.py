@@ -26,10 +26,10 @@ import torch
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from lightning.pytorch.callbacks import ModelCheckpoint
-from lightning.pytorch.loggers import CSVLogger
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.lit import DenoiseModule, build_loss
+from mcd.lit.csv_log import ResumableCSVLogger
 from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate
 from mcd.models.switches import check_switches, switch_row
 
@@ -137,11 +137,15 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     lit = DenoiseModule(cfg, model, loss, sample_dir=out_dir / "samples")
 
     best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-epoch{epoch:03d}",
-                           auto_insert_metric_name=False, monitor="val/loss", mode="min", save_top_k=1,
-                           save_last=True)
+                           auto_insert_metric_name=False, monitor="val/loss", mode="min", save_top_k=1)
+    # every epoch: latest-epochNNN.ckpt (the previous one removed) and last.ckpt linked to it (save_last on
+    # `best` would write last.ckpt only with a new best)
+    last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="latest-epoch{epoch:03d}",
+                           auto_insert_metric_name=False, save_top_k=1, save_last="link")
     trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True), default_root_dir=str(out_dir),
-                        callbacks=[best],
-                        logger=CSVLogger(str(out_dir), name="logs", version="", flush_logs_every_n_steps=10))
+                        callbacks=[best, last],
+                        logger=ResumableCSVLogger(str(out_dir), name="logs", version="",
+                                                  flush_logs_every_n_steps=10))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
     if trainable and not any(p.requires_grad for p in model.parameters()):
@@ -150,7 +154,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     t0 = time.perf_counter()
     if trainable:
         trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None, weights_only=True)
-        tested = best.best_model_path or best.last_model_path
+        tested = best.best_model_path or last.last_model_path
         log.info("testing checkpoint %s (best val/loss %s)", tested, best.best_model_score)
     else:
         tested = None
