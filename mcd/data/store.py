@@ -492,21 +492,24 @@ class Store:
             raise CorruptEXRError(
                 p, f"{img.shape[-1]} channels, {buffer} has {CHANNELS[buffer]}", self.fix_command()
             )
+        # scale first, then sanitise: a finite value that overflows float32 when scaled becomes 0, not Inf
+        if buffer in COLOUR_BUFFERS:
+            with np.errstate(over="ignore"):
+                img *= np.float32(man.get("exposure") or 1.0)
+        elif buffer == "depth":
+            img /= np.float32(man.get("depth_scale") or 1.0)
         img, n_bad = sanitise(img, allow_negative=buffer in NEGATIVE_OK)
         if n_bad and str(p) not in self._warned:
             self._warned.add(str(p))
             log.warning(
-                "%s: %d NaN/Inf/negative values replaced by 0 (manifest: nan %d, inf %d, negative %d)",
+                "%s: %d NaN/Inf/negative values (after scaling) replaced by 0 (manifest: nan %d, inf %d, "
+                "negative %d)",
                 p,
                 n_bad,
                 rec.get("nan", 0),
                 rec.get("inf", 0),
                 rec.get("negative", 0),
             )
-        if buffer in COLOUR_BUFFERS:
-            img *= np.float32(man.get("exposure") or 1.0)
-        elif buffer == "depth":
-            img /= np.float32(man.get("depth_scale") or 1.0)
         return img
 
     def frame_count(self, scene: str) -> int:
