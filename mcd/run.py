@@ -32,6 +32,7 @@ from mcd.lit import DenoiseModule, build_loss
 from mcd.lit.csv_log import ResumableCSVLogger
 from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate
 from mcd.models.switches import check_switches, switch_row
+from mcd.preflight import check_run
 
 log = logging.getLogger("mcd.run")
 
@@ -112,6 +113,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
 
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
+    check_run(cfg)  # budget and image size, before anything is rendered
     resume = cfg.get("ckpt_path")
     if resume and not Path(resume).is_file():
         raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "

@@ -295,11 +295,12 @@ class Store:
         t0 = time.perf_counter()
         msamples = 0.0
         variant = None
-        for name in scene_list:
+        for name in scene_list:  # every scene file before the first render, not after the earlier scenes
             if name not in self.specs:
                 raise ValueError(f"scene {name!r} is not registered in data.scenes of profile {self.profile}")
+            self.specs[name].check_exists()
+        for name in scene_list:
             spec = self.specs[name]
-            spec.check_exists()
             state: dict[str, Any] = {}
 
             def loader(spec: SceneSpec = spec, state: dict[str, Any] = state) -> Any:
