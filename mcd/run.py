@@ -3,8 +3,10 @@ test it on whole sequences, and write the run directory (docs/architecture.md, "
 
 Overrides: ``paths.data_dir=<dir>``, ``hydra.run.dir=<dir>``, ``ckpt_path=<file>`` (resume training from a
 checkpoint), ``trainer.precision=bf16-mixed`` (GPU), any ``train.*`` / ``data.*`` / ``method.*`` key.
-Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` is skipped; a job that
-raises writes ``error.json`` (overrides, config, traceback) and the sweep goes on. A single run re-raises.
+Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` of the same job
+(:func:`job_identity`) is skipped, one of another job is an error; a job that raises writes ``error.json``
+(overrides, config, traceback) and the sweep goes on, then exits 1 naming the failed jobs
+(``mcd.hydra_callbacks.FailedJobs``). A single run re-raises.
 """
 
 from __future__ import annotations
@@ -52,6 +54,27 @@ def is_complete(path: Path) -> bool:
     except (OSError, ValueError):
         return False
     return isinstance(data, dict) and all(k in data for k in REQUIRED_KEYS)
+
+
+def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
+    """What makes two runs the same job: the values ``train_and_test`` records under these keys.
+
+    Settings a rerun may change without making it another job (epochs, capacity, ...) are left out
+    (sweeps/_sweep_dirs.yaml: such a rerun goes to another ``sweep_tag``).
+    """
+    return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
+            "data_profile": choices.get("data"),
+            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None}
+
+
+def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
+    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped)."""
+    done = json.loads(path.read_text())
+    differs = {k: (done[k], v) for k, v in job_identity(cfg, choices).items() if k in done and done[k] != v}
+    if differs:
+        detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
+        raise FileExistsError(f"{path.parent} holds a finished run of another job ({detail}); give this run "
+                              "its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")
 
 
 def git_commit() -> dict[str, object]:
@@ -230,11 +253,13 @@ def main(cfg: DictConfig) -> None:
     started = time.perf_counter()
     hydra_cfg = HydraConfig.get()
     out_dir = Path(hydra_cfg.runtime.output_dir)
-    if is_complete(out_dir / "metrics.json"):
-        log.info("skip: %s already holds a complete metrics.json", out_dir)
-        return
+    choices = dict(hydra_cfg.runtime.choices)
     try:
-        train_and_test(cfg, out_dir, dict(hydra_cfg.runtime.choices), started)
+        if is_complete(out_dir / "metrics.json"):
+            check_same_job(out_dir / "metrics.json", cfg, choices)
+            log.info("skip: %s already holds a complete metrics.json", out_dir)
+            return
+        train_and_test(cfg, out_dir, choices, started)
     except Exception as err:
         path = write_error(out_dir, cfg, list(hydra_cfg.overrides.task), err)
         if hydra_cfg.mode != RunMode.MULTIRUN:
