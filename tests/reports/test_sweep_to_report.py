@@ -36,14 +36,14 @@ SMALL = [
 ]
 
 
-def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+def _run(args: list[str], cwd: Path, returncode: int = 0) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
     if LLVM.is_file():
         env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
     proc = subprocess.run(
         [sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
     )
-    assert proc.returncode == 0, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
+    assert proc.returncode == returncode, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
     return proc
 
 
@@ -57,11 +57,13 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
         metrics = json.loads((sweep_dir / f"{exp}_spp4" / "metrics.json").read_text())
         assert metrics["experiment"] == exp and metrics["budget"] == 4
 
-    # a failing job (KP without AS) in the same sweep: recorded, the command still succeeds
-    _run(
+    # a failing job (KP without AS) in the same sweep: recorded, then the command exits 1 naming it
+    failed = _run(
         ["-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=C", "method.AS=false", *data, *SMALL],
         tmp_path,
+        returncode=1,
     )
+    assert "1 job(s) of the sweep" in failed.stderr + failed.stdout
     error = json.loads((sweep_dir / "C_spp4" / "error.json").read_text())
     assert "AS" in error["error"] and not (sweep_dir / "C_spp4" / "metrics.json").exists()
 
