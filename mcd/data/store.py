@@ -22,6 +22,8 @@ recorded in the manifest), depth is divided by the scene's ``depth_scale`` (medi
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import logging
@@ -30,7 +32,7 @@ import re
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +40,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.data.camera import Camera, backward_motion, interpolate_path
-from mcd.data.exr import CorruptEXRError, count_bad, read_exr, sanitise, sha256, write_exr
+from mcd.data.exr import CorruptEXRError, count_bad, read_exr, sanitise, sha256, umask_mode, write_exr
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneSpec
 
@@ -65,6 +67,7 @@ def _write_json_atomic(path: Path, obj: Any) -> None:
     try:
         with os.fdopen(fd, "w") as f:
             json.dump(obj, f, indent=1)
+        os.chmod(tmp, umask_mode())
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -300,39 +303,40 @@ class Store:
                 raise ValueError(f"scene {name!r} is not registered in data.scenes of profile {self.profile}")
             self.specs[name].check_exists()
         for name in scene_list:
-            spec = self.specs[name]
-            state: dict[str, Any] = {}
+            with self._scene_lock(name):  # one writer per scene; the manifest is read again under the lock
+                spec = self.specs[name]
+                state: dict[str, Any] = {}
 
-            def loader(spec: SceneSpec = spec, state: dict[str, Any] = state) -> Any:
-                if "loaded" not in state:
-                    nonlocal variant
+                def loader(spec: SceneSpec = spec, state: dict[str, Any] = state) -> Any:
+                    if "loaded" not in state:
+                        nonlocal variant
+                        variant = variant or self._variant()
+                        state["loaded"] = spec.load(
+                            int(self.data_cfg.width),
+                            int(self.data_cfg.height),
+                            self._settings()["max_depth"],
+                            int(self.data_cfg.segments),
+                        )
+                    return state["loaded"]
+
+                man = self._open_manifest(spec, loader)
+                order = sorted(todo_buffers, key=BUFFERS.index)
+                # ref first so that auto exposure is known early; motion after depth
+                order = ["ref", *[b for b in order if b != "ref"]]
+                todo = {
+                    f: [b for b in order if force or not self._is_done(man, name, f, b, verify)]
+                    for f in range(self.n_frames)
+                }
+                for f in range(self.n_frames):
+                    for b in order:
+                        if b not in todo[f] and (b in want):
+                            reused[b] += 1
+                if any(todo.values()):
                     variant = variant or self._variant()
-                    state["loaded"] = spec.load(
-                        int(self.data_cfg.width),
-                        int(self.data_cfg.height),
-                        self._settings()["max_depth"],
-                        int(self.data_cfg.segments),
-                    )
-                return state["loaded"]
-
-            man = self._open_manifest(spec, loader)
-            order = sorted(todo_buffers, key=BUFFERS.index)
-            # ref first so that auto exposure is known early; motion after depth
-            order = ["ref", *[b for b in order if b != "ref"]]
-            todo = {
-                f: [b for b in order if force or not self._is_done(man, name, f, b, verify)]
-                for f in range(self.n_frames)
-            }
-            for f in range(self.n_frames):
-                for b in order:
-                    if b not in todo[f] and (b in want):
-                        reused[b] += 1
-            if any(todo.values()):
-                variant = variant or self._variant()
-                msamples += self._render_scene(spec, man, todo, loader(), progress, rendered) / 1e6
-            self._fill_scales(spec, man)
-            self._manifests[name] = man
-            self._save(name, man)
+                    msamples += self._render_scene(spec, man, todo, loader(), progress, rendered) / 1e6
+                self._fill_scales(spec, man)
+                self._manifests[name] = man
+                self._save(name, man)
         seconds = time.perf_counter() - t0
         summary = {
             "rendered": dict(rendered),
@@ -354,6 +358,29 @@ class Store:
             variant or "none needed",
         )
         return summary
+
+    @contextlib.contextmanager
+    def _scene_lock(self, scene: str) -> Iterator[None]:
+        """Hold ``<scene>/.lock`` (``fcntl.flock``) while this process renders the scene.
+
+        A second render of the same scene (another process) waits here, then reads the manifest the first one
+        left, so neither loses the other's entries. Under the lock no other process is writing the scene, so
+        temp files left by a killed run (``.*.tmp*`` beside the manifest and in frame folders) are removed.
+        """
+        folder = self.root / scene
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(folder / ".lock", "a") as f:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                log.info("%s: another process is rendering this scene; waiting for it to finish", folder)
+                fcntl.flock(f, fcntl.LOCK_EX)
+            try:
+                for stale in [*folder.glob(".*.tmp*"), *folder.glob("*/.*.tmp*")]:  # of a killed run
+                    stale.unlink(missing_ok=True)
+                yield
+            finally:
+                fcntl.flock(f, fcntl.LOCK_UN)
 
     def _variant(self) -> str:
         from mcd.data.mitsuba_env import select_variant
@@ -377,8 +404,6 @@ class Store:
         s = self._settings()
         r = SceneRenderer(loaded.scene, s["width"], s["height"], loaded.fov, s["max_samples_per_pass"])
         man["variant"] = mi.variant()
-        for stale in (self.root / spec.name).glob("*/.*.tmp*"):  # temp files of a killed run
-            stale.unlink(missing_ok=True)
         frames = [f for f in range(self.n_frames) if todo[f]]
         t0 = time.perf_counter()
         bar = tqdm(frames, desc=f"{self.profile}/{spec.name}", unit="frame", disable=not progress, leave=True)
