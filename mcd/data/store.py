@@ -29,6 +29,7 @@ import json
 import logging
 import os
 import re
+import shlex
 import tempfile
 import time
 from collections import Counter
@@ -83,6 +84,14 @@ def buffer_spp(buffer: str, data_cfg: DictConfig) -> int:
     return SPP_BUFFERS[buffer]
 
 
+#: Command-line overrides that shape the store (``data=..``, ``data.*``, ``+scene@data.scenes.*``, ``paths.*``).
+STORE_OVERRIDE = re.compile(r"[+~]*(data[.=]|scene@data\.|paths\.)")
+
+
+class CorruptManifestError(RuntimeError):
+    """A scene's ``manifest.json`` is not readable JSON; the message names it and the command that fixes it."""
+
+
 def check_name(name: str, key: str) -> str:
     """``name`` if it is a single safe folder name (:data:`SAFE_NAME`), else ValueError naming ``key``.
 
@@ -113,7 +122,10 @@ class Store:
         data_cfg: DictConfig,
         render_cfg: DictConfig | None = None,
         scenes_dir: str | Path = "../shared/scenes",
+        overrides: Iterable[str] | None = None,
     ):
+        """``overrides``: the command-line overrides that made this config (its store-shaping ones are
+        repeated in the commands the store's errors print); ``None``: the data settings, spelled out."""
         self.data_cfg = data_cfg
         self.render_cfg = render_cfg if render_cfg is not None else OmegaConf.create({})
         self.profile = check_name(str(data_cfg.name), "data.name")
@@ -133,12 +145,25 @@ class Store:
                     )
         self._manifests: dict[str, dict] = {}
         self._warned: set[str] = set()
+        shaping = ([o for o in overrides if STORE_OVERRIDE.match(o)] if overrides is not None
+                   else self._settings_overrides())
+        data_dir = f"paths.data_dir={self.data_dir}"
+        self.overrides = [*(o for o in shaping if not o.startswith("paths.data_dir=")), data_dir]
 
     @classmethod
-    def from_cfg(cls, cfg: DictConfig) -> Store:
-        """The store of the full Hydra config (``cfg.data``, ``cfg.paths``, ``cfg.render``)."""
+    def from_cfg(cls, cfg: DictConfig, overrides: Iterable[str] | None = None) -> Store:
+        """The store of the full Hydra config (``cfg.data``, ``cfg.paths``, ``cfg.render``).
+
+        ``overrides`` default to those of the running Hydra app (``python -m mcd.run``/``mcd.render``).
+        """
+        if overrides is None:
+            from hydra.core.hydra_config import HydraConfig
+
+            if HydraConfig.initialized():
+                overrides = list(HydraConfig.get().overrides.task)
         return cls(
-            cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir", "../shared/scenes")
+            cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir", "../shared/scenes"),
+            overrides,
         )
 
     # ----------------------------------------------------------------------------------------------- layout
@@ -162,11 +187,21 @@ class Store:
     def manifest_path(self, scene: str) -> Path:
         return self.root / scene / "manifest.json"
 
-    def fix_command(self) -> str:
-        return (
-            f"python -m mcd.render data={self.profile} paths.data_dir={self.data_dir} render.verify=true "
-            "(re-renders damaged files)"
-        )
+    def render_command(self, *extra: str) -> str:
+        """The ``python -m mcd.render`` command of this store (with the overrides that shaped it)."""
+        return shlex.join(["python", "-m", "mcd.render", *self.overrides, *extra])
+
+    def fix_command(self, buffer: str | None = None) -> str:
+        """The command that checks the store (``buffer`` only, when given) and re-renders damaged files."""
+        only = [f"render.buffers=[{buffer}]"] if buffer else []
+        return f"{self.render_command(*only, 'render.verify=true')} (re-renders damaged files)"
+
+    def _settings_overrides(self) -> list[str]:
+        """``data.*`` overrides that reproduce this store's settings and scenes (when no command line is known)."""
+        d = self.data_cfg
+        keys = ("width", "height", "segments", "frames_per_segment", "ref_spp", "gbuffer_spp", "max_depth", "seed")
+        scenes = [f"data.{k}=[{','.join(d.get(k) or [])}]" for k in ("train_scenes", "transfer_scenes", "test_scenes")]
+        return [f"data.name={self.profile}", *(f"data.{k}={'null' if d[k] is None else d[k]}" for k in keys if k in d), *scenes]
 
     # --------------------------------------------------------------------------------------------- manifest
     def _settings(self) -> dict[str, Any]:
@@ -190,12 +225,23 @@ class Store:
         if scene not in self._manifests:
             p = self.manifest_path(scene)
             if not p.is_file():
-                raise FileNotFoundError(
-                    f"{p}: no manifest; render the data first: python -m mcd.render data={self.profile} "
-                    f"paths.data_dir={self.data_dir}"
-                )
-            self._manifests[scene] = json.loads(p.read_text())
+                raise FileNotFoundError(f"{p}: no manifest; render the data first: {self.render_command()}")
+            self._manifests[scene] = self._read_manifest(p)
         return self._manifests[scene]
+
+    def _read_manifest(self, path: Path) -> dict:
+        """A manifest from disk; :class:`CorruptManifestError` naming it and the fix if it is not JSON."""
+        try:
+            man = json.loads(path.read_text())
+        except (ValueError, UnicodeDecodeError) as err:
+            raise CorruptManifestError(
+                f"{path}: truncated or corrupt manifest ({type(err).__name__}: {err}). Fix: "
+                f"{self.render_command('render.verify=true')} (renders the scene's files again)"
+            ) from err
+        if not isinstance(man, dict) or "files" not in man:
+            raise CorruptManifestError(f"{path}: not a store manifest (no 'files'). Fix: "
+                                       f"{self.render_command('render.verify=true')}")
+        return man
 
     def cameras(self, scene: str) -> list[Camera]:
         return [Camera.from_dict(c) for c in self.manifest(scene)["cameras"]]
@@ -248,7 +294,14 @@ class Store:
         source = spec.source()
         cam_key = self._camera_key(spec, source)
         p = self.manifest_path(spec.name)
-        man = json.loads(p.read_text()) if p.is_file() else None
+        man = None
+        if p.is_file():
+            try:
+                man = self._read_manifest(p)
+            except CorruptManifestError:
+                if not (self.render_cfg.get("force", False) or self.render_cfg.get("verify", False)):
+                    raise
+                log.warning("%s: unreadable manifest replaced; every file of the scene is rendered again", p)
         if man is not None and man.get("camera_key") == cam_key and man.get("version") == MANIFEST_VERSION:
             man["source"] = source
             man["settings"] = self._settings()
@@ -423,7 +476,7 @@ class Store:
                     img = gb[b]
                 else:
                     spp, seed = 0, 0
-                    depth = read_exr(self.path(spec.name, f, "depth"), self.fix_command())
+                    depth = read_exr(self.path(spec.name, f, "depth"), self.fix_command("depth"))
                     cams = man["cameras"]
                     img = (
                         np.zeros((s["height"], s["width"], 2), np.float32)
@@ -449,9 +502,9 @@ class Store:
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
         elif man.get("exposure") is None and "0000/ref.exr" in man["files"]:
-            self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command()))
+            self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command("ref")))
         if man.get("depth_scale") is None and "0000/depth.exr" in man["files"]:
-            depth = read_exr(self.path(spec.name, 0, "depth"), self.fix_command())
+            depth = read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth"))
             pos = depth[depth > 0]
             man["depth_scale"] = float(np.median(pos)) if pos.size else 1.0
 
@@ -504,19 +557,19 @@ class Store:
         rec = man["files"].get(f"{frame:04d}/{buffer}.exr")
         if rec is None or not p.is_file():
             raise FileNotFoundError(
-                f"{p}: buffer {buffer!r} of frame {frame} was not rendered; run python -m mcd.render "
-                f"data={self.profile} paths.data_dir={self.data_dir} (or call store.ensure with it)"
+                f"{p}: buffer {buffer!r} of frame {frame} was not rendered; run "
+                f"{self.render_command(f'render.buffers=[{buffer}]')} (or call store.ensure with it)"
             )
         size = p.stat().st_size
         if size != rec["bytes"]:
-            raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}", self.fix_command())
+            raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}", self.fix_command(buffer))
         verify = bool(self.data_cfg.get("verify_checksums", False)) if verify is None else verify
         if verify and sha256(p) != rec["sha256"]:
-            raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command())
-        img = read_exr(p, self.fix_command())
+            raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command(buffer))
+        img = read_exr(p, self.fix_command(buffer))
         if img.shape[-1] != CHANNELS[buffer]:
             raise CorruptEXRError(
-                p, f"{img.shape[-1]} channels, {buffer} has {CHANNELS[buffer]}", self.fix_command()
+                p, f"{img.shape[-1]} channels, {buffer} has {CHANNELS[buffer]}", self.fix_command(buffer)
             )
         # scale first, then sanitise: a finite value that overflows float32 when scaled becomes 0, not Inf
         if buffer in COLOUR_BUFFERS:
