@@ -136,6 +136,23 @@ def test_variance_check_detects_a_wrong_sample_count(realisations, asked, given)
     assert (ratio > 1) == (given < asked), ratio
 
 
+def test_a_render_split_into_passes_matches_one_pass(cbox32, realisations):
+    """``render.max_samples_per_pass`` below one frame's samples splits a 12 spp render into 3 passes of 4
+    spp with their own seeds: the same estimator (mean and variance) as one 12 spp pass."""
+    from mcd.data.renderer import SceneRenderer
+
+    scene, r = cbox32
+    split = SceneRenderer(scene, 32, 32, r.fov, max_samples_per_pass=32 * 32 * 5)
+    split.set_camera(r.to_world)
+    passes = np.stack([split.color(12, seed=50_000 + 100 * 12 + s) for s in range(R)])
+    _, direct, _ = realisations
+    assert not np.array_equal(passes[0], direct[12][0])  # same seed, yet split: other samples
+    assert split.samples_rendered == R * 12 * 32 * 32
+    mz, mz2 = _z(passes, direct[12])
+    assert abs(mz) < 0.2 and 0.8 < mz2 < 1.25, (mz, mz2)
+    assert abs(_var_ratio(passes, direct[12]) - 1) < 0.05
+
+
 def test_true_adaptive_render_matches_direct_and_simulated(realisations):
     stacks, direct, adaptive3 = realisations
     mz, mz2 = _z(adaptive3, direct[3])
