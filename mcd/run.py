@@ -163,10 +163,10 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
 
     best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-epoch{epoch:03d}",
                            auto_insert_metric_name=False, monitor="val/loss", mode="min", save_top_k=1)
-    # every epoch: latest-epochNNN.ckpt (the previous one removed) and last.ckpt linked to it (save_last on
-    # `best` would write last.ckpt only with a new best)
-    last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="latest-epoch{epoch:03d}",
-                           auto_insert_metric_name=False, save_top_k=1, save_last="link")
+    # last.ckpt after every validation, replacing the previous one (save_last on `best` would write it only
+    # with a new best, so a killed run resumed from an older epoch)
+    last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
+                           enable_version_counter=False)
     trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True), default_root_dir=str(out_dir),
                         callbacks=[best, last],
                         logger=ResumableCSVLogger(str(out_dir), name="logs", version="",
@@ -179,7 +179,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     t0 = time.perf_counter()
     if trainable:
         trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None, weights_only=True)
-        tested = best.best_model_path or last.last_model_path
+        tested = best.best_model_path or last.best_model_path
         log.info("testing checkpoint %s (best val/loss %s)", tested, best.best_model_score)
     else:
         tested = None
