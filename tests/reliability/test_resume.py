@@ -31,9 +31,10 @@ def three_epochs(cbox_store, tmp_path_factory):
 def test_last_ckpt_is_the_last_epoch(three_epochs):
     run, _ = three_epochs
     last = torch.load(run / "checkpoints" / "last.ckpt", weights_only=True)
-    assert (last["epoch"], last["global_step"]) == (2, 3)  # saved at the end of the third epoch (0-based 2)
-    names = sorted(p.name for p in (run / "checkpoints").iterdir())
-    assert names == ["best-epoch000.ckpt", "last.ckpt"]  # constant loss: the first epoch stays the best
+    assert last["global_step"] == 3  # after the third epoch's step (the old last.ckpt: the first, step 1)
+    best = [p.name for p in (run / "checkpoints").glob("best-*.ckpt")]
+    assert len(best) == 1 and torch.load(run / "checkpoints" / best[0], weights_only=True)["global_step"] == 1
+    assert sorted(p.name for p in (run / "checkpoints").iterdir()) == sorted([*best, "last.ckpt"])
 
 
 @pytest.mark.slow
