@@ -1,7 +1,8 @@
 """Params and 1920x1080 MACs of every registered experiment beside the paper's (benchmark.md "Metrics").
 
 ``python -m mcd.complexity [--model paper] [--experiments A B ...]`` prints the table and writes
-``reports/complexity.csv`` (``name, params_m, gmacs_1080p, paper_params_m, paper_gmacs``). Experiments are the
+``reports/complexity.csv`` (``name, params_m, gmacs_1080p, paper_params_m, paper_gmacs``; NaN and an
+"unavailable" note in the printed table for a method whose optional package is missing). Experiments are the
 files ``conf/experiment/*.yaml``, so a new method only needs its config (and its paper numbers in
 :mod:`mcd.paper_numbers`).
 
@@ -98,12 +99,22 @@ def compose(experiment: str, model: str):
         return hydra_compose(config_name="config", overrides=[f"+experiment={experiment}", f"model={model}"])
 
 
-def table(experiments: list[str], model: str, height: int, width: int) -> list[dict]:
-    """One row per experiment: ours and the paper's params and GMACs (NaN where either is missing)."""
+def table(experiments: list[str], model: str, height: int, width: int,
+          unavailable: dict[str, str] | None = None) -> list[dict]:
+    """One row per experiment: ours and the paper's params and GMACs (NaN where either is missing).
+
+    A method whose optional package is missing (OIDN without ``pyoidn``) gets NaN and its reason in
+    ``unavailable`` (name -> message) instead of stopping the table.
+    """
     rows = []
     for name in experiments:
         cfg = compose(name, model)
-        params, gmacs = complexity(cfg, height, width)
+        try:
+            params, gmacs = complexity(cfg, height, width)
+        except ImportError as err:
+            params, gmacs = math.nan, math.nan
+            if unavailable is not None:
+                unavailable[name] = str(err)
         paper = paper_complexity(name, cfg.method.name) or {"params_m": math.nan, "gmacs": math.nan}
         rows.append({"name": name, "params_m": round(params, 4), "gmacs_1080p": round(gmacs, 2),
                      "paper_params_m": paper["params_m"], "paper_gmacs": paper["gmacs"]})
@@ -123,13 +134,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("--out", default="reports/complexity.csv")
     args = parser.parse_args(argv)
-    rows = table(args.experiments or experiment_names(), args.model, args.height, args.width)
+    unavailable: dict[str, str] = {}
+    rows = table(args.experiments or experiment_names(), args.model, args.height, args.width, unavailable)
     print(f"model={args.model}, {args.width}x{args.height}, MACs = FlopCounterMode FLOPs / 2")
     print(f"{'name':<12}{'params_m':>10}{'paper':>8}{'diff':>8}{'gmacs':>10}{'paper':>9}{'diff':>8}")
     for r in rows:
         print(f"{r['name']:<12}{r['params_m']:>10.3f}{r['paper_params_m']:>8.3f}"
               f"{_rel(r['params_m'], r['paper_params_m']):>8}{r['gmacs_1080p']:>10.2f}"
-              f"{r['paper_gmacs']:>9.2f}{_rel(r['gmacs_1080p'], r['paper_gmacs']):>8}")
+              f"{r['paper_gmacs']:>9.2f}{_rel(r['gmacs_1080p'], r['paper_gmacs']):>8}"
+              + (f"  unavailable: {unavailable[r['name']]}" if r["name"] in unavailable else ""))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     with out.open("w", newline="") as f:

@@ -54,14 +54,19 @@ def psnr(x: np.ndarray, ref: np.ndarray) -> float:
     return min(float(peak_signal_noise_ratio(dr, dx, data_range=1.0)), PSNR_CAP_DB)
 
 
+#: Side of scikit-image's default SSIM window: the smallest image side SSIM accepts.
+SSIM_WINDOW = 7
+
+
 def ssim(x: np.ndarray, ref: np.ndarray) -> float:
     """SSIM (0..1) of the display images, scikit-image with ``data_range=1`` and ``channel_axis=-1``.
 
     scikit-image's default 7x7 window needs images at least 7 pixels on each side.
     """
     _check_pair(x, ref)
-    if min(x.shape[:2]) < 7:
-        raise ValueError(f"SSIM needs images of at least 7x7 pixels, got {x.shape[1]}x{x.shape[0]}")
+    if min(x.shape[:2]) < SSIM_WINDOW:
+        raise ValueError(f"SSIM needs images of at least {SSIM_WINDOW}x{SSIM_WINDOW} pixels, got "
+                         f"{x.shape[1]}x{x.shape[0]}")
     return float(structural_similarity(to_display(ref), to_display(x), data_range=1.0, channel_axis=-1))
 
 

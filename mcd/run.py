@@ -3,8 +3,10 @@ test it on whole sequences, and write the run directory (docs/architecture.md, "
 
 Overrides: ``paths.data_dir=<dir>``, ``hydra.run.dir=<dir>``, ``ckpt_path=<file>`` (resume training from a
 checkpoint), ``trainer.precision=bf16-mixed`` (GPU), any ``train.*`` / ``data.*`` / ``method.*`` key.
-Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` is skipped; a job that
-raises writes ``error.json`` (overrides, config, traceback) and the sweep goes on. A single run re-raises.
+Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` of the same job
+(:func:`job_identity`) is skipped, one of another job is an error; a job that raises writes ``error.json``
+(overrides, config, traceback) and the sweep goes on, then exits 1 naming the failed jobs
+(``mcd.hydra_callbacks.FailedJobs``). A single run re-raises.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from mcd.lit import DenoiseModule, budget, build_loss
 from mcd.lit import precision as lit_precision
 from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate
 from mcd.models.switches import check_switches, switch_row
+from mcd.preflight import check_run
 
 log = logging.getLogger("mcd.run")
 
@@ -52,6 +55,27 @@ def is_complete(path: Path) -> bool:
     except (OSError, ValueError):
         return False
     return isinstance(data, dict) and all(k in data for k in REQUIRED_KEYS)
+
+
+def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
+    """What makes two runs the same job: the values ``train_and_test`` records under these keys.
+
+    Settings a rerun may change without making it another job (epochs, capacity, ...) are left out
+    (sweeps/_sweep_dirs.yaml: such a rerun goes to another ``sweep_tag``).
+    """
+    return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
+            "data_profile": choices.get("data"),
+            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None}
+
+
+def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
+    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped)."""
+    done = json.loads(path.read_text())
+    differs = {k: (done[k], v) for k, v in job_identity(cfg, choices).items() if k in done and done[k] != v}
+    if differs:
+        detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
+        raise FileExistsError(f"{path.parent} holds a finished run of another job ({detail}); give this run "
+                              "its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")
 
 
 def git_commit() -> dict[str, object]:
@@ -108,11 +132,12 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     """The whole run; returns what it wrote to ``metrics.json``."""
     from mcd.complexity import complexity, count_params
     from mcd.data import MCDDataModule, Store
-    from mcd.lit import transfer
+    from mcd.lit import checkpoint, transfer
     from mcd.models import build
 
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
+    check_run(cfg)  # budget and image size, before anything is rendered
     resume = cfg.get("ckpt_path")
     if resume and not Path(resume).is_file():
         raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
@@ -123,6 +148,9 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     (out_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
 
     model = build(cfg)
+    if resume:  # read safely, and refuse another experiment's checkpoint before anything is rendered
+        weights = checkpoint.model_weights(checkpoint.safe_load(resume, "ckpt_path"))
+        checkpoint.check_fits(model, weights, "ckpt_path", resume)
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
     buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
@@ -135,8 +163,11 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     lit = DenoiseModule(cfg, model, loss, sample_dir=out_dir / "samples")
 
     best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-step{step:06d}",
-                           auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1,
-                           save_last=True)
+                           auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1)
+    # last.ckpt after every validation, replacing the previous one (save_last on `best` would write it only
+    # with a new best, so a killed run resumed from an older epoch); budget.finish rewrites it at the end
+    last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
+                           enable_version_counter=False)
     stopper = budget.early_stopping(cfg.train)
     curve = budget.LearningCurve(out_dir / "curve.csv")
     trainer_cfg = OmegaConf.to_container(cfg.trainer, resolve=True)
@@ -146,7 +177,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         torch.set_flush_denormal(True)  # denormal floats are slow on x86 and meaningless for images
     lit.max_seconds = 60 * float(cfg.train.max_minutes) if cfg.train.get("max_minutes") else None
     trainer = L.Trainer(**trainer_cfg, **budget.trainer_limits(cfg.train), default_root_dir=str(out_dir),
-                        callbacks=[best, curve, *([stopper] if stopper is not None else [])],
+                        callbacks=[best, last, curve, *([stopper] if stopper is not None else [])],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
@@ -155,9 +186,9 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                          "method.trainable=false to test it without training")
     t0 = time.perf_counter()
     if trainable:
-        trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None)
+        trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None, weights_only=True)
         budget.finish(trainer, lit, datamodule, best, curve)
-        tested = best.best_model_path or best.last_model_path
+        tested = best.best_model_path or str(out_dir / "checkpoints" / "last.ckpt")
         log.info("testing checkpoint %s (best val/psnr %s dB)", tested, best.best_model_score)
     else:
         tested = None
@@ -165,7 +196,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     train_s = time.perf_counter() - t0
     stopped = budget.stop_reason(trainer, cfg.train, stopper, train_s) if trainable else "not trained"
     t0 = time.perf_counter()
-    trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False)
+    trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False,
+                 weights_only=True)
     test_s = time.perf_counter() - t0
 
     extra = [k for k in MODEL_METRICS if any(k in row for row in lit.test_rows)]
@@ -232,11 +264,13 @@ def main(cfg: DictConfig) -> None:
     started = time.perf_counter()
     hydra_cfg = HydraConfig.get()
     out_dir = Path(hydra_cfg.runtime.output_dir)
-    if is_complete(out_dir / "metrics.json"):
-        log.info("skip: %s already holds a complete metrics.json", out_dir)
-        return
+    choices = dict(hydra_cfg.runtime.choices)
     try:
-        train_and_test(cfg, out_dir, dict(hydra_cfg.runtime.choices), started)
+        if is_complete(out_dir / "metrics.json"):
+            check_same_job(out_dir / "metrics.json", cfg, choices)
+            log.info("skip: %s already holds a complete metrics.json", out_dir)
+            return
+        train_and_test(cfg, out_dir, choices, started)
     except Exception as err:
         path = write_error(out_dir, cfg, list(hydra_cfg.overrides.task), err)
         if hydra_cfg.mode != RunMode.MULTIRUN:

@@ -2,7 +2,6 @@
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +10,8 @@ import pandas as pd
 import pytest
 
 from mcd.metrics import FRAME_METRICS
-from mcd.run import REQUIRED_KEYS
+from mcd.run import REQUIRED_KEYS, job_identity
+from tests.conftest import compose_cfg
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = ["data.width=32", "data.height=32", "data.frames_per_segment=6", "data.ref_spp=16",
@@ -108,11 +108,14 @@ def test_multirun_records_a_failed_job_and_goes_on(f_run, tmp_path):
     root, _ = f_run
     sweep = tmp_path / "sweep"
     (sweep / "1").mkdir(parents=True)
-    shutil.copy(root / "F" / "metrics.json", sweep / "1" / "metrics.json")  # job 1 finished earlier
+    # job 1 finished earlier: F's metrics relabelled as job 1's
+    metrics = json.loads((root / "F" / "metrics.json").read_text())
+    metrics.update(job_identity(compose_cfg("+experiment=A", "method.FG=false"), {"data": "tiny"}))
+    (sweep / "1" / "metrics.json").write_text(json.dumps(metrics))
     proc = mcd_run("-m", "+experiment=A", "method.AS=false", "method.FG=true,false", *TINY,
                    f"paths.data_dir={root / 'data'}", f"hydra.sweep.dir={sweep}",
                    "hydra.sweep.subdir=${hydra.job.num}")
-    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert proc.returncode == 1, proc.stderr[-4000:]  # every job ran, then the failure is reported
     err = json.loads((sweep / "0" / "error.json").read_text())
     assert "method.fg=true" in [o.lower() for o in err["overrides"]] and "needs method.AS" in err["error"]
     assert "skip:" in proc.stdout + proc.stderr and not (sweep / "1" / "checkpoints").exists()

@@ -1,7 +1,7 @@
 """Float EXR files via the OpenEXR package (benchmark.md, "Data protocol": everything HDR, linear, float).
 
 Writes are atomic (a temporary file in the same folder, then ``os.replace``), so an interrupted render never
-leaves a half-written file under a final name. A file that OpenEXR cannot read, or whose size or checksum
+leaves a half-written file under a final name; the file gets the mode the umask gives a new file. A file that OpenEXR cannot read, or whose size or checksum
 differs from the manifest, raises :class:`CorruptEXRError`, whose message names the file and the command that
 re-renders it.
 """
@@ -28,6 +28,16 @@ class CorruptEXRError(RuntimeError):
         super().__init__(f"{path}: truncated or corrupt EXR ({reason}). Fix: {fix}")
 
 
+def umask_mode() -> int:
+    """The mode a plainly created file gets under the process's umask (``0o644`` under umask 022).
+
+    Temp files from :func:`tempfile.mkstemp` are ``0o600``; a store shared with colleagues needs the umask's.
+    """
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def write_exr(path: Path, image: np.ndarray, compress: bool = True) -> None:
     """Write an ``(H, W)`` or ``(H, W, C)`` array (C in 1..3) as a float32 EXR, atomically.
 
@@ -48,6 +58,7 @@ def write_exr(path: Path, image: np.ndarray, compress: bool = True) -> None:
     os.close(fd)
     try:
         OpenEXR.File(header, channels).write(tmp)
+        os.chmod(tmp, umask_mode())
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -22,14 +22,18 @@ recorded in the manifest), depth is divided by the scene's ``depth_scale`` (medi
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import logging
 import os
+import re
+import shlex
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +41,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.data.camera import Camera, backward_motion, interpolate_path
-from mcd.data.exr import CorruptEXRError, count_bad, read_exr, sanitise, sha256, write_exr
+from mcd.data.exr import CorruptEXRError, count_bad, read_exr, sanitise, sha256, umask_mode, write_exr
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneSpec
 
@@ -50,6 +54,8 @@ BUFFERS = (*COLOUR_BUFFERS, *GBUFFERS, "motion")
 CHANNELS = {**dict.fromkeys(COLOUR_BUFFERS, 3), "depth": 1, "normal": 3, "albedo": 3, "motion": 2}
 NEGATIVE_OK = {"normal", "motion"}
 MANIFEST_VERSION = 1
+#: A profile or scene name is one folder name of the store: letters, digits, ``_``, ``-``, ``.`` (not leading).
+SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 
 def _hash(obj: Any) -> str:
@@ -62,6 +68,7 @@ def _write_json_atomic(path: Path, obj: Any) -> None:
     try:
         with os.fdopen(fd, "w") as f:
             json.dump(obj, f, indent=1)
+        os.chmod(tmp, umask_mode())
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -75,6 +82,28 @@ def buffer_spp(buffer: str, data_cfg: DictConfig) -> int:
     if buffer == "ref":
         return int(data_cfg.ref_spp)
     return SPP_BUFFERS[buffer]
+
+
+#: Command-line overrides that shape the store (``data=..``, ``data.*``, ``+scene@data.scenes.*``, ``paths.*``).
+STORE_OVERRIDE = re.compile(r"[+~]*(data[.=]|scene@data\.|paths\.)")
+
+
+class CorruptManifestError(RuntimeError):
+    """A scene's ``manifest.json`` is not readable JSON; the message names it and the command that fixes it."""
+
+
+def check_name(name: str, key: str) -> str:
+    """``name`` if it is a single safe folder name (:data:`SAFE_NAME`), else ValueError naming ``key``.
+
+    Profile and scene names become folders of the store; ``..`` or ``/`` would write outside
+    ``paths.data_dir``.
+    """
+    if not SAFE_NAME.fullmatch(name):
+        raise ValueError(
+            f"{key}={name!r}: not a plain folder name (letters, digits, '_', '-', '.', not leading '.'); the "
+            "store writes <paths.data_dir>/<data.name>/<scene>/, so a name must not hold '/' or '..'"
+        )
+    return name
 
 
 def validate_buffers(buffers: Iterable[str]) -> set[str]:
@@ -93,15 +122,19 @@ class Store:
         data_cfg: DictConfig,
         render_cfg: DictConfig | None = None,
         scenes_dir: str | Path = "../shared/scenes",
+        overrides: Iterable[str] | None = None,
     ):
+        """``overrides``: the command-line overrides that made this config (its store-shaping ones are
+        repeated in the commands the store's errors print); ``None``: the data settings, spelled out."""
         self.data_cfg = data_cfg
         self.render_cfg = render_cfg if render_cfg is not None else OmegaConf.create({})
-        self.profile = str(data_cfg.name)
+        self.profile = check_name(str(data_cfg.name), "data.name")
         self.data_dir = Path(data_dir)
         self.root = self.data_dir / self.profile
         self.scenes_dir = scenes_dir
         self.specs: dict[str, SceneSpec] = {
-            name: SceneSpec.from_cfg(name, scfg, scenes_dir) for name, scfg in data_cfg.scenes.items()
+            check_name(str(name), "data.scenes key"): SceneSpec.from_cfg(name, scfg, scenes_dir)
+            for name, scfg in data_cfg.scenes.items()
         }
         for key in ("train_scenes", "transfer_scenes", "test_scenes"):
             for name in data_cfg.get(key) or []:
@@ -112,12 +145,25 @@ class Store:
                     )
         self._manifests: dict[str, dict] = {}
         self._warned: set[str] = set()
+        shaping = ([o for o in overrides if STORE_OVERRIDE.match(o)] if overrides is not None
+                   else self._settings_overrides())
+        data_dir = f"paths.data_dir={self.data_dir}"
+        self.overrides = [*(o for o in shaping if not o.startswith("paths.data_dir=")), data_dir]
 
     @classmethod
-    def from_cfg(cls, cfg: DictConfig) -> Store:
-        """The store of the full Hydra config (``cfg.data``, ``cfg.paths``, ``cfg.render``)."""
+    def from_cfg(cls, cfg: DictConfig, overrides: Iterable[str] | None = None) -> Store:
+        """The store of the full Hydra config (``cfg.data``, ``cfg.paths``, ``cfg.render``).
+
+        ``overrides`` default to those of the running Hydra app (``python -m mcd.run``/``mcd.render``).
+        """
+        if overrides is None:
+            from hydra.core.hydra_config import HydraConfig
+
+            if HydraConfig.initialized():
+                overrides = list(HydraConfig.get().overrides.task)
         return cls(
-            cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir", "../shared/scenes")
+            cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir", "../shared/scenes"),
+            overrides,
         )
 
     # ----------------------------------------------------------------------------------------------- layout
@@ -141,11 +187,21 @@ class Store:
     def manifest_path(self, scene: str) -> Path:
         return self.root / scene / "manifest.json"
 
-    def fix_command(self) -> str:
-        return (
-            f"python -m mcd.render data={self.profile} paths.data_dir={self.data_dir} render.verify=true "
-            "(re-renders damaged files)"
-        )
+    def render_command(self, *extra: str) -> str:
+        """The ``python -m mcd.render`` command of this store (with the overrides that shaped it)."""
+        return shlex.join(["python", "-m", "mcd.render", *self.overrides, *extra])
+
+    def fix_command(self, buffer: str | None = None) -> str:
+        """The command that checks the store (``buffer`` only, when given) and re-renders damaged files."""
+        only = [f"render.buffers=[{buffer}]"] if buffer else []
+        return f"{self.render_command(*only, 'render.verify=true')} (re-renders damaged files)"
+
+    def _settings_overrides(self) -> list[str]:
+        """``data.*`` overrides that reproduce this store's settings and scenes (when no command line is known)."""
+        d = self.data_cfg
+        keys = ("width", "height", "segments", "frames_per_segment", "ref_spp", "gbuffer_spp", "max_depth", "seed")
+        scenes = [f"data.{k}=[{','.join(d.get(k) or [])}]" for k in ("train_scenes", "transfer_scenes", "test_scenes")]
+        return [f"data.name={self.profile}", *(f"data.{k}={'null' if d[k] is None else d[k]}" for k in keys if k in d), *scenes]
 
     # --------------------------------------------------------------------------------------------- manifest
     def _settings(self) -> dict[str, Any]:
@@ -169,12 +225,23 @@ class Store:
         if scene not in self._manifests:
             p = self.manifest_path(scene)
             if not p.is_file():
-                raise FileNotFoundError(
-                    f"{p}: no manifest; render the data first: python -m mcd.render data={self.profile} "
-                    f"paths.data_dir={self.data_dir}"
-                )
-            self._manifests[scene] = json.loads(p.read_text())
+                raise FileNotFoundError(f"{p}: no manifest; render the data first: {self.render_command()}")
+            self._manifests[scene] = self._read_manifest(p)
         return self._manifests[scene]
+
+    def _read_manifest(self, path: Path) -> dict:
+        """A manifest from disk; :class:`CorruptManifestError` naming it and the fix if it is not JSON."""
+        try:
+            man = json.loads(path.read_text())
+        except (ValueError, UnicodeDecodeError) as err:
+            raise CorruptManifestError(
+                f"{path}: truncated or corrupt manifest ({type(err).__name__}: {err}). Fix: "
+                f"{self.render_command('render.verify=true')} (renders the scene's files again)"
+            ) from err
+        if not isinstance(man, dict) or "files" not in man:
+            raise CorruptManifestError(f"{path}: not a store manifest (no 'files'). Fix: "
+                                       f"{self.render_command('render.verify=true')}")
+        return man
 
     def cameras(self, scene: str) -> list[Camera]:
         return [Camera.from_dict(c) for c in self.manifest(scene)["cameras"]]
@@ -227,7 +294,14 @@ class Store:
         source = spec.source()
         cam_key = self._camera_key(spec, source)
         p = self.manifest_path(spec.name)
-        man = json.loads(p.read_text()) if p.is_file() else None
+        man = None
+        if p.is_file():
+            try:
+                man = self._read_manifest(p)
+            except CorruptManifestError:
+                if not (self.render_cfg.get("force", False) or self.render_cfg.get("verify", False)):
+                    raise
+                log.warning("%s: unreadable manifest replaced; every file of the scene is rendered again", p)
         if man is not None and man.get("camera_key") == cam_key and man.get("version") == MANIFEST_VERSION:
             man["source"] = source
             man["settings"] = self._settings()
@@ -277,43 +351,45 @@ class Store:
         t0 = time.perf_counter()
         msamples = 0.0
         variant = None
-        for name in scene_list:
+        for name in scene_list:  # every scene file before the first render, not after the earlier scenes
             if name not in self.specs:
                 raise ValueError(f"scene {name!r} is not registered in data.scenes of profile {self.profile}")
-            spec = self.specs[name]
-            spec.check_exists()
-            state: dict[str, Any] = {}
+            self.specs[name].check_exists()
+        for name in scene_list:
+            with self._scene_lock(name):  # one writer per scene; the manifest is read again under the lock
+                spec = self.specs[name]
+                state: dict[str, Any] = {}
 
-            def loader(spec: SceneSpec = spec, state: dict[str, Any] = state) -> Any:
-                if "loaded" not in state:
-                    nonlocal variant
+                def loader(spec: SceneSpec = spec, state: dict[str, Any] = state) -> Any:
+                    if "loaded" not in state:
+                        nonlocal variant
+                        variant = variant or self._variant()
+                        state["loaded"] = spec.load(
+                            int(self.data_cfg.width),
+                            int(self.data_cfg.height),
+                            self._settings()["max_depth"],
+                            int(self.data_cfg.segments),
+                        )
+                    return state["loaded"]
+
+                man = self._open_manifest(spec, loader)
+                order = sorted(todo_buffers, key=BUFFERS.index)
+                # ref first so that auto exposure is known early; motion after depth
+                order = ["ref", *[b for b in order if b != "ref"]]
+                todo = {
+                    f: [b for b in order if force or not self._is_done(man, name, f, b, verify)]
+                    for f in range(self.n_frames)
+                }
+                for f in range(self.n_frames):
+                    for b in order:
+                        if b not in todo[f] and (b in want):
+                            reused[b] += 1
+                if any(todo.values()):
                     variant = variant or self._variant()
-                    state["loaded"] = spec.load(
-                        int(self.data_cfg.width),
-                        int(self.data_cfg.height),
-                        self._settings()["max_depth"],
-                        int(self.data_cfg.segments),
-                    )
-                return state["loaded"]
-
-            man = self._open_manifest(spec, loader)
-            order = sorted(todo_buffers, key=BUFFERS.index)
-            # ref first so that auto exposure is known early; motion after depth
-            order = ["ref", *[b for b in order if b != "ref"]]
-            todo = {
-                f: [b for b in order if force or not self._is_done(man, name, f, b, verify)]
-                for f in range(self.n_frames)
-            }
-            for f in range(self.n_frames):
-                for b in order:
-                    if b not in todo[f] and (b in want):
-                        reused[b] += 1
-            if any(todo.values()):
-                variant = variant or self._variant()
-                msamples += self._render_scene(spec, man, todo, loader(), progress, rendered) / 1e6
-            self._fill_scales(spec, man)
-            self._manifests[name] = man
-            self._save(name, man)
+                    msamples += self._render_scene(spec, man, todo, loader(), progress, rendered) / 1e6
+                self._fill_scales(spec, man)
+                self._manifests[name] = man
+                self._save(name, man)
         seconds = time.perf_counter() - t0
         summary = {
             "rendered": dict(rendered),
@@ -335,6 +411,29 @@ class Store:
             variant or "none needed",
         )
         return summary
+
+    @contextlib.contextmanager
+    def _scene_lock(self, scene: str) -> Iterator[None]:
+        """Hold ``<scene>/.lock`` (``fcntl.flock``) while this process renders the scene.
+
+        A second render of the same scene (another process) waits here, then reads the manifest the first one
+        left, so neither loses the other's entries. Under the lock no other process is writing the scene, so
+        temp files left by a killed run (``.*.tmp*`` beside the manifest and in frame folders) are removed.
+        """
+        folder = self.root / scene
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(folder / ".lock", "a") as f:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                log.info("%s: another process is rendering this scene; waiting for it to finish", folder)
+                fcntl.flock(f, fcntl.LOCK_EX)
+            try:
+                for stale in [*folder.glob(".*.tmp*"), *folder.glob("*/.*.tmp*")]:  # of a killed run
+                    stale.unlink(missing_ok=True)
+                yield
+            finally:
+                fcntl.flock(f, fcntl.LOCK_UN)
 
     def _variant(self) -> str:
         from mcd.data.mitsuba_env import select_variant
@@ -358,8 +457,6 @@ class Store:
         s = self._settings()
         r = SceneRenderer(loaded.scene, s["width"], s["height"], loaded.fov, s["max_samples_per_pass"])
         man["variant"] = mi.variant()
-        for stale in (self.root / spec.name).glob("*/.*.tmp*"):  # temp files of a killed run
-            stale.unlink(missing_ok=True)
         frames = [f for f in range(self.n_frames) if todo[f]]
         t0 = time.perf_counter()
         bar = tqdm(frames, desc=f"{self.profile}/{spec.name}", unit="frame", disable=not progress, leave=True)
@@ -379,7 +476,7 @@ class Store:
                     img = gb[b]
                 else:
                     spp, seed = 0, 0
-                    depth = read_exr(self.path(spec.name, f, "depth"), self.fix_command())
+                    depth = read_exr(self.path(spec.name, f, "depth"), self.fix_command("depth"))
                     cams = man["cameras"]
                     img = (
                         np.zeros((s["height"], s["width"], 2), np.float32)
@@ -405,9 +502,9 @@ class Store:
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
         elif man.get("exposure") is None and "0000/ref.exr" in man["files"]:
-            self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command()))
+            self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command("ref")))
         if man.get("depth_scale") is None and "0000/depth.exr" in man["files"]:
-            depth = read_exr(self.path(spec.name, 0, "depth"), self.fix_command())
+            depth = read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth"))
             pos = depth[depth > 0]
             man["depth_scale"] = float(np.median(pos)) if pos.size else 1.0
 
@@ -460,35 +557,38 @@ class Store:
         rec = man["files"].get(f"{frame:04d}/{buffer}.exr")
         if rec is None or not p.is_file():
             raise FileNotFoundError(
-                f"{p}: buffer {buffer!r} of frame {frame} was not rendered; run python -m mcd.render "
-                f"data={self.profile} paths.data_dir={self.data_dir} (or call store.ensure with it)"
+                f"{p}: buffer {buffer!r} of frame {frame} was not rendered; run "
+                f"{self.render_command(f'render.buffers=[{buffer}]')} (or call store.ensure with it)"
             )
         size = p.stat().st_size
         if size != rec["bytes"]:
-            raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}", self.fix_command())
+            raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}", self.fix_command(buffer))
         verify = bool(self.data_cfg.get("verify_checksums", False)) if verify is None else verify
         if verify and sha256(p) != rec["sha256"]:
-            raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command())
-        img = read_exr(p, self.fix_command())
+            raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command(buffer))
+        img = read_exr(p, self.fix_command(buffer))
         if img.shape[-1] != CHANNELS[buffer]:
             raise CorruptEXRError(
-                p, f"{img.shape[-1]} channels, {buffer} has {CHANNELS[buffer]}", self.fix_command()
+                p, f"{img.shape[-1]} channels, {buffer} has {CHANNELS[buffer]}", self.fix_command(buffer)
             )
+        # scale first, then sanitise: a finite value that overflows float32 when scaled becomes 0, not Inf
+        if buffer in COLOUR_BUFFERS:
+            with np.errstate(over="ignore"):
+                img *= np.float32(man.get("exposure") or 1.0)
+        elif buffer == "depth":
+            img /= np.float32(man.get("depth_scale") or 1.0)
         img, n_bad = sanitise(img, allow_negative=buffer in NEGATIVE_OK)
         if n_bad and str(p) not in self._warned:
             self._warned.add(str(p))
             log.warning(
-                "%s: %d NaN/Inf/negative values replaced by 0 (manifest: nan %d, inf %d, negative %d)",
+                "%s: %d NaN/Inf/negative values (after scaling) replaced by 0 (manifest: nan %d, inf %d, "
+                "negative %d)",
                 p,
                 n_bad,
                 rec.get("nan", 0),
                 rec.get("inf", 0),
                 rec.get("negative", 0),
             )
-        if buffer in COLOUR_BUFFERS:
-            img *= np.float32(man.get("exposure") or 1.0)
-        elif buffer == "depth":
-            img /= np.float32(man.get("depth_scale") or 1.0)
         return img
 
     def frame_count(self, scene: str) -> int:

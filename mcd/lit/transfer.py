@@ -17,9 +17,10 @@ import logging
 from pathlib import Path
 from typing import Any
 
-import torch
 from omegaconf import DictConfig, OmegaConf, open_dict
 from torch import nn
+
+from mcd.lit import checkpoint
 
 log = logging.getLogger(__name__)
 
@@ -82,22 +83,15 @@ def prepare(cfg: DictConfig) -> tuple[DictConfig, dict[str, Any] | None]:
 
 
 def load_weights(model: nn.Module, info: dict[str, Any]) -> None:
-    """Load the trained weights (a Lightning checkpoint of `DenoiseModule`: keys `model.*`) into `model`."""
-    state = torch.load(info["init_from"], map_location="cpu", weights_only=False)
-    weights = state.get("state_dict", state)
-    own = {k.removeprefix("model."): v for k, v in weights.items() if k.startswith("model.")} or weights
-    hint = "same experiment and model profile as the run it came from?"
-    try:
-        missing, unexpected = model.load_state_dict(own, strict=False)
-    except RuntimeError as err:  # shape mismatches
-        first = str(err).strip().splitlines()[-1].strip()
-        raise ValueError(f"transfer.init_from={info['init_from']}: the checkpoint does not fit this model "
-                         f"({first}): {hint}") from err
-    if missing or unexpected:
-        raise ValueError(
-            f"transfer.init_from={info['init_from']}: the checkpoint does not fit this model "
-            f"(missing {sorted(missing)[:5]}, unexpected {sorted(unexpected)[:5]}): {hint}"
-        )
+    """Load the trained weights (a Lightning checkpoint of `DenoiseModule`: keys `model.*`) into `model`.
+
+    The file is read with `weights_only=True` (:func:`mcd.lit.checkpoint.safe_load`); a checkpoint that does
+    not fit `model` raises :class:`mcd.lit.checkpoint.CheckpointError` naming what differs.
+    """
+    key = "transfer.init_from"
+    weights = checkpoint.model_weights(checkpoint.safe_load(info["init_from"], key))
+    checkpoint.check_fits(model, weights, key, info["init_from"])
+    model.load_state_dict(weights)
     log.info("transfer: weights from %s; %s", info["init_from"],
              f"fine-tuning {info['finetune_epochs']} epochs on {info['scene']}" if info["finetune"]
              else f"testing on {info['scene']} as loaded")

@@ -99,6 +99,19 @@ def test_interrupted_render_resumes(tmp_path, monkeypatch):
     assert all((root / k).stat().st_mtime_ns == t for k, t in mtimes.items())
 
 
+@pytest.mark.parametrize(("change", "again"), [
+    ("data.ref_spp=16", {"ref": 12}),                        # only the reference depends on ref_spp
+    ("data.gbuffer_spp=4", {"depth": 12, "motion": 12}),     # G-buffers, and motion through depth
+    ("data.seed=1", {"ref": 12, "c4": 12, "depth": 12, "motion": 12}),  # every image's seed
+])
+def test_a_changed_setting_rerenders_exactly_what_depends_on_it(tmp_path, change, again):
+    first = _store(tmp_path).ensure({"c4", "motion"}, progress=False)
+    assert first["rendered"] == {"ref": 12, "c4": 12, "depth": 12, "motion": 12}
+    changed = _store(tmp_path, change).ensure({"c4", "motion"}, progress=False)
+    assert changed["rendered"] == again
+    assert _store(tmp_path, change).ensure({"c4", "motion"}, progress=False)["rendered"] == {}
+
+
 def test_truncated_store_file_is_named_and_repaired(tmp_path):
     store = _store(tmp_path)
     store.ensure({"c4"}, progress=False)
@@ -106,7 +119,7 @@ def test_truncated_store_file_is_named_and_repaired(tmp_path):
     p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
     with pytest.raises(CorruptEXRError) as err:
         _store(tmp_path).load("cbox", 1, "c4")
-    assert str(p) in str(err.value) and "python -m mcd.render data=test32" in str(err.value)
+    assert str(p) in str(err.value) and "python -m mcd.render data.name=test32 data.width=32" in str(err.value)
     fixed = _store(tmp_path).ensure({"c4"}, progress=False)
     assert fixed["rendered"] == {"c4": 1}
     assert _store(tmp_path).load("cbox", 1, "c4").shape == (32, 32, 3)

@@ -57,6 +57,22 @@ def test_kernel_pool_adjustment_shapes_init_and_gradients():
     assert all(p.grad is not None for p in kp.parameters())
 
 
+@pytest.mark.parametrize(("bias", "alpha"), [(-30.0, 0.0), (0.0, 0.5), (30.0, 1.0)])
+def test_kernel_pool_gate_blends_pool_and_residual(bias, alpha):
+    """With the gate MLP's output fixed (last layer weight 0, bias b), alpha = sigmoid(b) and
+    pi_bar = (1 - alpha) pi + alpha r: b = -30 keeps the pool, b = 30 takes the residual r."""
+    torch.manual_seed(0)
+    kp = KernelPool(coarse_channels=12, q=16, size=5, lift_hidden=8, alpha_hidden=8, descriptor=4)
+    with torch.no_grad():
+        kp.alpha[-1].weight.zero_()
+        kp.alpha[-1].bias.fill_(bias)
+    coarse = torch.rand(2, 12, 3, 5)
+    pooled = F.adaptive_avg_pool2d(coarse, 5).flatten(2).transpose(1, 2)
+    residual = kp.neighbours(kp.lift(pooled)).transpose(1, 2)             # r of method.md, [B, q, taps]
+    assert (residual - kp.pool).abs().mean() > 0.1                       # the two ends differ
+    torch.testing.assert_close(kp.adjust(coarse), (1 - alpha) * kp.pool + alpha * residual)
+
+
 @pytest.mark.parametrize("size", [(7, 9), (1, 1), (8, 8), (5, 2)])
 def test_position_pooling_odd_sizes_and_constant_image(size):
     torch.manual_seed(0)

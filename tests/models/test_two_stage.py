@@ -100,7 +100,24 @@ def test_temporal_state_across_a_clip_keeps_the_graph():
     torch.testing.assert_close(model(frames[0])["output"], a)
 
 
-def test_window_and_reset_interface():
-    model = build(row_cfg("F"))
+@pytest.mark.parametrize(("row", "stateful"), [("F", True), ("M", True), ("A", False)])
+def test_window_and_reset_interface(row, stateful):
+    """One frame per call (window (0, 0)); with SA the output depends on the frames since the last reset(),
+    and reset() forgets them (the next output equals a fresh sequence's); without SA it never does."""
+    torch.manual_seed(0)
+    model = build(row_cfg(row)).eval()
     assert model.window == (0, 0)
-    model.reset()
+    f0, f1 = frame(seed=1), frame(seed=2)
+    with torch.no_grad():
+        model.reset()
+        fresh = model(f1)["output"]
+        model.reset()
+        model(f0)
+        after_f0 = model(f1)["output"]
+        model.reset()
+        model(f0)
+        model.reset()
+        after_reset = model(f1)["output"]
+    # exact comparisons: at initialisation the SA history moves the output by only ~1e-5
+    assert torch.equal(after_reset, fresh)
+    assert (not torch.equal(after_f0, fresh)) == stateful

@@ -64,6 +64,20 @@ def test_weights_are_loaded_and_a_mismatch_is_named(tmp_path):
         transfer.load_weights(nn.Linear(3, 2), info)
 
 
+def test_a_run_dir_without_a_best_checkpoint_falls_back_to_last(tmp_path):
+    src = nn.Linear(2, 2)
+    run = tmp_path / "run"
+    (run / "checkpoints").mkdir(parents=True)
+    torch.save({"state_dict": {f"model.{k}": v for k, v in src.state_dict().items()}},
+               run / "checkpoints" / "last.ckpt")
+    _, info = transfer.prepare(_cfg(tmp_path, init_from=str(run)))
+    assert info["init_from"] == str(run / "checkpoints" / "last.ckpt")
+    dst = nn.Linear(2, 2)
+    assert not torch.equal(dst.weight, src.weight)
+    transfer.load_weights(dst, info)
+    assert torch.equal(dst.weight, src.weight) and torch.equal(dst.bias, src.bias)
+
+
 def test_bad_transfer_configs_say_what_to_do(tmp_path):
     with pytest.raises(FileNotFoundError, match="train the model first"):
         transfer.prepare(_cfg(tmp_path, init_from=str(tmp_path / "missing")))

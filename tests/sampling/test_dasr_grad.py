@@ -3,7 +3,7 @@
 import pytest
 import torch
 
-from mcd.sampling import AdaptiveRender, adaptive_render, frame_budget, shares
+from mcd.sampling import AdaptiveRender, adaptive_render, frame_budget
 
 
 def _toy(h=4, w=4):
@@ -17,17 +17,39 @@ def _toy(h=4, w=4):
     return c1, stack, ref
 
 
-def test_backward_is_the_dasr_formula():
-    c1, stack, ref = _toy()
-    logits = torch.randn(1, 1, 4, 4, requires_grad=True)
-    p = shares(logits)
-    p.retain_grad()
+def test_backward_on_a_hand_worked_two_pixel_frame():
+    """Two pixels, budget 4 (6 samples, m = 3 each), ref 0.5; c1 and the stack are 1.0 on the left, 0.5 on the
+    right (c1_in 1.0 everywhere), so i = (1 + 3 * 1) / 4 = 1 and (1 + 3 * 0.5) / 4 = 0.625. With L = sum(i),
+    dL/dm = 3 channels x (0.5 - i) / (1 + 3) = -0.375 and -0.09375, and dL/dp = dL/dm x N (s - 1) = x 6."""
+    ref = torch.full((1, 3, 1, 2), 0.5)
+    c1 = torch.ones(1, 3, 1, 2)
+    stack = torch.ones(1, 6, 3, 1, 2)
+    stack[..., 1] = 0.5
+    p = torch.full((1, 1, 1, 2), 0.5, requires_grad=True)
     i, m = AdaptiveRender.apply(p, c1, stack, ref, 4.0)
-    weight = torch.randn_like(i)
-    (i * weight).sum().backward()
-    want = (weight * (ref - i.detach()) / (1 + m)).sum(1, keepdim=True) * frame_budget(16, 4.0)
-    torch.testing.assert_close(p.grad, want)
+    torch.testing.assert_close(m, torch.full((1, 1, 1, 2), 3.0))
+    torch.testing.assert_close(i[0, :, 0], torch.tensor([[1.0, 0.625]] * 3))
+    i.sum().backward()
+    torch.testing.assert_close(p.grad, torch.tensor([[[[-2.25, -0.5625]]]]))
     assert not m.requires_grad, "the map is a non-differentiable output"
+
+
+def test_backward_of_a_batch_equals_each_frame_alone():
+    """Frames of a batch are normalised and differentiated independently (each spends its own budget)."""
+    torch.manual_seed(0)
+    c1, stack, ref = (torch.rand(2, *shape) for shape in ((3, 4, 4), (6, 3, 4, 4), (3, 4, 4)))
+    logits = torch.randn(2, 1, 4, 4, requires_grad=True)
+    weight = torch.randn(2, 3, 4, 4)
+    i, m = adaptive_render(logits, c1, stack, ref, 4.0)
+    (i * weight).sum().backward()
+    for b in range(2):
+        one = logits[b : b + 1].detach().clone().requires_grad_(True)
+        i_b, m_b = adaptive_render(one, c1[b : b + 1], stack[b : b + 1], ref[b : b + 1], 4.0)
+        (i_b * weight[b : b + 1]).sum().backward()
+        torch.testing.assert_close(i[b : b + 1], i_b)
+        torch.testing.assert_close(m[b : b + 1], m_b)
+        torch.testing.assert_close(logits.grad[b : b + 1], one.grad)
+        assert float(m_b.sum()) == frame_budget(16, 4.0)
 
 
 def test_sign_more_samples_where_they_help():
@@ -43,14 +65,23 @@ def test_sign_more_samples_where_they_help():
 def test_scale_matches_the_expected_loss_derivative():
     """For i = mean of 1+m samples with variance s2, E[(i - ref)^2] = s2 / (1 + m), whose derivative is
     -s2 / (1 + m)^2. DASR's first-order estimate -2 (i - ref)^2 / (1 + m) has expectation exactly twice that
-    (the neglected second-order term is the new sample's own variance): check sign and factor 2."""
+    (the neglected second-order term is the new sample's own variance): check sign and factor 2 on the
+    package's backward, over 64x64 pixels x 3 channels whose c_1_in and c_{2^k} carry noise of variance
+    s2 / 2^k (uniform map, m = 3: c_1_in + c_1 + c_2 = 4 samples)."""
     torch.manual_seed(3)
-    trials, s2, m_val = 20000, 0.25, 3
-    samples = torch.randn(trials, 1 + m_val) * s2 ** 0.5
-    i = samples.mean(1)
-    ref = torch.zeros(())
-    estimate = (2 * (i - ref) * (ref - i) / (1 + m_val)).mean()
-    exact = -s2 / (1 + m_val) ** 2
+    h = w = 64
+    s2, budget = 0.25, 4.0
+    ref = torch.zeros(1, 3, h, w)
+    spp = torch.tensor([1, 2, 4, 8, 16, 32.0]).view(1, 6, 1, 1, 1)
+    stack = torch.randn(1, 6, 3, h, w) * (s2 / spp).sqrt()
+    c1 = torch.randn(1, 3, h, w) * s2 ** 0.5
+    p = torch.full((1, 1, h, w), 1 / (h * w), requires_grad=True)
+    i, m = AdaptiveRender.apply(p, c1, stack, ref, budget)
+    assert bool((m == 3).all())
+    ((i - ref) ** 2).sum().backward()
+    per_sample = p.grad / frame_budget(h * w, budget) / 3   # dL/dm per pixel and channel
+    estimate = float(per_sample.mean())
+    exact = -s2 / (1 + 3) ** 2
     assert estimate < 0
     assert estimate / exact == pytest.approx(2.0, rel=0.05)
 

@@ -14,13 +14,21 @@ def _check(m: torch.Tensor, budget: float, cap: int = 63) -> None:
         assert int(frame.sum()) == frame_budget(n, budget)
 
 
-@pytest.mark.parametrize("budget", [2, 4, 8, 32, 64])
+@pytest.mark.parametrize("budget", [2, 4, 8, 32, 64, 3.5, 2.25, 7.3])  # non-integer: round(N (s - 1))
 @pytest.mark.parametrize("scale", [0.0, 1.0, 5.0, 40.0])
 def test_budget_invariant_on_random_logits(budget, scale):
     torch.manual_seed(budget * 10 + int(scale))
     logits = torch.randn(3, 1, 17, 23) * scale
     m = normalise_map(shares(logits), budget)
     _check(m, budget)
+
+
+def test_a_non_integer_budget_spends_its_exact_rounded_sum():
+    """17 x 23 = 391 pixels at s = 3.5: round(391 * 2.5) = round(977.5) = 978 samples (Python rounds half to
+    even), neither 977 nor the 1173 of the integer budget 4."""
+    assert frame_budget(391, 3.5) == 978
+    m = normalise_map(shares(torch.randn(2, 1, 17, 23)), 3.5)
+    assert [int(f.sum()) for f in m] == [978, 978]
 
 
 @pytest.mark.parametrize("big", [1e4, -1e4])

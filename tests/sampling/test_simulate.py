@@ -58,4 +58,14 @@ def test_stack_buffers_names_missing_buffers():
     x = {f"c{2 ** k}": torch.zeros(1, 3, 4, 4) for k in range(5)}
     with pytest.raises(KeyError, match="c32"):
         stack_buffers(x, 5)
-    assert stack_buffers({**x, "c32": torch.zeros(1, 3, 4, 4)}, 5).shape == (1, 6, 3, 4, 4)
+
+
+def test_stack_buffers_puts_c_2k_at_level_k():
+    """Each buffer filled with its own spp, given in a shuffled dict order: level k must hold c_{2^k}."""
+    names = ["c8", "c1", "c32", "c4", "c16", "c2", "ref"]
+    x = {n: torch.full((2, 3, 4, 4), float(n[1:]) if n != "ref" else -1.0) for n in names}
+    stack = stack_buffers(x, 5)
+    assert stack.shape == (2, 6, 3, 4, 4)
+    assert stack[:, :, 0, 0, 0].tolist() == [[1.0, 2.0, 4.0, 8.0, 16.0, 32.0]] * 2
+    m = torch.full((2, 1, 4, 4), 5.0)  # bits 0 and 2: one sample of c1 and four of c4
+    torch.testing.assert_close(sample_sum(m, stack), torch.full((2, 3, 4, 4), 1.0 * 1 + 4.0 * 4))

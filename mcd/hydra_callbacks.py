@@ -1,0 +1,39 @@
+"""Hydra callbacks of ``python -m mcd.run`` (registered in ``conf/config.yaml``, ``hydra.callbacks``).
+
+:class:`FailedJobs`: a sweep runs every job (a failing job writes ``error.json`` and the sweep goes on,
+``mcd.run``), then exits with status 1 naming how many jobs failed, so that scripts and CI see the failure.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from hydra.experimental.callback import Callback
+from omegaconf import DictConfig
+
+log = logging.getLogger("mcd.run")
+
+
+class FailedJobs(Callback):
+    """Exit non-zero after a multirun in which a job wrote ``error.json``."""
+
+    def __init__(self) -> None:
+        self.started = time.time()
+
+    def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        """Remember when the sweep started: an older ``error.json`` belongs to an earlier sweep."""
+        self.started = time.time()
+
+    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
+        """Count this sweep's ``error.json`` files; exit 1 naming them if there are any."""
+        sweep = Path(config.hydra.sweep.dir)
+        failed = sorted(p.parent for p in sweep.rglob("error.json") if p.stat().st_mtime >= self.started - 1)
+        if failed:
+            log.error("%d job(s) of the sweep in %s failed (each has an error.json): %s; fix them and rerun "
+                      "the same command (finished jobs are skipped)", len(failed), sweep,
+                      ", ".join(str(p.relative_to(sweep)) for p in failed))
+            sys.exit(1)

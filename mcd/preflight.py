@@ -1,0 +1,48 @@
+"""Checks of a run's config that must fail before anything is rendered or trained (docs/reliability.md).
+
+:func:`check_run` refuses a budget that is not a number or has no stored uniform render, and images smaller
+than the SSIM window; the store checks every scene file before its first render
+(:meth:`mcd.data.store.Store.ensure`), and the model its own budget rule when it is built (row F's adaptive
+sampling needs ``1 < s``; a method without it reads ``c_s``).
+"""
+
+from __future__ import annotations
+
+from omegaconf import DictConfig
+
+from mcd.data.store import SPP_BUFFERS
+from mcd.metrics import SSIM_WINDOW
+
+
+def check_budget(cfg: DictConfig) -> float:
+    """``cfg.budget`` as a number, if every method can be tested at it; else ValueError saying what to give.
+
+    Every run is scored against the noisy uniform render at the budget (``c_s``, ``input_psnr``), which the
+    store renders for s in 1, 2, 4, 8, 16, 32 only.
+    """
+    raw = cfg.get("budget")
+    choices = ", ".join(str(s) for s in SPP_BUFFERS.values())
+    try:
+        budget = float(raw)
+    except (TypeError, ValueError):
+        raise ValueError(f"budget={raw!r}: not a number; give the average samples per pixel, one of "
+                         f"{choices} (e.g. budget=4)") from None
+    if budget not in SPP_BUFFERS.values():
+        raise ValueError(f"budget={raw}: every run is compared with the noisy uniform render at the budget "
+                         f"(c_s), which the store holds for s in {choices} only; give one of them")
+    return budget
+
+
+def check_image_size(cfg: DictConfig) -> None:
+    """ValueError unless ``data.width`` and ``data.height`` are at least the SSIM window (tested whole)."""
+    w, h = int(cfg.data.width), int(cfg.data.height)
+    if min(w, h) < SSIM_WINDOW:
+        raise ValueError(f"data.width={w} data.height={h}: test frames are scored by SSIM, whose window "
+                         f"needs at least {SSIM_WINDOW}x{SSIM_WINDOW} pixels; give data.width and "
+                         f"data.height >= {SSIM_WINDOW}")
+
+
+def check_run(cfg: DictConfig) -> None:
+    """Every check of this module, in the order a user would fix them."""
+    check_budget(cfg)
+    check_image_size(cfg)

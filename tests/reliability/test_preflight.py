@@ -1,0 +1,46 @@
+"""Defect 9 of issue 14: a bad budget, an image smaller than the SSIM window and a missing scene file fail
+before anything is rendered or trained, each with a message that says what to give."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from mcd.data import Store
+from mcd.data.scenes import SceneNotFoundError
+from mcd.run import train_and_test
+from tests.conftest import compose_cfg, store32_overrides
+
+
+def _run(tmp_path, *overrides: str) -> None:
+    cfg = compose_cfg(*store32_overrides(tmp_path / "data"), *overrides)
+    train_and_test(cfg, tmp_path / "run", {}, time.perf_counter())
+
+
+@pytest.mark.parametrize(("budget", "message"), [
+    ("abc", r"budget='abc': not a number; give the average samples per pixel, one of 1, 2, 4, 8, 16, 32"),
+    ("3", r"budget=3: every run is compared with the noisy uniform render at the budget \(c_s\), which the "
+          r"store holds for s in 1, 2, 4, 8, 16, 32 only"),
+    ("3.5", r"budget=3.5: every run is compared"),
+])
+def test_a_bad_budget_names_the_rule_before_rendering(tmp_path, budget, message):
+    with pytest.raises(ValueError, match=message):
+        _run(tmp_path, "+experiment=F", f"budget={budget}")
+    assert not (tmp_path / "data").exists()
+
+
+def test_an_image_below_the_ssim_window_fails_before_rendering(tmp_path):
+    with pytest.raises(ValueError, match=r"data\.width=1 data\.height=1: .*SSIM.*at least 7x7"):
+        _run(tmp_path, "+experiment=A", "data.width=1", "data.height=1")
+    assert not (tmp_path / "data").exists()
+
+
+def test_a_missing_scene_file_fails_before_the_first_scene_renders(tmp_path):
+    (tmp_path / "empty").mkdir()
+    cfg = compose_cfg(*store32_overrides(tmp_path / "data"), "+scene@data.scenes.bathroom=bathroom",
+                      "data.train_scenes=[cbox,bathroom]", f"paths.scenes_dir={tmp_path / 'empty'}")
+    missing = r"scene 'bathroom': file .*empty.* not found; set paths\.scenes_dir"
+    with pytest.raises(SceneNotFoundError, match=missing):
+        Store.from_cfg(cfg).ensure({"ref"}, progress=False)
+    assert not (tmp_path / "data").exists()  # cbox, listed first, was not rendered

@@ -1,0 +1,46 @@
+"""Defect 11 of issue 14: a sweep with a failed job runs every job, then exits 1 saying how many failed; a run
+pointed at another job's finished run directory is an error, not a silent skip."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from mcd.run import REQUIRED_KEYS, job_identity
+from tests.conftest import compose_cfg
+from tests.test_run import mcd_run
+
+CHOICES = {"data": "tiny"}
+
+
+def _finished(run_dir: Path, *overrides: str) -> Path:
+    """A complete ``metrics.json`` of the job that ``overrides`` describe (as if it had finished earlier)."""
+    run_dir.mkdir(parents=True)
+    metrics = {**dict.fromkeys(REQUIRED_KEYS, 0.0), **job_identity(compose_cfg(*overrides), CHOICES)}
+    path = run_dir / "metrics.json"
+    path.write_text(json.dumps(metrics))
+    return path
+
+
+def test_a_sweep_with_a_failed_job_runs_every_job_then_exits_1(tmp_path):
+    sweep = tmp_path / "sweep"
+    done = _finished(sweep / "1", "+experiment=A", "method.KP=false")  # job 1 finished earlier: skipped
+    before = done.read_text()
+    proc = mcd_run("-m", "+experiment=A", "method.KP=true,false", f"paths.data_dir={tmp_path / 'data'}",
+                   f"hydra.sweep.dir={sweep}", "hydra.sweep.subdir=${hydra.job.num}")
+    log = proc.stdout + proc.stderr
+    assert proc.returncode == 1, log[-4000:]
+    assert "needs method.AS" in json.loads((sweep / "0" / "error.json").read_text())["error"]
+    assert "skip:" in log and done.read_text() == before  # job 1 ran (was skipped) after job 0 failed
+    assert f"1 job(s) of the sweep in {sweep} failed (each has an error.json): 0;" in log
+
+
+def test_a_run_dir_of_another_experiment_is_not_skipped(tmp_path):
+    done = _finished(tmp_path / "run", "+experiment=F")
+    before = done.read_text()
+    proc = mcd_run("+experiment=A", f"paths.data_dir={tmp_path / 'data'}",
+                   f"hydra.run.dir={tmp_path / 'run'}")
+    assert proc.returncode != 0 and "skip:" not in proc.stdout + proc.stderr
+    assert (f"{tmp_path / 'run'} holds a finished run of another job (experiment: 'F' there, 'A' here; "
+            "switches: '111111' there, '100000' here)") in proc.stderr
+    assert done.read_text() == before and not (tmp_path / "data").exists()
