@@ -168,7 +168,6 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     # with a new best, so a killed run resumed from an older epoch); budget.finish rewrites it at the end
     last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
                            enable_version_counter=False)
-    stopper = budget.early_stopping(cfg.train)
     curve = budget.LearningCurve(out_dir / "curve.csv")
     trainer_cfg = OmegaConf.to_container(cfg.trainer, resolve=True)
     trainer_cfg["precision"] = lit_precision.resolve(str(trainer_cfg.get("precision", "32-true")),
@@ -176,8 +175,9 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     if lit_precision.on_cpu(str(trainer_cfg.get("accelerator", "auto"))):
         torch.set_flush_denormal(True)  # denormal floats are slow on x86 and meaningless for images
     lit.max_seconds = 60 * float(cfg.train.max_minutes) if cfg.train.get("max_minutes") else None
+    lit.max_steps = int(cfg.train.max_steps) if cfg.train.get("max_steps") else None
     trainer = L.Trainer(**trainer_cfg, **budget.trainer_limits(cfg.train), default_root_dir=str(out_dir),
-                        callbacks=[best, last, curve, *([stopper] if stopper is not None else [])],
+                        callbacks=[best, last, curve, *budget.callbacks(cfg.train)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
@@ -194,7 +194,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         tested = None
         log.info("method %s is not trained (method.trainable=false): testing it as built", cfg.method.name)
     train_s = time.perf_counter() - t0
-    stopped = budget.stop_reason(trainer, cfg.train, stopper, train_s) if trainable else "not trained"
+    stopped = budget.stop_reason(trainer, cfg.train, train_s) if trainable else "not trained"
     t0 = time.perf_counter()
     trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False,
                  weights_only=True)

@@ -101,7 +101,8 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
 
     clock = Clock()
     trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True),
-                        **budget.trainer_limits(cfg.train), callbacks=[clock], logger=False,
+                        **budget.trainer_limits(cfg.train), callbacks=[clock, *budget.callbacks(cfg.train)],
+                        logger=False,
                         enable_checkpointing=False, default_root_dir=tempfile.gettempdir())
     trainer.fit(lit, datamodule=dm)
     seconds = time.perf_counter() - clock.started

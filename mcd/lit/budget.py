@@ -38,16 +38,15 @@ def _limit(train: DictConfig, key: str) -> float | None:
 
 
 def trainer_limits(train: DictConfig) -> dict[str, object]:
-    """Lightning Trainer arguments for the budget and the validation cadence of ``train.*``."""
+    """Lightning Trainer arguments for the epoch and time budget and the validation cadence of ``train.*``
+    (the step budget is :class:`StepLimit`, in :func:`callbacks`)."""
     epochs, steps, minutes = (_limit(train, k) for k in ("epochs", "max_steps", "max_minutes"))
     if epochs is None and steps is None and minutes is None:
         raise ValueError("no training budget: set train.max_steps, train.max_minutes or train.epochs")
     every = train.get("val_every_steps")
-    kwargs: dict[str, object] = {
-        "max_epochs": int(epochs) if epochs is not None else -1,
-        "max_steps": int(steps) if steps is not None else -1,
-        "max_time": {"seconds": minutes * 60} if minutes is not None else None,
-    }
+    kwargs: dict[str, object] = {"max_epochs": int(epochs) if epochs is not None else -1}
+    if minutes is not None:
+        kwargs["max_time"] = {"seconds": minutes * 60}
     if every:
         kwargs.update(val_check_interval=int(every), check_val_every_n_epoch=None)
     else:
@@ -55,18 +54,35 @@ def trainer_limits(train: DictConfig) -> dict[str, object]:
     return kwargs
 
 
-def early_stopping(train: DictConfig) -> EarlyStopping | None:
-    """Stop when ``val/psnr`` has not risen by ``train.min_delta`` dB for ``train.patience`` validations."""
-    patience = train.get("patience")
-    if patience is None:
-        return None
-    return EarlyStopping(monitor="val/psnr", mode="max", patience=int(patience),
-                         min_delta=float(train.get("min_delta", 0.0)), check_finite=True)
+class StepLimit(Callback):
+    """Stops training after ``max_steps`` optimiser steps. Not Lightning's ``max_steps``: with it Lightning
+    treats training as iteration-based and a run resumed from an epoch-end checkpoint replays that epoch's
+    end and loses an epoch (Lightning 2.6; tests/reliability/test_resume.py). Lightning validates when a stop
+    is requested, so the last step is validated."""
+
+    def __init__(self, max_steps: int) -> None:
+        self.max_steps = max_steps
+
+    def on_train_batch_end(self, trainer: L.Trainer, pl_module: L.LightningModule, outputs: object,
+                           batch: object, batch_idx: int) -> None:
+        if trainer.global_step >= self.max_steps:
+            trainer.should_stop = True
 
 
-def stop_reason(trainer: L.Trainer, train: DictConfig, stopper: EarlyStopping | None, seconds: float) -> str:
+def callbacks(train: DictConfig) -> list[Callback]:
+    """The budget's callbacks: :class:`StepLimit` (``train.max_steps``) and early stopping on ``val/psnr``
+    (``train.patience`` validations without a gain of ``train.min_delta`` dB)."""
+    steps, patience = _limit(train, "max_steps"), train.get("patience")
+    out: list[Callback] = [StepLimit(int(steps))] if steps is not None else []
+    if patience is not None:
+        out.append(EarlyStopping(monitor="val/psnr", mode="max", patience=int(patience),
+                                 min_delta=float(train.get("min_delta", 0.0)), check_finite=True))
+    return out
+
+
+def stop_reason(trainer: L.Trainer, train: DictConfig, seconds: float) -> str:
     """Why training ended: ``plateau``, ``max_steps``, ``max_minutes``, ``epochs`` (or ``interrupted``)."""
-    if stopper is not None and stopper.stopped_epoch > 0:
+    if any(isinstance(c, EarlyStopping) and c.stopped_epoch > 0 for c in trainer.callbacks):
         return "plateau"
     steps, minutes = _limit(train, "max_steps"), _limit(train, "max_minutes")
     if steps is not None and trainer.global_step >= steps:
@@ -126,9 +142,10 @@ def finish(trainer: L.Trainer, module: L.LightningModule, datamodule: L.Lightnin
            best: ModelCheckpoint, curve: LearningCurve) -> None:
     """After ``fit``: validate the final weights if the last validation came before the last step (a budget
     that ends between two validations), keep them as the best checkpoint when their ``val/psnr`` is higher,
-    and write ``last.ckpt`` with the final weights (resuming from it continues where training ended)."""
+    and rewrite ``last.ckpt`` with the final weights (the ``last`` checkpoint callback of mcd.run writes it at
+    every validation inside ``fit``, not at this one)."""
     folder = Path(best.dirpath)
-    if curve.last_step != trainer.global_step:
+    if curve.last_step != trainer.global_step:  # else the last validation already wrote last.ckpt (mcd.run)
         trainer.validate(module, datamodule=datamodule, verbose=False)
         score = trainer.callback_metrics.get("val/psnr")
         previous = best.best_model_score
@@ -138,4 +155,4 @@ def finish(trainer: L.Trainer, module: L.LightningModule, datamodule: L.Lightnin
             if best.best_model_path and Path(best.best_model_path) != path:
                 Path(best.best_model_path).unlink(missing_ok=True)
             best.best_model_path, best.best_model_score = str(path), score
-    trainer.save_checkpoint(folder / "last.ckpt")
+        trainer.save_checkpoint(folder / "last.ckpt")

@@ -92,6 +92,8 @@ class DenoiseModule(L.LightningModule):
                              "get gradient (>= 1), or null for all")
         #: Seconds of the cosine schedule's budget (``train.max_minutes``, set by mcd.run); None: steps.
         self.max_seconds: float | None = None
+        #: The step budget (``train.max_steps``, set by ``mcd.run``); None: the epochs' steps only.
+        self.max_steps: int | None = None
         self._fit_started: float | None = None
         self._total_steps = math.inf
         self.save_hyperparameters({"cfg": OmegaConf.to_container(cfg, resolve=True)})
@@ -153,12 +155,11 @@ class DenoiseModule(L.LightningModule):
 
     def on_train_start(self) -> None:
         self._fit_started = time.perf_counter()
-        self._total_steps = float(self.trainer.estimated_stepping_batches)
 
     def progress(self, step: int) -> float:
         """How much of the training budget ``step`` has used (0..1): the larger of the step share
         (``max_steps`` or the epochs' steps) and the wall-clock share (``max_seconds``)."""
-        total = self._total_steps
+        total = min(self._total_steps, float(self.max_steps or math.inf))
         shares = [step / total] if math.isfinite(total) and total > 0 else []
         if self.max_seconds and self._fit_started is not None:
             shares.append((time.perf_counter() - self._fit_started) / self.max_seconds)
