@@ -155,6 +155,7 @@ def main() -> None:
     ap.add_argument("overrides", nargs="*", help="Hydra overrides for every variant, e.g. data=small")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
+    commit = git_commit()  # the code the runs use, recorded before they start
     variants = dict(VARIANTS)
     if args.variant:
         variants = {v.split("=", 1)[0]: v.split("=", 1)[1].split(",") for v in args.variant}
@@ -171,7 +172,8 @@ def main() -> None:
                "max tap": "{:.3f}", "L1 i_bar": "{:.4f}", "L1 i": "{:.4f}", "L1 out": "{:.4f}",
                "val PSNR": "{:.2f}", "s": "{:.0f}", "steps": "{}"}
         lines = [f"`{command}`", "",
-                 f"commit {git_commit()['commit'][:10]}, {device_name(torch.device('cpu'))}, "
+                 f"commit {commit['commit'][:10]}{' (dirty)' if commit['dirty'] else ''}, "
+                 f"{device_name(torch.device('cpu'))}, "
                  f"seed {args.seed}, "
                  f"overrides {args.overrides or 'none'}; variants: "
                  + "; ".join(f"**{k}** = `{' '.join(v)}`" for k, v in variants.items()), "",
