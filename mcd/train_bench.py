@@ -143,6 +143,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("overrides", nargs="*", help="Hydra overrides for every job (default: model=cpu)")
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--profiles", default="tiny,small")
+    ap.add_argument("--profile-methods", action="append", default=[], metavar="PROFILE=M1,M2",
+                    help="methods for one profile instead of --methods (repeatable), e.g. small=A,C,F")
     ap.add_argument("--paths", default=",".join(PATHS))
     ap.add_argument("--steps", type=int, default=30, help="timed optimiser steps per path")
     ap.add_argument("--warmup", type=int, default=4)
@@ -157,8 +159,9 @@ def main(argv: list[str] | None = None) -> None:
         return
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     rows: list[dict[str, object]] = []
+    per_profile = dict(p.split("=", 1) for p in args.profile_methods)
     for profile in [p for p in args.profiles.split(",") if p]:
-        for method in [m for m in args.methods.split(",") if m]:
+        for method in [m for m in per_profile.get(profile, args.methods).split(",") if m]:
             common = [f"--steps={args.steps}", f"--warmup={args.warmup}", *args.overrides]
             for path in [p for p in args.paths.split(",") if p]:
                 why = applicable(method, path)
