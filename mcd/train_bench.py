@@ -8,13 +8,15 @@ on the profile's training clips (``train.batch_size`` clips of ``data.clip_len``
 crops), with the validation cadence of the path (validation time counts: it is part of what a run spends):
 
 - ``today``: fp32, every clip frame run (the loss's ``frames_needed`` ignored), validation every epoch,
-  a log row every step;
+  a log row every step, contiguous weights;
+- ``default``: the training profile's settings as configured (``train=cpu``: see docs/training.md);
 - ``fp32``: the clip frames the loss reads (all for temporal models), validation every
-  ``train.val_every_steps``, a log row every 10 steps: the default path;
+  ``train.val_every_steps``, a log row every 10 steps, contiguous weights;
+- ``channels-last``: ``fp32`` with the weights in channels-last memory format (``train.channels_last``);
 - ``tbptt``: ``fp32`` with ``train.grad_frames=2`` (temporal models only: the frames before the last two run
-  without gradient);
+  without gradient); ``tbptt+channels-last`` both;
 - ``bf16``: ``fp32`` with ``trainer.precision=bf16-mixed`` (where the CPU computes bf16 natively);
-- ``channels-last``: ``fp32`` with the model's weights in channels-last memory format.
+  ``bf16+channels-last`` both.
 
 ``--pair``: also ``fp32`` as two concurrent jobs of one thread each (``x2 jobs``; steps/s summed) beside one
 job on ``--threads`` threads, the question of docs/training.md "CPU threads".
@@ -42,17 +44,23 @@ log = logging.getLogger("mcd.train_bench")
 
 REPO = Path(__file__).resolve().parent.parent
 METHODS = ("A", "C", "F", "rae", "fastdvdnet", "dasr", "ntasad")
-PATHS = ("today", "fp32", "tbptt", "bf16", "channels-last")
+PATHS = ("today", "default", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
+         "bf16+channels-last")
 COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss_mb", "threads", "cpu")
 
 
 def path_overrides(path: str) -> list[str]:
     """Hydra overrides of a path (see the module docstring)."""
-    base = ["trainer.precision=32-true", "trainer.enable_progress_bar=false"]
+    base = ["trainer.enable_progress_bar=false"]
+    if path == "default":
+        return base
+    base += ["trainer.precision=32-true", "train.channels_last=false", "train.grad_frames=null"]
     if path == "today":
         return [*base, "train.val_every_steps=null", "train.val_every=1", "trainer.log_every_n_steps=1"]
-    extra = {"fp32": [], "channels-last": [], "tbptt": ["train.grad_frames=2"],
-             "bf16": ["trainer.precision=bf16-mixed"]}
+    extra = {"fp32": [], "channels-last": ["train.channels_last=true"], "tbptt": ["train.grad_frames=2"],
+             "bf16": ["trainer.precision=bf16-mixed"],
+             "tbptt+channels-last": ["train.grad_frames=2", "train.channels_last=true"],
+             "bf16+channels-last": ["trainer.precision=bf16-mixed", "train.channels_last=true"]}
     if path not in extra:
         raise ValueError(f"unknown training path {path!r}; expected one of {PATHS}")
     return [*base, *extra[path]]
@@ -76,8 +84,6 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
     from mcd.models import build
 
     model = build(cfg)
-    if path == "channels-last":
-        model = model.to(memory_format=torch.channels_last)
     buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
     store = Store.from_cfg(cfg)
     store.ensure(buffers)
@@ -120,9 +126,9 @@ def applicable(method: str, path: str) -> str | None:
     from mcd.lit.precision import cpu_bf16_supported
     from mcd.models import build
 
-    if path == "bf16" and not cpu_bf16_supported():
+    if path.startswith("bf16") and not cpu_bf16_supported():
         return "this CPU has no native bf16"
-    if path == "tbptt" and not getattr(build(compose_cfg(method, [])), "temporal_state", True):
+    if path.startswith("tbptt") and not getattr(build(compose_cfg(method, [])), "temporal_state", True):
         return "no temporal state"
     return None
 

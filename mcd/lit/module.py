@@ -7,6 +7,8 @@
   false) runs only those ``k`` frames, a temporal one runs the whole clip and, with ``train.grad_frames = n``,
   the frames before the last ``n`` without gradient (truncated backpropagation through time). ``ref``
   reaches the model in training only (DASR's gradient).
+- ``train.channels_last``: the model's weights in channels-last (NHWC) memory format during ``fit``, so
+  convolutions run in oneDNN's (and cuDNN's) preferred layout; the same numbers up to summation order.
 - Validation logs ``val/loss`` and ``val/psnr``, ``val/ssim`` of the last frame of each clip (the test
   metrics of ``mcd.metrics``); the best checkpoint is the one with the highest ``val/psnr``.
 - The learning rate follows a cosine from ``train.lr`` to ``train.lr_min`` over the training budget
@@ -152,6 +154,8 @@ class DenoiseModule(L.LightningModule):
     # -- Lightning hooks ----------------------------------------------------------------------------------
     def on_fit_start(self) -> None:
         self.loss_fn.to(self.device)
+        if self.cfg.train.get("channels_last"):  # NHWC weights: oneDNN's fast layout (docs/training.md)
+            self.model.to(memory_format=torch.channels_last)
 
     def on_train_start(self) -> None:
         self._fit_started = time.perf_counter()
