@@ -11,6 +11,7 @@ Sweeps (``-m``): a job whose output directory already holds a complete ``metrics
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import math
@@ -78,8 +79,11 @@ def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None
                               "its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")
 
 
+@functools.cache
 def git_commit() -> dict[str, object]:
-    """The repository's commit and whether its working tree differs from it ("unknown" outside git)."""
+    """The repository's commit and whether its working tree differs from it ("unknown" outside git), as
+    first asked in this process: a sweep's jobs all run the code imported when it started, so later commits
+    must not be recorded as theirs (``train_and_test`` asks before anything else)."""
     try:
         commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True,
                                 check=True).stdout.strip()
@@ -135,6 +139,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     from mcd.lit import checkpoint, transfer
     from mcd.models import build
 
+    code = git_commit()  # the commit of the code this process imported (a sweep's first job asks first)
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
     check_run(cfg)  # budget and image size, before anything is rendered
@@ -229,7 +234,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         "scenes_test": list(averages["frames"]),
         "test_frames": averages["frames"],
         "perceptual_loss": lit.loss_fn.perceptual_status.as_dict(),
-        **git_commit(),
+        **code,
         "device": device_name(lit.device),
         "precision": str(trainer_cfg["precision"]),
         "torch": torch.__version__,
