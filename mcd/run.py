@@ -33,7 +33,6 @@ from lightning.pytorch.callbacks import ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.lit import DenoiseModule, budget, build_loss
-from mcd.lit import precision as lit_precision
 from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
@@ -174,14 +173,10 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
                            enable_version_counter=False)
     curve = budget.LearningCurve(out_dir / "curve.csv")
-    trainer_cfg = OmegaConf.to_container(cfg.trainer, resolve=True)
-    trainer_cfg["precision"] = lit_precision.resolve(str(trainer_cfg.get("precision", "32-true")),
-                                                     str(trainer_cfg.get("accelerator", "auto")))
-    if lit_precision.on_cpu(str(trainer_cfg.get("accelerator", "auto"))):
-        torch.set_flush_denormal(True)  # denormal floats are slow on x86 and meaningless for images
+    trainer_cfg = budget.trainer_kwargs(cfg)
     lit.max_seconds = 60 * float(cfg.train.max_minutes) if cfg.train.get("max_minutes") else None
     lit.max_steps = int(cfg.train.max_steps) if cfg.train.get("max_steps") else None
-    trainer = L.Trainer(**trainer_cfg, **budget.trainer_limits(cfg.train), default_root_dir=str(out_dir),
+    trainer = L.Trainer(**trainer_cfg, default_root_dir=str(out_dir),
                         callbacks=[best, last, curve, *budget.callbacks(cfg.train)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))

@@ -70,14 +70,12 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
             extra: list[str]) -> dict[str, object]:
     """One (method, profile, path) in this process: steps/s of a Lightning fit after ``warmup`` steps."""
     import lightning as L
-    from omegaconf import OmegaConf
 
     from mcd.bench import compose_cfg, device_name
     from mcd.data import MCDDataModule, Store
     from mcd.lit import DenoiseModule, budget, build_loss
 
     torch.set_num_threads(threads)
-    torch.set_flush_denormal(True)
     cfg = compose_cfg(method, [f"data={profile}", *path_overrides(path), *extra,
                                f"train.max_steps={steps + warmup}", "train.max_minutes=null"])
     L.seed_everything(0)
@@ -106,8 +104,7 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
             frames.append(steps_in_clip - lit.clip_plan(steps_in_clip)[0])
 
     clock = Clock()
-    trainer = L.Trainer(**OmegaConf.to_container(cfg.trainer, resolve=True),
-                        **budget.trainer_limits(cfg.train), callbacks=[clock, *budget.callbacks(cfg.train)],
+    trainer = L.Trainer(**budget.trainer_kwargs(cfg), callbacks=[clock, *budget.callbacks(cfg.train)],
                         logger=False,
                         enable_checkpointing=False, default_root_dir=tempfile.gettempdir())
     trainer.fit(lit, datamodule=dm)

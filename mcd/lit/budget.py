@@ -17,8 +17,11 @@ import time
 from pathlib import Path
 
 import lightning as L
+import torch
 from lightning.pytorch.callbacks import Callback, EarlyStopping, ModelCheckpoint
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
+
+from mcd.lit import precision
 
 #: Columns of ``curve.csv``: one row per validation.
 CURVE_COLUMNS = ("step", "epoch", "seconds", "lr", "train_loss", "val_loss", "val_psnr", "val_ssim")
@@ -52,6 +55,18 @@ def trainer_limits(train: DictConfig) -> dict[str, object]:
     else:
         kwargs.update(check_val_every_n_epoch=int(train.get("val_every", 1)))
     return kwargs
+
+
+def trainer_kwargs(cfg: DictConfig) -> dict[str, object]:
+    """Every Lightning Trainer argument a run takes from its config: ``cfg.trainer`` with ``precision``
+    resolved (``auto``: mcd.lit.precision) and the limits of :func:`trainer_limits`. On the CPU it also
+    flushes denormal floats to zero (slow on x86, meaningless for images)."""
+    kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
+    accelerator = str(kwargs.get("accelerator", "auto"))
+    kwargs["precision"] = precision.resolve(str(kwargs.get("precision", "32-true")), accelerator)
+    if precision.on_cpu(accelerator):
+        torch.set_flush_denormal(True)
+    return {**kwargs, **trainer_limits(cfg.train)}
 
 
 class StepLimit(Callback):
