@@ -19,24 +19,12 @@ import pandas as pd  # noqa: E402
 
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run, display_name  # noqa: E402
-from mcd.reporting.select import pick  # noqa: E402
-from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # noqa: E402
+from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_ROWS, stacked  # noqa: E402
 
 
 def learning_curves(runs: list[Run]) -> pd.DataFrame:
-    """Every curve point of the picked runs: experiment, method, sweep, step, seconds, val_psnr, val_ssim."""
-    parts = []
-    for exp in dict.fromkeys((*TABLE1_ROWS, *COMPONENT_ROWS)):
-        prefer = "ablation" if exp in COMPONENT_ROWS else "baselines"
-        run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep=prefer)
-        if run is None or run.status != "ok" or run.curve is None or run.curve.empty:
-            continue
-        df = run.curve.copy()
-        df.insert(0, "sweep", run.sweep)
-        df.insert(0, "method", display_name(exp))
-        df.insert(0, "experiment", exp)
-        parts.append(df)
-    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+    """Every curve point of the picked runs: experiment, method, step, seconds, val_psnr, val_ssim, ..."""
+    return stacked(runs, (*TABLE1_ROWS, *COMPONENT_ROWS), lambda run: run.curve)
 
 
 def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:

@@ -14,8 +14,7 @@ from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run, display_name  # noqa: E402
-from mcd.reporting.select import pick  # noqa: E402
-from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # noqa: E402
+from mcd.reporting.tables import TABLE1_ROWS, stacked  # noqa: E402
 
 #: Methods drawn: Table 1's and the component chain's first and last rows (A, B, C), at 4 spp.
 METHODS = (*TABLE1_ROWS, "A", "B", "C")
@@ -23,17 +22,7 @@ METHODS = (*TABLE1_ROWS, "A", "B", "C")
 
 def per_frame(runs: list[Run]) -> pd.DataFrame:
     """All frames of the 4 spp runs of `METHODS`: experiment, method, scene, frame, psnr, ssim, rmse, lt."""
-    parts = []
-    for exp in dict.fromkeys(METHODS):
-        prefer = "ablation" if exp in COMPONENT_ROWS else "baselines"
-        run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep=prefer)
-        if run is None or run.status != "ok" or run.frames is None:
-            continue
-        df = run.frames.copy()
-        df.insert(0, "method", display_name(exp))
-        df.insert(0, "experiment", exp)
-        parts.append(df)
-    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+    return stacked(runs, METHODS, lambda run: run.frames)
 
 
 def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:

@@ -133,10 +133,9 @@ class Run:
         method = self.config.get("method", {})
         return {k: bool(method[k]) for k in ("UN", "AS", "KP", "PP", "FG", "SA") if k in method}
 
-    @cached_property
-    def frames(self) -> pd.DataFrame | None:
-        """frames.csv (scene, frame, psnr, ...), or None when absent or unreadable."""
-        path = self.path / "frames.csv"
+    def _csv(self, name: str) -> pd.DataFrame | None:
+        """A CSV file of the run directory, or None when absent or unreadable."""
+        path = self.path / name
         if not path.is_file():
             return None
         try:
@@ -145,15 +144,14 @@ class Run:
             return None
 
     @cached_property
+    def frames(self) -> pd.DataFrame | None:
+        """frames.csv (scene, frame, psnr, ...), or None when absent or unreadable."""
+        return self._csv("frames.csv")
+
+    @cached_property
     def curve(self) -> pd.DataFrame | None:
         """curve.csv (step, seconds, val_psnr, ... per validation; mcd.lit.budget), or None."""
-        path = self.path / "curve.csv"
-        if not path.is_file():
-            return None
-        try:
-            return pd.read_csv(path)
-        except (OSError, ValueError):
-            return None
+        return self._csv("curve.csv")
 
     @property
     def error_message(self) -> str:

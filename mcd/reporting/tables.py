@@ -4,6 +4,7 @@ as markdown and CSV, with the paper's numbers in adjacent columns (read from `mc
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import pandas as pd
@@ -19,6 +20,25 @@ COMPONENT_ROWS = tuple("ABCDEFGHIJKLM")
 #: The chain that adds one component at a time (method.md): B adds AS to A, C adds KP, D PP, E FG, F SA.
 STEPS = ("A", "B", "C", "D", "E", "F")
 TABLE1_BUDGET = 4.0
+
+
+def stacked(runs: list[Run], experiments: Iterable[str],
+            table: Callable[[Run], pd.DataFrame | None]) -> pd.DataFrame:
+    """``table(run)`` of each experiment's finished run at the Table 1 budget (``pick``: default seed, the
+    ablation sweep for component rows, else baselines) stacked with ``experiment`` and ``method`` columns
+    first; experiments without a finished run or a table are left out."""
+    parts = []
+    for exp in dict.fromkeys(experiments):
+        prefer = "ablation" if exp in COMPONENT_ROWS else "baselines"
+        run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep=prefer)
+        df = table(run) if run is not None and run.status == "ok" else None
+        if df is None or df.empty:
+            continue
+        df = df.copy()
+        df.insert(0, "method", display_name(exp))
+        df.insert(0, "experiment", exp)
+        parts.append(df)
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
 
 
 def _status(run: Run | None) -> str:
