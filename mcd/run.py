@@ -169,7 +169,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-step{step:06d}",
                            auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1)
     # last.ckpt after every validation, replacing the previous one (save_last on `best` would write it only
-    # with a new best, so a killed run resumed from an older epoch); budget.finish rewrites it at the end
+    # with a new best, so a killed run resumed from an older epoch); budget.finish rewrites it when it
+    # validates once more where the budget ended
     last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
                            enable_version_counter=False)
     curve = budget.LearningCurve(out_dir / "curve.csv")
@@ -189,7 +190,9 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None, weights_only=True)
         budget.finish(trainer, lit, datamodule, best, curve)
         tested = best.best_model_path or str(out_dir / "checkpoints" / "last.ckpt")
-        log.info("testing checkpoint %s (best val/psnr %s dB)", tested, best.best_model_score)
+        score = best.best_model_score
+        log.info("testing checkpoint %s (best val/psnr %s)", tested,
+                 "none" if score is None else f"{float(score):.2f} dB")
     else:
         tested = None
         log.info("method %s is not trained (method.trainable=false): testing it as built", cfg.method.name)
