@@ -74,11 +74,7 @@ def evaluate(model: torch.nn.Module, lit: DenoiseModule, dm: MCDDataModule, z: d
         for t in range(first, steps):
             out = model(lit._frame_input(buffers, t, with_ref=False))
         ref = buffers["ref"][:, -1]
-        h, zz = out["kernel_map"].float(), z["z"].float()
-        if model.sampler.head.output == "tempered":
-            zz = zz / model.sampler.head.temperature
-        elif model.sampler.head.output == "rms":
-            zz = zz * torch.rsqrt(zz.square().mean((-2, -1), keepdim=True) + 1e-6)
+        h, zz = out["kernel_map"].float(), model.sampler.head.scale(z["z"].float())
         pool = model.sampler.pool
         coarsest = model.sampler(model.sampler_input(lit._frame_input(buffers, steps - 1, False)))["coarsest"]
         taps = pool.normalised(pool.adjust(coarsest))

@@ -175,8 +175,6 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                            enable_version_counter=False)
     curve = budget.LearningCurve(out_dir / "curve.csv")
     trainer_cfg = budget.trainer_kwargs(cfg)
-    lit.max_seconds = 60 * float(cfg.train.max_minutes) if cfg.train.get("max_minutes") else None
-    lit.max_steps = int(cfg.train.max_steps) if cfg.train.get("max_steps") else None
     trainer = L.Trainer(**trainer_cfg, default_root_dir=str(out_dir),
                         callbacks=[best, last, curve, *budget.callbacks(cfg.train)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))

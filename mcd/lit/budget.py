@@ -5,7 +5,7 @@ A run trains until the first of ``train.max_steps`` optimiser steps, ``train.max
 ``train.min_delta`` dB) is reached; ``null`` turns a limit off, and at least one of the first three must be
 set. Validation runs every ``train.val_every_steps`` optimiser steps (else every ``train.val_every`` epochs).
 The cosine learning-rate schedule spans the budget (``mcd.lit.module.DenoiseModule.progress``); :func:`finish`
-validates where the budget ended and writes ``last.ckpt`` with the final weights.
+validates where the budget ended when the last validation came before it (then rewriting ``last.ckpt``).
 :class:`LearningCurve` appends validation PSNR/SSIM/loss against step and seconds to ``curve.csv``.
 """
 

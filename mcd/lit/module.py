@@ -92,10 +92,10 @@ class DenoiseModule(L.LightningModule):
         if self.grad_frames is not None and self.grad_frames < 1:
             raise ValueError(f"train.grad_frames={grad_frames}: give the number of last clip frames that "
                              "get gradient (>= 1), or null for all")
-        #: Seconds of the cosine schedule's budget (``train.max_minutes``, set by mcd.run); None: steps.
-        self.max_seconds: float | None = None
-        #: The step budget (``train.max_steps``, set by ``mcd.run``); None: the epochs' steps only.
-        self.max_steps: int | None = None
+        #: The cosine schedule's budget: seconds (``train.max_minutes``) and steps (``train.max_steps``).
+        minutes, steps = cfg.train.get("max_minutes"), cfg.train.get("max_steps")
+        self.max_seconds = 60 * float(minutes) if minutes else None
+        self.max_steps = int(steps) if steps else None
         self._fit_started: float | None = None
         self._total_steps = math.inf
         self.save_hyperparameters({"cfg": OmegaConf.to_container(cfg, resolve=True)})

@@ -144,10 +144,13 @@ class KernelMapHead(nn.Module):
         self.blocks = nn.Sequential(*layers)
         self.out = nn.Conv2d(cin, 2, 3, padding=1)
 
-    def forward(self, features: Tensor) -> Tensor:
-        z = self.out(self.blocks(features))
+    def scale(self, z: Tensor) -> Tensor:
+        """What enters ``tanh`` for the head's raw output ``z`` (``output``: as is, tempered or RMS)."""
         if self.output == "tempered":
-            z = z / self.temperature
-        elif self.output == "rms":
-            z = z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
-        return torch.tanh(z)
+            return z / self.temperature
+        if self.output == "rms":
+            return z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
+        return z
+
+    def forward(self, features: Tensor) -> Tensor:
+        return torch.tanh(self.scale(self.out(self.blocks(features))))
