@@ -16,12 +16,16 @@ crops), with the validation cadence of the path (validation time counts: it is p
 - ``tbptt``: ``fp32`` with ``train.grad_frames=2`` (temporal models only: the frames before the last two run
   without gradient); ``tbptt+channels-last`` both;
 - ``bf16``: ``fp32`` with ``trainer.precision=bf16-mixed`` (where the CPU computes bf16 natively);
-  ``bf16+channels-last`` both.
+  ``bf16+channels-last`` both;
+- ``compile``: ``default`` with ``train.compile=true`` (``torch.compile``, inductor; compilation happens
+  in the warm-up steps, recompilation for validation counts).
 
 ``--pair``: also ``fp32`` as two concurrent jobs of one thread each (``x2 jobs``; steps/s summed) beside one
 job on ``--threads`` threads, the question of docs/training.md "CPU threads".
-Columns: ``method, profile, path, steps_per_s, pixels_per_s, peak_rss_mb, threads, cpu`` (pixels/s: crop
-pixels of the frames the network runs, times the batch, per second).
+Columns: ``method, profile, path, steps_per_s, pixels_per_s, peak_rss_mb, threads, cpu, steps_per_cpu_s``
+(pixels/s: crop pixels of the frames the network runs, times the batch, per second; steps per CPU-second of
+the process, which other work on a shared machine disturbs far less than steps per second when the job runs
+one thread: ``--threads 1``).
 """
 
 from __future__ import annotations
@@ -45,8 +49,9 @@ log = logging.getLogger("mcd.train_bench")
 REPO = Path(__file__).resolve().parent.parent
 METHODS = ("A", "C", "F", "rae", "fastdvdnet", "dasr", "ntasad")
 PATHS = ("today", "default", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
-         "bf16+channels-last")
-COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss_mb", "threads", "cpu")
+         "bf16+channels-last", "compile")
+COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss_mb", "threads", "cpu",
+           "steps_per_cpu_s")
 
 
 def path_overrides(path: str) -> list[str]:
@@ -54,6 +59,8 @@ def path_overrides(path: str) -> list[str]:
     base = ["trainer.enable_progress_bar=false"]
     if path == "default":
         return base
+    if path == "compile":
+        return [*base, "train.compile=true"]
     base += ["trainer.precision=32-true", "train.channels_last=false", "train.grad_frames=null"]
     if path == "today":
         return [*base, "train.val_every_steps=null", "train.val_every=1", "trainer.log_every_n_steps=1"]
@@ -95,11 +102,11 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
     class Clock(L.Callback):
         """Times the steps after warm-up and counts the frames each step runs."""
 
-        started = 0.0
+        started = cpu_started = 0.0
 
         def on_train_batch_start(self, trainer, module, batch, idx):  # noqa: ANN001
             if trainer.global_step == warmup:
-                self.started = time.perf_counter()
+                self.started, self.cpu_started = time.perf_counter(), time.process_time()
             steps_in_clip = batch["ref"].shape[1]
             frames.append(steps_in_clip - lit.clip_plan(steps_in_clip)[0])
 
@@ -109,12 +116,14 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
                         enable_checkpointing=False, default_root_dir=tempfile.gettempdir())
     trainer.fit(lit, datamodule=dm)
     seconds = time.perf_counter() - clock.started
+    cpu_seconds = time.process_time() - clock.cpu_started
     crop = int(cfg.data.train_crop)
     rate = steps / seconds
     return {"method": method, "profile": profile, "path": path, "steps_per_s": rate,
             "pixels_per_s": rate * int(cfg.train.batch_size) * crop * crop * (sum(frames[warmup:]) / steps),
             "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "threads": threads,
-            "cpu": device_name(torch.device("cpu")).rsplit(" (", 1)[0]}
+            "cpu": device_name(torch.device("cpu")).rsplit(" (", 1)[0],
+            "steps_per_cpu_s": steps / cpu_seconds}
 
 
 def applicable(method: str, path: str) -> str | None:
@@ -183,20 +192,23 @@ def main(argv: list[str] | None = None) -> None:
                 rows.append({**pair[0], "path": "fp32 x2 jobs", "threads": 1,
                              "steps_per_s": sum(r["steps_per_s"] for r in pair),
                              "pixels_per_s": sum(r["pixels_per_s"] for r in pair),
+                             "steps_per_cpu_s": sum(r["steps_per_cpu_s"] for r in pair) / 2,
                              "peak_rss_mb": max(r["peak_rss_mb"] for r in pair)})
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with args.out.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
         writer.writerows({k: r[k] for k in COLUMNS} for r in rows)
-    print(f"{'method':10} {'profile':7} {'path':14} {'steps/s':>8} {'x today':>8} {'Mpix/s':>7} "
-          f"{'RSS MB':>7}")
+    print(f"{'method':10} {'profile':7} {'path':20} {'steps/s':>8} {'x today':>8} {'steps/cpu-s':>11} "
+          f"{'x today':>8} {'Mpix/s':>7} {'RSS MB':>7}")
     for r in rows:
         today = next((t for t in rows if t["path"] == "today" and t["method"] == r["method"]
                       and t["profile"] == r["profile"]), None)
-        ratio = r["steps_per_s"] / today["steps_per_s"] if today else float("nan")
-        print(f"{r['method']:10} {r['profile']:7} {r['path']:14} {r['steps_per_s']:8.2f} {ratio:8.2f} "
-              f"{r['pixels_per_s'] / 1e6:7.2f} {r['peak_rss_mb']:7.0f}")
+        ratio, cpu_ratio = ((r[k] / today[k] if today else float("nan"))
+                            for k in ("steps_per_s", "steps_per_cpu_s"))
+        print(f"{r['method']:10} {r['profile']:7} {r['path']:20} {r['steps_per_s']:8.2f} {ratio:8.2f} "
+              f"{r['steps_per_cpu_s']:11.2f} {cpu_ratio:8.2f} {r['pixels_per_s'] / 1e6:7.2f} "
+              f"{r['peak_rss_mb']:7.0f}")
     print(f"{len(rows)} rows -> {args.out}")
 
 

@@ -9,6 +9,8 @@
   reaches the model in training only (DASR's gradient).
 - ``train.channels_last``: the model's weights in channels-last (NHWC) memory format during ``fit``, so
   convolutions run in oneDNN's (and cuDNN's) preferred layout; the same numbers up to summation order.
+- ``train.compile``: ``torch.compile`` (inductor) of the model in place during ``fit`` (off by default: not
+  faster on this project's CPU, docs/training.md "Throughput").
 - Validation logs ``val/loss`` and ``val/psnr``, ``val/ssim`` of the last frame of each clip (the test
   metrics of ``mcd.metrics``); the best checkpoint is the one with the highest ``val/psnr``.
 - The learning rate follows a cosine from ``train.lr`` to ``train.lr_min`` over the training budget
@@ -156,6 +158,8 @@ class DenoiseModule(L.LightningModule):
         self.loss_fn.to(self.device)
         if self.cfg.train.get("channels_last"):  # NHWC weights: oneDNN's fast layout (docs/training.md)
             self.model.to(memory_format=torch.channels_last)
+        if self.cfg.train.get("compile"):  # in place: the state dict keeps its keys (docs/training.md)
+            self.model.compile()
 
     def on_train_start(self) -> None:
         self._fit_started = time.perf_counter()

@@ -12,7 +12,8 @@
   ``z`` as it is (the paper's text), ``tempered`` = ``z / temperature``, ``rms`` (default) = ``z`` divided by
   its root mean square over the image, per channel: ``tanh`` then cannot saturate everywhere, so the pool
   keeps receiving gradient (without it the map saturates at the identity within ~100 steps and the pool is
-  never used).
+  never used); ``rms_centred`` = ``rms`` after removing the kernel index's (channel 0's) mean over the
+  image, so the index spreads across the pool instead of settling on one kernel everywhere.
 - Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
   over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
   between that kernel and the identity.
@@ -123,7 +124,7 @@ class KernelPool(nn.Module):
 
 
 #: What enters the kernel-map head's final ``tanh`` (``method.kp.head_output``; see the module docstring).
-HEAD_OUTPUTS = ("tanh", "tempered", "rms")
+HEAD_OUTPUTS = ("tanh", "tempered", "rms", "rms_centred")
 
 
 class KernelMapHead(nn.Module):
@@ -145,10 +146,14 @@ class KernelMapHead(nn.Module):
         self.out = nn.Conv2d(cin, 2, 3, padding=1)
 
     def scale(self, z: Tensor) -> Tensor:
-        """What enters ``tanh`` for the head's raw output ``z`` (``output``: as is, tempered or RMS)."""
+        """What enters ``tanh`` for the head's raw output ``z`` (``output``: as is, tempered, RMS, or RMS with
+        the kernel index's mean over the image removed first)."""
         if self.output == "tempered":
             return z / self.temperature
-        if self.output == "rms":
+        if self.output == "rms_centred":
+            index = z[:, :1]
+            z = torch.cat([index - index.mean((-2, -1), keepdim=True), z[:, 1:]], dim=1)
+        if self.output in ("rms", "rms_centred"):
             return z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
         return z
 

@@ -1,0 +1,27 @@
+"""`python -m mcd.bench --train` (mcd/train_bench.py): real Lightning fits on the 32x32 test store, one process
+per path, the CSV columns of docs/training.md "Throughput"."""
+
+from __future__ import annotations
+
+import csv
+
+from mcd import train_bench
+from tests.conftest import store32_overrides
+
+
+def test_train_bench_times_real_steps_per_path(cbox_store, tmp_path, capsys):
+    cfg, _ = cbox_store
+    out = tmp_path / "train.csv"
+    overrides = [o for o in store32_overrides(cfg.paths.data_dir) if o != "data=tiny"]
+    train_bench.main(["--methods", "A", "--profiles", "tiny", "--paths", "today,default", "--steps", "2",
+                      "--warmup", "1", "--threads", "1", "--out", str(out), *overrides])
+    rows = list(csv.DictReader(out.open()))
+    assert list(rows[0]) == list(train_bench.COLUMNS)
+    assert [(r["method"], r["path"], r["threads"]) for r in rows] == [("A", "today", "1"), ("A", "default", "1")]
+    for r in rows:
+        assert float(r["steps_per_s"]) > 0 and float(r["steps_per_cpu_s"]) > 0 and float(r["peak_rss_mb"]) > 0
+    # today runs every clip frame, the default only the two the paper's loss reads: fewer pixels per step
+    today, default = rows
+    assert float(today["pixels_per_s"]) / float(today["steps_per_s"]) > float(default["pixels_per_s"]) / float(
+        default["steps_per_s"])
+    assert "x today" in capsys.readouterr().out
