@@ -2,7 +2,7 @@
 test it on whole sequences, and write the run directory (docs/architecture.md, "Run directory").
 
 Shape: :func:`build` (check the config, render or reuse the data, build model, datamodule, module, callbacks
-and trainer), :func:`fit` (train within the budget, agree on the best checkpoint), :func:`test` (the test
+and trainer), :func:`fit` (train within the budget, agree on the best checkpoint), :func:`run_test` (the test
 recorder, ``mcd.lit.test_recorder``, writes ``frames.csv`` and ``samples/``), then :func:`run_record`, the
 ``metrics.json`` of ``mcd.run_record``. Under ``trainer=ddp`` every process runs all of it; validation
 metrics are averaged over the processes, rank 0 tests every frame and alone writes the run's files.
@@ -220,7 +220,7 @@ def fit(job: Job) -> Fitted:
                   stop_reason=budget.stop_reason(trainer, job.cfg.train, seconds), seconds=seconds)
 
 
-def test(job: Job, checkpoint: str | None) -> float:
+def run_test(job: Job, checkpoint: str | None) -> float:
     """Test ``checkpoint`` (None: the model as it is) on whole sequences; the recorder writes ``frames.csv``
     and ``samples/`` and keeps the averages (rank 0). Returns the seconds it took."""
     t0 = time.perf_counter()
@@ -288,7 +288,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     code = git_commit()  # the commit of the code this process imported (a sweep's first job asks first)
     job = build(cfg, out_dir)
     fitted = fit(job)
-    test_s = test(job, fitted.checkpoint)
+    test_s = run_test(job, fitted.checkpoint)
     if not job.trainer.is_global_zero:
         return None
     metrics = run_record(job, fitted, test_s, choices, code, started).write(out_dir)
