@@ -187,14 +187,18 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
 
 
 def agreed_best(trainer: L.Trainer, best: ModelCheckpoint) -> tuple[str, float | None]:
-    """The best checkpoint and its ``val/psnr``, the same on every process (RuntimeError where the ranks of a
-    DDP run disagree: their validation metrics were not averaged over all of them)."""
+    """The best checkpoint and its ``val/psnr``; RuntimeError on every process where the processes of a DDP
+    run picked different ones (their validation metrics were not averaged over all of them)."""
     score = None if best.best_model_score is None else float(best.best_model_score)
     ours = (best.best_model_path, score)
-    rank0 = trainer.strategy.broadcast(ours, src=0)
-    if not trainer.strategy.reduce_boolean_decision(tuple(rank0) == ours, all=True):
-        raise RuntimeError(f"rank {trainer.global_rank} picked the best checkpoint {ours}, rank 0 {rank0}: "
-                           "the processes must agree (validation metrics are logged with sync_dist)")
+    picks: list[object] = [ours]
+    if trainer.world_size > 1 and torch.distributed.is_initialized():
+        picks = [None] * trainer.world_size
+        torch.distributed.all_gather_object(picks, ours)
+    if len(set(picks)) > 1:
+        detail = "; ".join(f"rank {rank}: {pick}" for rank, pick in enumerate(picks))
+        raise RuntimeError(f"the processes picked different best checkpoints ({detail}): validation metrics "
+                           "must be averaged over all processes (self.log(..., sync_dist=True))")
     return ours
 
 
