@@ -1,6 +1,6 @@
 """Training losses, chosen by name (``cfg.loss.name``) from a registry.
 
-The paper's loss (Sec. "Loss functions"; method.md "Losses") is ``L = W_s L_s + W_t L_t + W_p L_p`` with
+The paper's loss (Sec. "Loss functions"; docs/method.md "Losses") is ``L = W_s L_s + W_t L_t + W_p L_p`` with
 ``W = (0.8, 0.2, 0.1)``: ``L_s`` is the L1 distance of output and reference on the clip's last frame,
 ``L_t`` the L1 distance of ``d_t - d_{t-1}`` and ``ref_t - ref_{t-1}`` on the last two frames, and ``L_p`` a
 VGG-16 feature distance on the last frame (off without a local weights file). All terms are computed in a

@@ -1,4 +1,4 @@
-"""The LightningModule that trains, validates and tests every method (docs/method.md, "Training").
+"""The LightningModule that trains, validates and tests every method (docs/method.md, "Training protocol").
 
 - Training / validation: a batch holds clips ``[B, T, C, H, W]``; the model is ``reset()`` at the clip start
   and run frame by frame so that temporal models carry their state across the clip. Only the frames the loss

@@ -1,4 +1,4 @@
-"""Qualitative strips per scene (benchmark.md "Reports"): noisy input, sampling map, kernel map, initial
+"""Qualitative strips per scene (docs/benchmark.md "Reports"): noisy input, sampling map, kernel map, initial
 denoise `ī`, output and reference of the full method, with zoomed crops; and a second strip comparing every
 method's output on the same crop. Read from the runs' `samples/<scene>/<frame:04d>_<name>.exr`
 (written by `mcd.lit.samples`, pictured by its `picture`)."""
