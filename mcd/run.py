@@ -97,7 +97,7 @@ def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseE
 
 @dataclasses.dataclass
 class Job:
-    """What a run builds from its config (:func:`build`): the parts that :func:`fit` and :func:`test` use."""
+    """What a run builds from its config (:func:`build`), for :func:`fit` and :func:`run_test`."""
 
     cfg: DictConfig  # the run's config (a transfer job's rewritten by mcd.lit.transfer.prepare)
     out_dir: Path

@@ -80,7 +80,7 @@ def perceptual_from_cfg(cfg: DictConfig) -> tuple[VGGPerceptual | None, Perceptu
 
 @register_loss("paper")
 class PaperLoss(nn.Module):
-    """``0.8 L_s + 0.2 L_t + 0.1 L_p`` (weights ``loss.w_s``, ``loss.w_t``, ``loss.w_p``), paper Sec. 3."""
+    """``0.8 L_s + 0.2 L_t + 0.1 L_p`` (weights ``loss.w_s``, ``loss.w_t``, ``loss.w_p``), paper Sec. 4.2."""
 
     def __init__(self, cfg: DictConfig) -> None:
         super().__init__()

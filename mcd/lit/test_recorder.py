@@ -39,7 +39,7 @@ def hwc(x: Tensor) -> np.ndarray:
 
 
 def kernel_map_identity_share(kernel_map: Tensor) -> float:
-    """Mean weight of the identity kernel, ``(h[1] + 1) / 2``, over a frame (paper Sec. 3.1, kernel
+    """Mean weight of the identity kernel, ``(h[1] + 1) / 2``, over a frame (paper Sec. 4.1, kernel
     interpolation): 1 means ``i_bar == i`` (the kernel pool unused), 0 means pool kernels only."""
     return float(identity_weight(kernel_map).mean())
 
