@@ -1,5 +1,5 @@
 """Whether the kernel pool is used: the kernel map's identity share and kernel index over training, for
-variants of the kernel-pool options (paper Sec. 3.1; docs/kernel_pool.md). Not a test: prints figures.
+variants of the kernel-pool options (paper Sec. 4.1; docs/kernel_pool.md). Not a test: prints figures.
 
     python benchmarks/kernel_map_saturation.py [--experiments C,F] [--steps 300] [--every 100]
         [--variant NAME=OVERRIDE,OVERRIDE ...] [--table docs/kernel_pool_variants.md]

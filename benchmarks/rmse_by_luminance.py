@@ -1,4 +1,4 @@
-"""Where a run's rMSE comes from, by reference luminance (benchmark.md rMSE; not a test: prints figures).
+"""Where a run's rMSE comes from, by reference luminance (docs/benchmark.md rMSE; not a test: prints figures).
 
     python benchmarks/rmse_by_luminance.py <run dir> [<run dir> ...] [--frame 0000]
 

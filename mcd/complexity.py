@@ -1,4 +1,4 @@
-"""Params and 1920x1080 MACs of every registered experiment beside the paper's (benchmark.md "Metrics").
+"""Params and 1920x1080 MACs of every registered experiment beside the paper's (docs/benchmark.md "Metrics").
 
 ``python -m mcd.complexity [--model paper] [--experiments A B ...]`` prints the table and writes
 ``reports/complexity.csv`` (``name, params_m, gmacs_1080p, paper_params_m, paper_gmacs``; NaN and an

@@ -1,4 +1,4 @@
-"""Error metrics exactly as ``benchmark.md`` ("Metrics") defines them, and their averaging.
+"""Error metrics exactly as ``docs/benchmark.md`` ("Metrics") defines them, and their averaging.
 
 Every function takes linear HDR images as ``H x W x 3`` float arrays (NumPy) and returns a Python float.
 

@@ -1,4 +1,4 @@
-"""The paper's published numbers (benchmark.md "The paper's numbers"), as data for the reports and
+"""The paper's published numbers (docs/benchmark.md "The paper's numbers"), as data for the reports and
 ``python -m mcd.complexity``. Mitsuba scenes, 4 spp, 1920x1080.
 """
 

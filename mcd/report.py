@@ -1,5 +1,5 @@
 """``python -m mcd.report <multirun dir(s)> [--name N] [--bench reports/bench/bench.csv]``: the report
-of one or more sweeps (benchmark.md "Reports"), generated from the run directories only, under
+of one or more sweeps (docs/benchmark.md "Reports"), generated from the run directories only, under
 ``reports/<name>/``:
 
 - ``table1.md/.csv`` (methods at 4 spp) and ``components.md/.csv`` (A-M), the paper's numbers beside ours,

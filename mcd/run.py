@@ -1,16 +1,23 @@
 """``python -m mcd.run +experiment=F``: render (or load) the data, train, keep the best validation checkpoint,
 test it on whole sequences, and write the run directory (docs/architecture.md, "Run directory").
 
+Shape: :func:`build` (check the config, render or reuse the data, build model, datamodule, module, callbacks
+and trainer), :func:`fit` (train within the budget, agree on the best checkpoint), :func:`run_test` (the test
+recorder, ``mcd.lit.test_recorder``, writes ``frames.csv`` and ``samples/``), then :func:`run_record`, the
+``metrics.json`` of ``mcd.run_record``. Under ``trainer=ddp`` every process runs all of it; validation
+metrics are averaged over the processes, rank 0 tests every frame and alone writes the run's files.
+
 Overrides: ``paths.data_dir=<dir>``, ``hydra.run.dir=<dir>``, ``ckpt_path=<file>`` (resume training from a
 checkpoint), ``trainer.precision=bf16-mixed`` (GPU), any ``train.*`` / ``data.*`` / ``method.*`` key.
 Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` of the same job
-(:func:`job_identity`) is skipped, one of another job is an error; a job that raises writes ``error.json``
-(overrides, config, traceback) and the sweep goes on, then exits 1 naming the failed jobs
+(``mcd.run_record.job_identity``) is skipped, one of another job is an error; a job that raises writes
+``error.json`` (overrides, config, traceback) and the sweep goes on, then exits 1 naming the failed jobs
 (``mcd.hydra_callbacks.FailedJobs``). A single run re-raises.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import logging
@@ -21,61 +28,28 @@ import subprocess
 import time
 import traceback
 from pathlib import Path
+from typing import Any
 
 import hydra
 import lightning as L
-import pandas as pd
 import torch
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from hydra.utils import instantiate
 from lightning.pytorch.callbacks import ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf
+from torch import nn
 
+from mcd.data import MCDDataModule
 from mcd.lit import DenoiseModule, budget, build_loss
-from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate
+from mcd.lit.test_recorder import TestRecorder
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
+from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, is_complete
 
 log = logging.getLogger("mcd.run")
 
-#: Keys a finished run's ``metrics.json`` must hold (a sweep skips jobs that have them all).
-REQUIRED_KEYS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse", "macs_g", "params_m",
-                 "experiment", "method", "budget", "data_profile", "commit", "device", "wall_s", "per_scene",
-                 "perceptual_loss")
 REPO = Path(__file__).resolve().parent.parent
-#: Methods whose ``method.UN..SA`` switches mean something (the component study; ``unet`` is row A).
-SWITCHED_METHODS = ("two_stage", "unet")
-
-
-def is_complete(path: Path) -> bool:
-    """Whether ``path`` is a readable ``metrics.json`` holding every key of :data:`REQUIRED_KEYS`."""
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(data, dict) and all(k in data for k in REQUIRED_KEYS)
-
-
-def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
-    """What makes two runs the same job: the values ``train_and_test`` records under these keys.
-
-    Settings a rerun may change without making it another job (epochs, capacity, ...) are left out
-    (sweeps/_sweep_dirs.yaml: such a rerun goes to another ``sweep_tag``).
-    """
-    return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
-            "data_profile": choices.get("data"),
-            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None}
-
-
-def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
-    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped)."""
-    done = json.loads(path.read_text())
-    differs = {k: (done[k], v) for k, v in job_identity(cfg, choices).items() if k in done and done[k] != v}
-    if differs:
-        detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
-        raise FileExistsError(f"{path.parent} holds a finished run of another job ({detail}); give this run "
-                              "its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")
 
 
 @functools.cache
@@ -121,24 +95,47 @@ def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseE
     return path
 
 
-def _json_safe(value: object) -> object:
-    """NaN/inf become ``None`` (JSON has no NaN)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    return value
+@dataclasses.dataclass
+class Job:
+    """What a run builds from its config (:func:`build`), for :func:`fit` and :func:`run_test`."""
+
+    cfg: DictConfig  # the run's config (a transfer job's rewritten by mcd.lit.transfer.prepare)
+    out_dir: Path
+    model: nn.Module
+    datamodule: MCDDataModule
+    module: DenoiseModule
+    trainer: L.Trainer
+    best: ModelCheckpoint  # the best validation checkpoint
+    curve: budget.LearningCurve
+    recorder: TestRecorder
+    trainable: bool  # False: the method is tested as built (or as transferred, without fine-tuning)
+    resume: str | None  # ckpt_path: the checkpoint training resumes from
+    transfer: dict[str, Any] | None
+    data_report: dict[str, Any]  # the store's report (what it rendered, what it reused)
+    data_s: float
+    precision: str  # the Lightning precision the trainer runs in (mcd.lit.precision)
 
 
-def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
-                   started: float) -> dict[str, object]:
-    """The whole run; returns what it wrote to ``metrics.json``."""
-    from mcd.complexity import complexity, count_params
-    from mcd.data import MCDDataModule, Store
+@dataclasses.dataclass
+class Fitted:
+    """What training left: the checkpoint to test (None: the model as built) and why it stopped."""
+
+    checkpoint: str | None
+    best_val_psnr: float | None
+    stop_reason: str
+    seconds: float
+
+
+def build(cfg: DictConfig, out_dir: Path) -> Job:
+    """Check the config, render (or reuse) the data, and build model, datamodule, module and trainer.
+
+    Everything that can fail on the config alone fails before anything is rendered: impossible switches, the
+    budget and image size (mcd.preflight), a missing or unfitting ``ckpt_path``.
+    """
+    from mcd.data import Store
     from mcd.lit import checkpoint, transfer
-    from mcd.models import build
+    from mcd.models import build as build_model
 
-    code = git_commit()  # the commit of the code this process imported (a sweep's first job asks first)
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
     check_run(cfg)  # budget and image size, before anything is rendered
@@ -151,7 +148,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
 
-    model = build(cfg)
+    model = build_model(cfg)
     if resume:  # read safely, and refuse another experiment's checkpoint before anything is rendered
         weights = checkpoint.model_weights(checkpoint.safe_load(resume, "ckpt_path"))
         checkpoint.check_fits(model, weights, "ckpt_path", resume)
@@ -163,8 +160,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     data_s = time.perf_counter() - t0
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
-    loss = build_loss(cfg)
-    lit = DenoiseModule(cfg, model, loss, sample_dir=out_dir / "samples")
+    module = DenoiseModule(cfg, model, build_loss(cfg))
 
     best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-step{step:06d}",
                            auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1)
@@ -174,37 +170,76 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
                            enable_version_counter=False)
     curve = budget.LearningCurve(out_dir / "curve.csv")
-    trainer_cfg = budget.trainer_kwargs(cfg)
-    trainer = L.Trainer(**trainer_cfg, default_root_dir=str(out_dir),
-                        callbacks=[best, last, curve, *budget.callbacks(cfg.train)],
+    recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
+    trainer_kwargs = budget.trainer_kwargs(cfg)
+    trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
+                        callbacks=[best, last, curve, recorder, *budget.callbacks(cfg.train)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
     if trainable and not any(p.requires_grad for p in model.parameters()):
         raise ValueError(f"method.name={cfg.method.name!r} has no trainable parameters: set "
                          "method.trainable=false to test it without training")
-    t0 = time.perf_counter()
-    if trainable:
-        trainer.fit(lit, datamodule=datamodule, ckpt_path=resume or None, weights_only=True)
-        budget.finish(trainer, lit, datamodule, best, curve)
-        tested = best.best_model_path or str(out_dir / "checkpoints" / "last.ckpt")
-        score = best.best_model_score
-        log.info("testing checkpoint %s (best val/psnr %s)", tested,
-                 "none" if score is None else f"{float(score):.2f} dB")
-    else:
-        tested = None
-        log.info("method %s is not trained (method.trainable=false): testing it as built", cfg.method.name)
-    train_s = time.perf_counter() - t0
-    stopped = budget.stop_reason(trainer, cfg.train, train_s) if trainable else "not trained"
-    t0 = time.perf_counter()
-    trainer.test(lit, datamodule=datamodule, ckpt_path=tested or None, verbose=False,
-                 weights_only=True)
-    test_s = time.perf_counter() - t0
+    return Job(cfg=cfg, out_dir=out_dir, model=model, datamodule=datamodule, module=module, trainer=trainer,
+               best=best, curve=curve, recorder=recorder, trainable=trainable, resume=resume or None,
+               transfer=transfer_info, data_report=report, data_s=data_s,
+               precision=str(trainer_kwargs["precision"]))
 
-    extra = [k for k in MODEL_METRICS if any(k in row for row in lit.test_rows)]
-    rows = pd.DataFrame(lit.test_rows, columns=["scene", "frame", *FRAME_METRICS, *extra])
-    rows.to_csv(out_dir / "frames.csv", index=False)
-    averages = aggregate(lit.test_rows, (*FRAME_METRICS, *extra))
+
+def agreed_best(trainer: L.Trainer, best: ModelCheckpoint) -> tuple[str, float | None]:
+    """The best checkpoint and its ``val/psnr``; RuntimeError on every process where the processes of a DDP
+    run picked different ones (their validation metrics were not averaged over all of them)."""
+    score = None if best.best_model_score is None else float(best.best_model_score)
+    ours = (best.best_model_path, score)
+    picks: list[object] = [ours]
+    if trainer.world_size > 1 and torch.distributed.is_initialized():
+        picks = [None] * trainer.world_size
+        torch.distributed.all_gather_object(picks, ours)
+    if len(set(picks)) > 1:
+        detail = "; ".join(f"rank {rank}: {pick}" for rank, pick in enumerate(picks))
+        raise RuntimeError(f"the processes picked different best checkpoints ({detail}): validation metrics "
+                           "must be averaged over all processes (self.log(..., sync_dist=True))")
+    return ours
+
+
+def fit(job: Job) -> Fitted:
+    """Train within the budget (mcd.lit.budget), keep the best validation checkpoint, and say what to test;
+    a method that is not trained (``method.trainable=false``, a transfer without fine-tuning) is tested as
+    built."""
+    trainer = job.trainer
+    t0 = time.perf_counter()
+    if not job.trainable:
+        log.info("method %s is not trained (method.trainable=false): testing it as built",
+                 job.cfg.method.name)
+        return Fitted(checkpoint=None, best_val_psnr=None, stop_reason="not trained",
+                      seconds=time.perf_counter() - t0)
+    trainer.fit(job.module, datamodule=job.datamodule, ckpt_path=job.resume, weights_only=True)
+    budget.finish(trainer, job.module, job.datamodule, job.best, job.curve)
+    path, score = agreed_best(trainer, job.best)
+    tested = path or str(job.out_dir / "checkpoints" / "last.ckpt")
+    log.info("testing checkpoint %s (best val/psnr %s)", tested,
+             "none" if score is None else f"{score:.2f} dB")
+    seconds = time.perf_counter() - t0
+    return Fitted(checkpoint=tested, best_val_psnr=score,
+                  stop_reason=budget.stop_reason(trainer, job.cfg.train, seconds), seconds=seconds)
+
+
+def run_test(job: Job, checkpoint: str | None) -> float:
+    """Test ``checkpoint`` (None: the model as it is) on whole sequences; the recorder writes ``frames.csv``
+    and ``samples/`` and keeps the averages (rank 0). Returns the seconds it took."""
+    t0 = time.perf_counter()
+    job.trainer.test(job.module, datamodule=job.datamodule, ckpt_path=checkpoint, verbose=False,
+                     weights_only=True)
+    return time.perf_counter() - t0
+
+
+def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str], code: dict[str, object],
+               started: float) -> RunRecord:
+    """The :class:`~mcd.run_record.RunRecord` of a tested job (rank 0: it holds the test's averages)."""
+    from mcd.complexity import complexity, count_params
+
+    cfg, model, trainer, averages = job.cfg, job.model, job.trainer, job.recorder.averages
+    assert averages is not None, "run_record needs the test's averages (global rank 0, after test)"
     # a network torch cannot see (OIDN) has unknown parameters, not zero
     params_m = count_params(model) / 1e6 if getattr(model, "macs_countable", True) else None
     try:
@@ -213,49 +248,60 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
         macs_g = None
         log.warning("MACs of %s not counted (%s: %s): macs_g is null", cfg.method.name,
                     type(err).__name__, err)
-    metrics = {
-        **{k: averages[k] for k in FRAME_METRICS},
-        **{k: averages.get(k) for k in MODEL_METRICS},
-        "macs_g": macs_g,
-        "params_m": params_m,
-        "experiment": str(cfg.experiment),
-        "method": OmegaConf.to_container(cfg.method, resolve=True),
-        "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None,
-        "budget": int(cfg.budget),
-        "seed": int(cfg.seed),
-        "data_profile": choices.get("data"),
-        "model_profile": choices.get("model"),
-        "train_profile": choices.get("train"),
-        "per_scene": averages["per_scene"],
-        "scenes_test": list(averages["frames"]),
-        "test_frames": averages["frames"],
-        "perceptual_loss": lit.loss_fn.perceptual_status.as_dict(),
-        **code,
-        "device": device_name(lit.device),
-        "precision": str(trainer_cfg["precision"]),
-        "torch": torch.__version__,
-        "config": str(out_dir / "resolved_config.yaml"),
-        "data": report,
-        "trained": trainable,
-        "transfer": transfer_info,
-        "checkpoint": tested,
-        "best_val_psnr": float(best.best_model_score) if best.best_model_score is not None else None,
-        "train_steps": int(trainer.global_step),
-        "stop_reason": stopped,
-        "epochs": int(trainer.current_epoch),
-        "data_s": data_s,
-        "train_s": train_s,
-        "test_s": test_s,
-        "wall_s": time.perf_counter() - started,
-    }
-    metrics = _json_safe(metrics)
-    (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    return RunRecord(
+        scores=RunRecord.scores_of(averages),
+        macs_g=macs_g,
+        params_m=params_m,
+        experiment=str(cfg.experiment),
+        method=OmegaConf.to_container(cfg.method, resolve=True),  # type: ignore[arg-type]
+        switches=switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None,
+        budget=int(cfg.budget),
+        seed=int(cfg.seed),
+        data_profile=choices.get("data"),
+        model_profile=choices.get("model"),
+        train_profile=choices.get("train"),
+        per_scene=averages["per_scene"],  # type: ignore[arg-type]
+        scenes_test=list(averages["frames"]),  # type: ignore[call-overload]
+        test_frames=averages["frames"],  # type: ignore[arg-type]
+        perceptual_loss=job.module.loss_fn.perceptual_status.as_dict(),
+        commit=str(code["commit"]),
+        dirty=code["dirty"],  # type: ignore[arg-type]
+        device=device_name(job.module.device),
+        precision=job.precision,
+        torch=torch.__version__,
+        config=str(job.out_dir / "resolved_config.yaml"),
+        data=job.data_report,
+        trained=job.trainable,
+        transfer=job.transfer,
+        checkpoint=fitted.checkpoint,
+        best_val_psnr=fitted.best_val_psnr,
+        train_steps=int(trainer.global_step),
+        stop_reason=fitted.stop_reason,
+        epochs=int(trainer.current_epoch),
+        data_s=job.data_s,
+        train_s=fitted.seconds,
+        test_s=test_s,
+        wall_s=time.perf_counter() - started,
+    )
+
+
+def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
+                   started: float) -> dict[str, object] | None:
+    """The whole run: build, fit, test, and (global rank 0) write ``metrics.json``; returns what it wrote
+    (None on the other ranks of a DDP run)."""
+    code = git_commit()  # the commit of the code this process imported (a sweep's first job asks first)
+    job = build(cfg, out_dir)
+    fitted = fit(job)
+    test_s = run_test(job, fitted.checkpoint)
+    if not job.trainer.is_global_zero:
+        return None
+    metrics = run_record(job, fitted, test_s, choices, code, started).write(out_dir)
     (out_dir / "error.json").unlink(missing_ok=True)  # a retried job that failed before
     log.info("%s: PSNR %.2f dB (noisy %.2f), SSIM %.4f, rMSE %.4g, L_t %.4g, %.1f GMACs, %.3f M params, "
              "%.0f s -> %s",
-             cfg.experiment, metrics["psnr"], metrics["input_psnr"], metrics["ssim"], metrics["rmse"],
-             metrics["lt"] or math.nan, macs_g or math.nan, math.nan if params_m is None else params_m,
-             metrics["wall_s"], out_dir)
+             job.cfg.experiment, metrics["psnr"], metrics["input_psnr"], metrics["ssim"], metrics["rmse"],
+             metrics["lt"] or math.nan, metrics["macs_g"] or math.nan,
+             math.nan if metrics["params_m"] is None else metrics["params_m"], metrics["wall_s"], out_dir)
     return metrics
 
 

@@ -1,4 +1,4 @@
-"""mcd.metrics against known answers (benchmark.md "Metrics")."""
+"""mcd.metrics against known answers (docs/benchmark.md "Metrics")."""
 
 import math
 

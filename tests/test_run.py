@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from mcd.metrics import FRAME_METRICS
-from mcd.run import REQUIRED_KEYS, job_identity
+from mcd.run_record import REQUIRED_KEYS, job_identity
 from tests.conftest import compose_cfg
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""The true adaptive Mitsuba render of a sampling map (method.md, "Adaptive sampling" step 5).
+"""The true adaptive Mitsuba render of a sampling map (docs/method.md, "Adaptive sampling" step 5).
 
 Pixel ``p`` gets exactly ``spp_map[p]`` independent samples and its value is their mean (a box filter: every
 sample lands in its own pixel), which is what the simulated render ``sum_k c_{2^k} 2^k bit_k(m) / m`` of

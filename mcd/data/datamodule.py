@@ -1,6 +1,6 @@
-"""The LightningDataModule over the store (docs/architecture.md, "Batches"; benchmark.md, "Data protocol").
+"""The LightningDataModule over the store (docs/architecture.md, "Batches"; docs/benchmark.md, "Data protocol").
 
-Splits per scene sequence (benchmark.md: first 20% test, the rest train, 5-frame non-overlapping clips): the
+Splits per scene sequence (docs/benchmark.md: first 20% test, the rest train, 5-frame non-overlapping clips): the
 first ``round(data.test_fraction * n)`` frames are the test sequence, the next ``data.val_clips`` clips of
 ``data.clip_len`` frames validate, the remaining frames give non-overlapping training clips. Training and
 validation use ``data.train_scenes``; testing runs ``data.test_scenes`` (held-out transfer scenes among them)
@@ -12,6 +12,12 @@ on their whole test sequences.
 - test: whole frames, one current frame per batch in sequence order, ``T = past + 1 + future`` of the model's
   ``window`` with the sequence's edge frames repeated, the current frame at index ``past``, and ``reset`` True
   on a sequence's first frame.
+
+Under DDP (a trainer with ``world_size > 1``) the datamodule distributes the data itself (the run's trainer
+has ``use_distributed_sampler=False``, mcd.lit.budget): training and validation clips are sharded across the
+ranks by a ``DistributedSampler`` (as Lightning's own would: shuffled with ``seed`` for training, padded to
+equal shares), and rank 0 tests every test frame, in order, while the other ranks test none: the test carries
+temporal state along each whole sequence, so its frames cannot be split between processes.
 
 The simulated adaptive render is built by the model from the stored ``c_{2^k}`` images, not here.
 """
@@ -26,7 +32,7 @@ import lightning as L
 import numpy as np
 import torch
 from omegaconf import DictConfig
-from torch.utils.data import DataLoader, Dataset
+from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, Subset
 
 from mcd.data.store import BUFFERS, Store, validate_buffers
 
@@ -150,8 +156,11 @@ class MCDDataModule(L.LightningDataModule):
         train_cfg = cfg.get("train") or {}
         self.batch_size = int(train_cfg.get("batch_size", 4))
         self.num_workers = int(d.get("num_workers", 0))
+        self.seed = int(cfg.get("seed", 0))
         self._frames = _Frames(store, self.buffers, bool(d.get("cache_in_memory", True)))
         self._ready = False
+        # under DDP the ranks other than 0 get an empty test loader (see the module docstring)
+        self.allow_zero_length_dataloader_with_multiple_devices = True
 
     def setup(self, stage: str | None = None) -> None:
         if self._ready:
@@ -192,11 +201,21 @@ class MCDDataModule(L.LightningDataModule):
         )
         self._ready = True
 
+    def _ranks(self) -> tuple[int, int]:
+        """``(global rank, world size)`` of the trainer this datamodule serves; ``(0, 1)`` without one."""
+        trainer = self.trainer
+        return (int(trainer.global_rank), int(trainer.world_size)) if trainer is not None else (0, 1)
+
     def _loader(self, ds: Dataset, batch: int, shuffle: bool) -> DataLoader:
+        rank, world = self._ranks()
+        sampler: Sampler | None = None
+        if world > 1:
+            sampler = DistributedSampler(ds, num_replicas=world, rank=rank, shuffle=shuffle, seed=self.seed)
         return DataLoader(
             ds,
             batch_size=batch,
-            shuffle=shuffle,
+            shuffle=shuffle and sampler is None,
+            sampler=sampler,
             num_workers=self.num_workers,
             drop_last=False,
             persistent_workers=self.num_workers > 0,
@@ -211,5 +230,9 @@ class MCDDataModule(L.LightningDataModule):
         return self._loader(self.val_set, 1, shuffle=False)
 
     def test_dataloader(self) -> DataLoader:
+        """Every test frame in sequence order on rank 0, none on the other ranks (module docstring)."""
         self.setup()
-        return self._loader(self.test_set, 1, shuffle=False)
+        rank, _ = self._ranks()
+        frames = self.test_set if rank == 0 else Subset(self.test_set, [])
+        return DataLoader(frames, batch_size=1, shuffle=False, num_workers=self.num_workers,
+                          persistent_workers=self.num_workers > 0)

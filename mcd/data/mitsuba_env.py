@@ -1,8 +1,8 @@
-"""Mitsuba variant selection (rendering.md, "Variants").
+"""Mitsuba variant selection (docs/data.md, "Mitsuba variant").
 
 `select_variant` must run before anything else imports drjit or mitsuba in the process: it sets
 ``DRJIT_LIBLLVM_PATH`` to Debian's ``libLLVM-19.so`` when that file exists and the variable is unset (an older
-LLVM aborts the LLVM backend, rendering.md), then tries ``cuda_ad_rgb``, ``llvm_ad_rgb`` and ``scalar_rgb`` in
+LLVM aborts the LLVM backend, docs/data.md), then tries ``cuda_ad_rgb``, ``llvm_ad_rgb`` and ``scalar_rgb`` in
 that order and keeps the first that renders a 4x4 test image. The CUDA and LLVM probes run in a child process
 because a bad LLVM library aborts the interpreter instead of raising, and a GPU without OptiX fails only when
 rendering.

@@ -1,9 +1,9 @@
-"""Mitsuba rendering of one scene's frames (benchmark.md, "Data protocol"; rendering.md).
+"""Mitsuba rendering of one scene's frames (docs/benchmark.md, "Data protocol"; docs/data.md, "Rendering").
 
 Every render uses a sensor built here: the frame's camera, the profile's film size and a **box** pixel filter
 (so every pixel's samples are its own), whatever filter the scene file declares. Colour comes from the scene's
 own integrator; G-buffers from the ``aov`` integrator (``dd.y:depth,nn:sh_normal,alb:albedo``: first-hit
-distance, shading normal, albedo; rendering.md), averaged over ``gbuffer_spp`` samples per pixel by the box
+distance, shading normal, albedo; docs/data.md), averaged over ``gbuffer_spp`` samples per pixel by the box
 filter. Albedo is 0 on smooth glass and mirrors (no diffuse first hit): expected.
 
 A render with more samples than ``max_samples_per_pass`` (LLVM/CUDA wavefront memory) is split into passes

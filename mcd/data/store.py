@@ -1,4 +1,4 @@
-"""The on-disk benchmark store (docs/architecture.md, "The store"; benchmark.md, "Data protocol").
+"""The on-disk benchmark store (docs/architecture.md, "The store"; docs/benchmark.md, "Data protocol").
 
 Layout: ``<data_dir>/<profile>/<scene>/manifest.json`` and
 ``<data_dir>/<profile>/<scene>/<frame:04d>/<buffer>.exr``.

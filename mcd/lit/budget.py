@@ -60,8 +60,15 @@ def trainer_limits(train: DictConfig) -> dict[str, object]:
 def trainer_kwargs(cfg: DictConfig) -> dict[str, object]:
     """Every Lightning Trainer argument a run takes from its config: ``cfg.trainer`` with ``precision``
     resolved (``auto``: mcd.lit.precision) and the limits of :func:`trainer_limits`. On the CPU it also
-    flushes denormal floats to zero (slow on x86, meaningless for images)."""
+    flushes denormal floats to zero (slow on x86, meaningless for images). ``use_distributed_sampler`` is
+    always off: under DDP the datamodule shards training and validation itself and tests every frame on
+    rank 0 (mcd/data/datamodule.py), which Lightning's sampler would split between the ranks."""
     kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
+    if kwargs.get("use_distributed_sampler"):
+        raise ValueError("trainer.use_distributed_sampler=true: the datamodule distributes the data itself "
+                         "(training and validation sharded, the test on rank 0: mcd/data/datamodule.py); "
+                         "remove the key")
+    kwargs["use_distributed_sampler"] = False
     accelerator = str(kwargs.get("accelerator", "auto"))
     kwargs["precision"] = precision.resolve(str(kwargs.get("precision", "32-true")), accelerator)
     if precision.on_cpu(accelerator):
@@ -129,9 +136,11 @@ class LearningCurve(Callback):
         self.started = time.perf_counter() - offset
 
     def on_validation_end(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
-        if trainer.sanity_checking or not trainer.is_global_zero:
+        if trainer.sanity_checking:
             return
-        self.last_step = trainer.global_step
+        self.last_step = trainer.global_step  # on every rank: :func:`finish` validates on all or on none
+        if not trainer.is_global_zero:
+            return
         metrics = trainer.callback_metrics
 
         def value(key: str) -> float:

@@ -1,6 +1,6 @@
 """Training losses, chosen by name (``cfg.loss.name``) from a registry.
 
-The paper's loss (Sec. "Loss functions"; method.md "Losses") is ``L = W_s L_s + W_t L_t + W_p L_p`` with
+The paper's loss (Sec. "Loss functions"; docs/method.md "Losses") is ``L = W_s L_s + W_t L_t + W_p L_p`` with
 ``W = (0.8, 0.2, 0.1)``: ``L_s`` is the L1 distance of output and reference on the clip's last frame,
 ``L_t`` the L1 distance of ``d_t - d_{t-1}`` and ``ref_t - ref_{t-1}`` on the last two frames, and ``L_p`` a
 VGG-16 feature distance on the last frame (off without a local weights file). All terms are computed in a
@@ -80,7 +80,7 @@ def perceptual_from_cfg(cfg: DictConfig) -> tuple[VGGPerceptual | None, Perceptu
 
 @register_loss("paper")
 class PaperLoss(nn.Module):
-    """``0.8 L_s + 0.2 L_t + 0.1 L_p`` (weights ``loss.w_s``, ``loss.w_t``, ``loss.w_p``), paper Sec. 3."""
+    """``0.8 L_s + 0.2 L_t + 0.1 L_p`` (weights ``loss.w_s``, ``loss.w_t``, ``loss.w_p``), paper Sec. 4.2."""
 
     def __init__(self, cfg: DictConfig) -> None:
         super().__init__()

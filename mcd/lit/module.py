@@ -1,4 +1,4 @@
-"""The LightningModule that trains, validates and tests every method (method.md "Training protocol").
+"""The LightningModule that trains, validates and tests every method (docs/method.md, "Training protocol").
 
 - Training / validation: a batch holds clips ``[B, T, C, H, W]``; the model is ``reset()`` at the clip start
   and run frame by frame so that temporal models carry their state across the clip. Only the frames the loss
@@ -12,15 +12,14 @@
 - ``train.compile``: ``torch.compile`` (inductor) of the model in place during ``fit`` (off by default: not
   faster on this project's CPU, docs/training.md "Throughput").
 - Validation logs ``val/loss`` and ``val/psnr``, ``val/ssim`` of the last frame of each clip (the test
-  metrics of ``mcd.metrics``); the best checkpoint is the one with the highest ``val/psnr``.
+  metrics of ``mcd.metrics``), each averaged over the validation clips of all processes (``sync_dist``), so
+  that under DDP every rank picks the same best checkpoint: the one with the highest ``val/psnr``.
 - The learning rate follows a cosine from ``train.lr`` to ``train.lr_min`` over the training budget
   (:func:`cosine_factor`; the budget's progress is ``DenoiseModule.progress``).
 - Test: whole frames, one current frame per batch, in sequence order; ``reset()`` where ``batch["reset"]``
-  is set, so state is carried across a whole test sequence. Per-frame metrics (``mcd.metrics``) of the output
-  and of the noisy uniform input at the same budget (``c{budget}``) are collected in
-  :attr:`DenoiseModule.test_rows`; with KP also the kernel map's identity share (``kp_identity``) and the
-  standard deviation of its kernel index ``h[0]`` over the frame's pixels (``kp_index_std``; 0 = one kernel
-  everywhere).
+  is set, so state is carried across a whole test sequence. ``test_step`` returns the frame's outputs, its
+  reference and the noisy uniform input at the same budget (``c{budget}``); the test recorder
+  (``mcd.lit.test_recorder``) turns them into metrics, samples and ``frames.csv``.
 - Models with a frame window ``(past, future) != (0, 0)`` get ``[B, past+1+future, C, H, W]`` per step, edge
   frames repeated at clip ends (as the test datamodule does at sequence ends).
 """
@@ -29,17 +28,14 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 
 import lightning as L
-import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
 
-from mcd.lit.samples import save_samples
-from mcd.metrics import frame_metrics, temporal_l1
-from mcd.models.kernel_pool import identity_weight
+from mcd.lit.test_recorder import hwc
+from mcd.metrics import frame_metrics
 
 
 def clip_buffers(batch: dict[str, object]) -> dict[str, Tensor]:
@@ -62,33 +58,16 @@ def cosine_factor(progress: float, lr: float, lr_min: float) -> float:
     return floor + (1.0 - floor) * 0.5 * (1.0 + math.cos(math.pi * p))
 
 
-def _hwc(x: Tensor) -> np.ndarray:
-    """``[C, H, W]`` tensor -> ``H x W x C`` float32 NumPy array."""
-    return x.detach().float().permute(1, 2, 0).cpu().numpy()
-
-
-def kernel_map_identity_share(kernel_map: Tensor) -> float:
-    """Mean weight of the identity kernel, ``(h[1] + 1) / 2``, over a frame (paper Sec. 3.1, kernel
-    interpolation): 1 means ``i_bar == i`` (the kernel pool unused), 0 means pool kernels only."""
-    return float(identity_weight(kernel_map).mean())
-
-
 class DenoiseModule(L.LightningModule):
     """Trains ``model`` with ``loss`` (``mcd.lit.losses``) and tests it on whole sequences."""
 
-    def __init__(self, cfg: DictConfig, model: nn.Module, loss: nn.Module,
-                 sample_dir: str | Path | None = None) -> None:
+    def __init__(self, cfg: DictConfig, model: nn.Module, loss: nn.Module) -> None:
         super().__init__()
         self.cfg = cfg
         self.model = model
         # The loss (with its frozen VGG) is not part of the checkpointed state: kept outside the module tree.
         self.__dict__["loss_fn"] = loss
         self.budget = int(cfg.budget)
-        self.sample_dir = Path(sample_dir) if sample_dir is not None else None
-        self.sample_frames = {int(i) for i in cfg.train.get("sample_frames", ())}
-        self.test_rows: list[dict[str, object]] = []
-        self._prev: tuple[np.ndarray, np.ndarray] | None = None
-        self._seq_pos = 0
         grad_frames = cfg.train.get("grad_frames")
         self.grad_frames = None if grad_frames is None else int(grad_frames)
         if self.grad_frames is not None and self.grad_frames < 1:
@@ -150,7 +129,7 @@ class DenoiseModule(L.LightningModule):
         size = pred.shape[0]
         for name, value in terms.items():
             self.log(f"{stage}/{name}", value, prog_bar=name == "loss", on_step=stage == "train",
-                     on_epoch=True, batch_size=size)
+                     on_epoch=True, batch_size=size, sync_dist=stage == "val")
         return terms["loss"], pred
 
     # -- Lightning hooks ----------------------------------------------------------------------------------
@@ -185,9 +164,9 @@ class DenoiseModule(L.LightningModule):
         loss, pred = self._loss(batch, "val", with_ref=False)
         ref = clip_buffers(batch)["ref"][:, -1]
         for b in range(pred.shape[0]):
-            scores = frame_metrics(_hwc(pred[b, -1]), _hwc(ref[b]))
+            scores = frame_metrics(hwc(pred[b, -1]), hwc(ref[b]))
             for name in ("psnr", "ssim"):
-                self.log(f"val/{name}", scores[name], on_epoch=True, batch_size=1)
+                self.log(f"val/{name}", scores[name], on_epoch=True, batch_size=1, sync_dist=True)
         return loss
 
     def configure_optimizers(self) -> dict[str, object]:
@@ -199,34 +178,15 @@ class DenoiseModule(L.LightningModule):
             opt, lambda step: cosine_factor(self.progress(step), lr, lr_min))
         return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
 
-    def on_test_start(self) -> None:
-        self.test_rows = []
-        self._prev = None
-
-    def test_step(self, batch: dict[str, object], batch_idx: int) -> None:
+    def test_step(self, batch: dict[str, object], batch_idx: int) -> dict[str, object]:
         buffers = clip_buffers(batch)
         check_finite(buffers, batch)
         if buffers["ref"].shape[0] != 1:
             raise ValueError(f"test batches must hold one frame (B=1), got B={buffers['ref'].shape[0]}")
-        if bool(batch["reset"][0]):
+        reset = bool(batch["reset"][0])
+        if reset:
             self.model.reset()
-            self._prev = None
-            self._seq_pos = 0
         past = self.model.window[0]
         out = self.model(self._frame_input(buffers, past, with_ref=False))
-        pred, ref = _hwc(out["output"][0]), _hwc(buffers["ref"][0, past])
-        noisy = _hwc(buffers[f"c{self.budget}"][0, past])
-        scene, frame = str(batch["scene"][0]), int(batch["frame"][0, past])
-        row: dict[str, object] = {"scene": scene, "frame": frame, **frame_metrics(pred, ref),
-                                  **frame_metrics(noisy, ref, prefix="input_")}
-        row["lt"] = math.nan if self._prev is None else temporal_l1(pred, self._prev[0], ref, self._prev[1])
-        if "kernel_map" in out:
-            row["kp_identity"] = kernel_map_identity_share(out["kernel_map"])
-            row["kp_index_std"] = float(out["kernel_map"][0, 0].float().std())
-        self.test_rows.append(row)
-        self._prev = (pred, ref)
-        if self.sample_dir is not None and self._seq_pos in self.sample_frames:
-            images = {k: _hwc(v[0]) for k, v in out.items() if isinstance(v, Tensor) and v.ndim == 4}
-            images.update(noisy=noisy, reference=ref)
-            save_samples(self.sample_dir / scene, frame, images)
-        self._seq_pos += 1
+        return {"scene": str(batch["scene"][0]), "frame": int(batch["frame"][0, past]), "reset": reset,
+                "outputs": out, "ref": buffers["ref"][0, past], "noisy": buffers[f"c{self.budget}"][0, past]}

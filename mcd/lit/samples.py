@@ -1,4 +1,4 @@
-"""Intermediate outputs of a few test frames for the reports (benchmark.md "Reports", qualitative strip).
+"""Intermediate outputs of a few test frames for the reports (docs/benchmark.md "Reports", qualitative strip).
 
 ``samples/<scene>/<frame:04d>_<name>.exr`` holds the raw values (linear HDR colour; sample counts; kernel map
 in [-1, 1]) and ``.png`` a picture of them: colour through the display transform of ``mcd.metrics``; the

@@ -1,5 +1,5 @@
-"""Transfer to held-out scenes (benchmark.md "Experiments", transfer): a model trained on the training scenes
-is tested on `data.transfer_scenes`, as loaded or after a brief fine-tuning on the held-out scenes.
+"""Transfer to held-out scenes (docs/benchmark.md "Experiments", transfer): a model trained on the training
+scenes is tested on `data.transfer_scenes`, as loaded or after a brief fine-tuning on the held-out scenes.
 
 Keys (`conf/config.yaml`):
 - `transfer.init_from`: a trained run directory (its `checkpoints/best*.ckpt`, else `last.ckpt`) or a `.ckpt`

@@ -1,4 +1,5 @@
-"""VGG-16 feature extractor for the perceptual loss ``L_p`` (paper Sec. "Loss functions"; method.md "Losses").
+"""VGG-16 feature extractor for the perceptual loss ``L_p`` (paper Sec. "Loss functions"; docs/method.md
+"Losses").
 
 torchvision is not a dependency: the feature layers of VGG-16 (Simonyan & Zisserman 2014, configuration "D")
 are defined here with torchvision's module indices, so that a torchvision-format state dict

@@ -1,5 +1,5 @@
-"""Per-frame PSNR over each test sequence, one plot per scene and one line per method (benchmark.md "Reports":
-flicker and drift show there), from each run's `frames.csv`."""
+"""Per-frame PSNR over each test sequence, one plot per scene and one line per method (docs/benchmark.md
+"Reports": flicker and drift show there), from each run's `frames.csv`."""
 
 from __future__ import annotations
 

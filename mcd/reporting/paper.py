@@ -41,5 +41,5 @@ def components(experiment: str) -> dict[str, float]:
 
 
 def switches(experiment: str) -> dict[str, bool]:
-    """The component switches that define row `A`..`M` (method.md); {} for other experiments."""
+    """The component switches that define row `A`..`M` (docs/method.md); {} for other experiments."""
     return dict(paper_numbers.COMPONENTS.get(experiment, {}).get("switches", {}))

@@ -1,5 +1,5 @@
-"""Provenance of a report (benchmark.md "Reports": every report names command, config, data profile, commit,
-device): gathered from the runs themselves, printed in the README and under every figure."""
+"""Provenance of a report (docs/benchmark.md "Reports": every report names command, config, data profile,
+commit, device): gathered from the runs themselves, printed in the README and under every figure."""
 
 from __future__ import annotations
 

@@ -129,7 +129,7 @@ class Run:
 
     @property
     def method_switches(self) -> dict[str, bool]:
-        """The component switches (method.md) this job ran with, from its config."""
+        """The component switches (docs/method.md) this job ran with, from its config."""
         method = self.config.get("method", {})
         return {k: bool(method[k]) for k in ("UN", "AS", "KP", "PP", "FG", "SA") if k in method}
 

@@ -2,8 +2,8 @@
 
 One seed per job cannot tell a real gain from noise at a small training budget. This table gives, per row
 and budget, the mean, sample standard deviation and range of PSNR and SSIM over seeds, and the differences
-the paper's claims rest on (benchmark.md "What it must show": F above A, C's step over B the largest) with
-their standard errors. Differences are of means, not paired by seed: rows draw crops and initial weights
+the paper's claims rest on (docs/benchmark.md "What it must show": F above A, C's step over B the largest)
+with their standard errors. Differences are of means, not paired by seed: rows draw crops and initial weights
 from one generator in different orders, so the same seed value gives two rows nothing in common.
 """
 
@@ -72,7 +72,7 @@ def spread(runs: list[Run]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-#: What each row of the chain adds to the row before it (method.md "Component study").
+#: What each row of the chain adds to the row before it (docs/method.md "Component study").
 ADDS = {"B": "AS", "C": "KP", "D": "PP", "E": "FG", "F": "SA"}
 
 

@@ -1,5 +1,5 @@
-"""Speed against error (benchmark.md "Reports"): ms per frame from `python -m mcd.bench`'s CSV against PSNR
-and rMSE of the 4 spp runs, one point per method and device (its fastest inference path)."""
+"""Speed against error (docs/benchmark.md "Reports"): ms per frame from `python -m mcd.bench`'s CSV against
+PSNR and rMSE of the 4 spp runs, one point per method and device (its fastest inference path)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The spp figure (benchmark.md "Reports"): PSNR, SSIM, rMSE and L_t against the budget, one line per method,
-as PNG and CSV."""
+"""The spp figure (docs/benchmark.md "Reports"): PSNR, SSIM, rMSE and L_t against the budget, one line per
+method, as PNG and CSV."""
 
 from __future__ import annotations
 

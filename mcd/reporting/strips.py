@@ -1,4 +1,4 @@
-"""Qualitative strips per scene (benchmark.md "Reports"): noisy input, sampling map, kernel map, initial
+"""Qualitative strips per scene (docs/benchmark.md "Reports"): noisy input, sampling map, kernel map, initial
 denoise `ī`, output and reference of the full method, with zoomed crops; and a second strip comparing every
 method's output on the same crop. Read from the runs' `samples/<scene>/<frame:04d>_<name>.exr`
 (written by `mcd.lit.samples`, pictured by its `picture`)."""
@@ -106,7 +106,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         frame = min(complete)
         names = frames[frame]
         imgs = {name: read_exr(path) for name, path in names.items()}
-        if "kernel_map" in imgs:  # its two channels as two colour maps (paper Sec. 3.1)
+        if "kernel_map" in imgs:  # its two channels as two colour maps (paper Sec. 4.1)
             imgs["kernel_index"] = imgs["identity_weight"] = imgs["kernel_map"]
         ref = imgs["reference"]
         size = max(8, min(ref.shape[:2]) // 4)

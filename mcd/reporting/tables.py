@@ -1,4 +1,4 @@
-"""Table 1 (methods at 4 spp), the component table (A-M) and the transfer table (benchmark.md "Reports"),
+"""Table 1 (methods at 4 spp), the component table (A-M) and the transfer table (docs/benchmark.md "Reports"),
 as markdown and CSV, with the paper's numbers in adjacent columns (read from `mcd.paper_numbers`)."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from mcd.reporting.select import metric, pick, run_label, write_table
 #: Table 1's rows, in the paper's order, then the two references it does not print.
 TABLE1_ROWS = ("unet", "fastdvdnet", "rae", "dasr", "ntasad", "F", "oidn", "noisy")
 COMPONENT_ROWS = tuple("ABCDEFGHIJKLM")
-#: The chain that adds one component at a time (method.md): B adds AS to A, C adds KP, D PP, E FG, F SA.
+#: The chain that adds one component at a time (docs/method.md): B adds AS to A, C adds KP, D PP, E FG, F SA.
 STEPS = ("A", "B", "C", "D", "E", "F")
 TABLE1_BUDGET = 4.0
 
@@ -87,7 +87,7 @@ def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     rows = []
     for exp in COMPONENT_ROWS:
         run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="ablation")
-        # the switches the job ran with; for rows that did not run, the row's definition (method.md)
+        # the switches the job ran with; for rows that did not run, the row's definition (docs/method.md)
         switches = run.method_switches if run is not None and run.method_switches else paper.switches(exp)
         ref = paper.components(exp)
         row: dict[str, object] = {"row": exp}

@@ -1,4 +1,4 @@
-"""Adaptive sampling (method.md "Adaptive sampling"): map normalisation, simulated render, DASR gradient.
+"""Adaptive sampling (docs/method.md "Adaptive sampling"): map normalisation, simulated render, DASR gradient.
 
 The true adaptive Mitsuba render of a sampling map lives in :mod:`mcd.data.adaptive_render`.
 """

@@ -1,4 +1,5 @@
-"""The adaptive render as a differentiable step (method.md "Adaptive sampling" step 4, DASR's approximation).
+"""The adaptive render as a differentiable step (docs/method.md "Adaptive sampling" step 4, DASR's
+approximation).
 
 Rounding the map and picking renders by the bits of ``m`` have no useful derivative. DASR approximates the
 change of a pixel's ``1 + m`` sample average with one more sample by ``(ref - i) / (1 + m)`` (the expected

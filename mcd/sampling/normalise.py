@@ -1,4 +1,4 @@
-"""Sampling-map normalisation (method.md "Adaptive sampling" step 1; paper Eq. 1).
+"""Sampling-map normalisation (docs/method.md "Adaptive sampling" step 1; paper Eq. 1).
 
 ``m = round(softmax(m̄) * N * (s - 1))`` per frame, each pixel capped at ``2^0 + ... + 2^t`` (63 for ``t =
 5``), with an exact budget: ``sum(m) == N * (s - 1)`` for every frame. The cap is honoured by water-filling

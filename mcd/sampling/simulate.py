@@ -1,4 +1,4 @@
-"""Simulated adaptive render (method.md "Adaptive sampling" steps 2-3; paper Eq. 2, after DASR).
+"""Simulated adaptive render (docs/method.md "Adaptive sampling" steps 2-3; paper Eq. 2, after DASR).
 
 A pixel given ``m`` samples takes, for every set bit ``k`` of ``m``, the pre-rendered independent image
 ``c_{2^k}`` (``2^k`` samples), so ``i = sum_k c_{2^k} 2^k bit_k(m) / m`` is the average of exactly ``m``
@@ -50,7 +50,7 @@ def simulated_render(m: Tensor, stack: Tensor) -> Tensor:
 
 
 def blend_with_c1(c1: Tensor, m: Tensor, stack: Tensor) -> Tensor:
-    """``(c_1 + m i) / (1 + m)``: the ``1 + m`` sample average of a pixel (method.md step 3)."""
+    """``(c_1 + m i) / (1 + m)``: the ``1 + m`` sample average of a pixel (docs/method.md step 3)."""
     return (c1 + sample_sum(m, stack)) / (1 + m.to(stack.dtype))
 
 

@@ -1,5 +1,5 @@
-"""OIDN through pyoidn (benchmark.md "Experiments"): no training, improves PSNR over its noisy input on a real
-Mitsuba render; a clear install message when the optional package is missing."""
+"""OIDN through pyoidn (docs/benchmark.md "Experiments"): no training, improves PSNR over its noisy input on a
+real Mitsuba render; a clear install message when the optional package is missing."""
 
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ from mcd.data.datamodule import split_frames
 
 def test_split_first_frames_test_then_val_then_train():
     sp = split_frames(500, 0.2, 4, 5)
-    assert sp["test"] == [list(range(100))]  # benchmark.md: first 100 of 500 frames
+    assert sp["test"] == [list(range(100))]  # docs/benchmark.md: first 100 of 500 frames
     assert sp["val"][0] == [100, 101, 102, 103, 104] and len(sp["val"]) == 4
     assert len(sp["train"]) == 76 and sp["train"][0][0] == 120
     with pytest.raises(ValueError, match="frames_per_segment"):

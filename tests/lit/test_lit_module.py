@@ -6,12 +6,14 @@ import math
 
 import lightning as L
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 
 from mcd.data import MCDDataModule, Store
 from mcd.data.exr import sha256, write_exr
 from mcd.lit import DenoiseModule, build_loss
+from mcd.lit.test_recorder import TestRecorder
 from mcd.models import build
 
 from .conftest import compose_cfg
@@ -19,13 +21,13 @@ from .conftest import compose_cfg
 ROWS = "ABCDEFGHIJKLM"
 
 
-def parts(data_dir, *overrides, sample_dir=None):
+def parts(data_dir, *overrides):
     cfg = compose_cfg(data_dir, *overrides)
     model = build(cfg)
     buffers = set(model.required_buffers()) | {"ref", f"c{cfg.budget}"}
     store = Store.from_cfg(cfg)
     dm = MCDDataModule(cfg, store, buffers, model.window)
-    return cfg, DenoiseModule(cfg, model, build_loss(cfg), sample_dir=sample_dir), dm
+    return cfg, DenoiseModule(cfg, model, build_loss(cfg)), dm
 
 
 def trainer(**kw):
@@ -48,22 +50,27 @@ def test_each_component_row_runs_one_training_step(tiny_store, row):
 
 
 def test_test_phase_carries_state_and_writes_metrics_and_samples(tiny_store, tmp_path):
-    cfg, lit, dm = parts(tiny_store, "+experiment=F", "train.sample_frames=[1]", sample_dir=tmp_path)
+    cfg, lit, dm = parts(tiny_store, "+experiment=F", "train.sample_frames=[1]")
+    recorder = TestRecorder(tmp_path, cfg.train.sample_frames)
     resets = []
     reset = lit.model.reset
     lit.model.reset = lambda: (resets.append(True), reset())[1]
-    trainer().test(lit, datamodule=dm, verbose=False)
-    rows = lit.test_rows
+    trainer(callbacks=[recorder]).test(lit, datamodule=dm, verbose=False)
+    rows = recorder.rows
     assert [r["frame"] for r in rows] == [0, 1] and {r["scene"] for r in rows} == {"cbox"}
     assert len(resets) == 1  # once at the sequence start, not per frame
     assert math.isnan(rows[0]["lt"]) and rows[1]["lt"] >= 0
     for r in rows:
         assert 0 <= r["ssim"] <= 1 and r["input_psnr"] > 5 and r["rmse"] >= 0
         assert 0 <= r["kp_identity"] <= 1  # F has KP: its kernel map's identity share is recorded
-    names = {p.name for p in (tmp_path / "cbox").iterdir()}
+    names = {p.name for p in (tmp_path / "samples" / "cbox").iterdir()}
     for what in ("output", "reference", "noisy", "sampling_map", "kernel_map", "initial", "adaptive"):
         assert {f"0001_{what}.exr", f"0001_{what}.png"} <= names, what
     assert not any(n.startswith("0000_") for n in names)
+    frames = pd.read_csv(tmp_path / "frames.csv")  # the recorder's rows, and their averages
+    assert frames["frame"].tolist() == [0, 1] and "kp_index_std" in frames.columns
+    assert recorder.averages["frames"] == {"cbox": 2}
+    assert recorder.averages["psnr"] == pytest.approx(frames["psnr"].mean())
 
 
 def test_nan_in_a_rendered_frame_is_sanitised_and_never_reaches_the_loss(tiny_store, tmp_path, caplog):
@@ -113,7 +120,7 @@ def test_non_finite_input_that_bypasses_the_loader_is_refused(tiny_store):
 
 
 def test_kernel_map_identity_share():
-    from mcd.lit.module import kernel_map_identity_share
+    from mcd.lit.test_recorder import kernel_map_identity_share
 
     h = torch.zeros(2, 2, 4, 4)
     h[:, 1] = 1.0

@@ -1,4 +1,4 @@
-"""The paper's loss (method.md "Losses") and the loss registry."""
+"""The paper's loss (docs/method.md "Losses") and the loss registry."""
 
 import logging
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""The component switches and the experiment files A-M (method.md "The five switches")."""
+"""The component switches and the experiment files A-M (docs/method.md "The five switches")."""
 
 from pathlib import Path
 

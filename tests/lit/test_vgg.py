@@ -1,4 +1,4 @@
-"""Loading VGG-16 feature weights from a local torchvision-format file (method.md "Losses", L_p)."""
+"""Loading VGG-16 feature weights from a local torchvision-format file (docs/method.md "Losses", L_p)."""
 
 import pytest
 import torch

@@ -1,4 +1,5 @@
-"""Kernel pool, position-aware pooling, semantic alignment, Fast GhostConv (method.md, one section each)."""
+"""Kernel pool, position-aware pooling, semantic alignment, Fast GhostConv (docs/method.md, one section
+each)."""
 
 import pytest
 import torch
@@ -68,7 +69,7 @@ def test_kernel_pool_gate_blends_pool_and_residual(bias, alpha):
         kp.alpha[-1].bias.fill_(bias)
     coarse = torch.rand(2, 12, 3, 5)
     pooled = F.adaptive_avg_pool2d(coarse, 5).flatten(2).transpose(1, 2)
-    residual = kp.neighbours(kp.lift(pooled)).transpose(1, 2)             # r of method.md, [B, q, taps]
+    residual = kp.neighbours(kp.lift(pooled)).transpose(1, 2)             # r of docs/method.md, [B, q, taps]
     assert (residual - kp.pool).abs().mean() > 0.1                       # the two ends differ
     torch.testing.assert_close(kp.adjust(coarse), (1 - alpha) * kp.pool + alpha * residual)
 

@@ -1,4 +1,5 @@
-"""The two-stage model of every component row A-M (method.md switch table; docs/architecture.md "Models")."""
+"""The two-stage model of every component row A-M (docs/method.md "The five switches"; docs/architecture.md
+"Models")."""
 
 import pytest
 import torch

@@ -1,4 +1,4 @@
-"""The DASR gradient of the adaptive render (method.md AS step 4): formula, sign and scale."""
+"""The DASR gradient of the adaptive render (docs/method.md AS step 4): formula, sign and scale."""
 
 import pytest
 import torch

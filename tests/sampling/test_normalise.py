@@ -1,4 +1,5 @@
-"""Sampling-map normalisation: the exact budget per frame, the cap, and bad logits (method.md AS step 1)."""
+"""Sampling-map normalisation: the exact budget per frame, the cap, and bad logits (docs/method.md
+"Adaptive sampling" step 1)."""
 
 import pytest
 import torch

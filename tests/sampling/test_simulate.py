@@ -1,4 +1,4 @@
-"""Simulated adaptive render = the average of exactly the samples the map asks for (method.md AS 2-3)."""
+"""Simulated adaptive render = the average of exactly the samples the map asks for (docs/method.md AS 2-3)."""
 
 import pytest
 import torch

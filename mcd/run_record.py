@@ -1,0 +1,126 @@
+"""The run record: what ``python -m mcd.run`` writes to ``metrics.json`` (docs/architecture.md, "Run
+directory").
+
+:class:`RunRecord` owns the keys of ``metrics.json``: one field per key, written in field order, the test
+averages first as top-level keys named as in ``mcd.metrics`` (``psnr`` ... ``input_rmse``, then
+``kp_identity``, ``kp_index_std``, null for a model without a kernel map). NaN and infinity are written as
+``null`` (JSON has no NaN). The reports (``mcd.reporting``) read these keys. A sweep skips a job whose
+``metrics.json`` holds every key of :data:`REQUIRED_KEYS` (:func:`is_complete`) when it is the same job
+(:func:`job_identity`; another job's is an error, :func:`check_same_job`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig
+
+from mcd.metrics import FRAME_METRICS, MODEL_METRICS
+from mcd.models.switches import switch_row
+
+#: Keys a finished run's ``metrics.json`` must hold (a sweep skips jobs that have them all).
+REQUIRED_KEYS = (*FRAME_METRICS, "macs_g", "params_m", "experiment", "method", "budget", "data_profile",
+                 "commit", "device", "wall_s", "per_scene", "perceptual_loss")
+#: Methods whose ``method.UN..SA`` switches mean something (the component study; ``unet`` is row A).
+SWITCHED_METHODS = ("two_stage", "unet")
+
+
+@dataclasses.dataclass
+class RunRecord:
+    """One run's ``metrics.json`` (see the module docstring); :meth:`write` saves it."""
+
+    #: Test averages over scenes (``mcd.metrics.aggregate``) of ``FRAME_METRICS`` and ``MODEL_METRICS``.
+    scores: dict[str, float | None]
+    macs_g: float | None  # 1080p GMACs (mcd.complexity); null where FlopCounterMode cannot count them
+    params_m: float | None  # millions of parameters; null where torch cannot see them (OIDN)
+    experiment: str
+    method: dict[str, Any]  # the resolved ``method`` config
+    switches: str | None  # ``method.UN..SA`` as 0/1 (mcd.models.switches.switch_row); null for baselines
+    budget: int  # average samples per pixel
+    seed: int
+    data_profile: str | None  # the Hydra choices of the config groups data, model, train
+    model_profile: str | None
+    train_profile: str | None
+    per_scene: dict[str, dict[str, float | None]]  # per-scene averages of every score
+    scenes_test: list[str]
+    test_frames: dict[str, int]  # frames tested per scene
+    perceptual_loss: dict[str, Any]  # whether L_p was on, and why not (mcd.lit.vgg.PerceptualStatus)
+    commit: str  # the code's commit, "unknown" outside git (mcd.run.git_commit)
+    dirty: bool | None  # whether the working tree differed from it
+    device: str  # GPU name, or CPU model and threads (mcd.run.device_name)
+    precision: str  # the Lightning precision the run trained and tested in
+    torch: str  # torch version
+    config: str  # path of resolved_config.yaml
+    data: dict[str, Any]  # the store's report of what it rendered and reused
+    trained: bool
+    transfer: dict[str, Any] | None  # the transfer settings (mcd.lit.transfer); null for an ordinary run
+    checkpoint: str | None  # the checkpoint tested; null for a method tested as built
+    best_val_psnr: float | None
+    train_steps: int
+    stop_reason: str  # why training ended (mcd.lit.budget.stop_reason)
+    epochs: int
+    data_s: float  # seconds spent rendering or checking the store, training, testing, and in all
+    train_s: float
+    test_s: float
+    wall_s: float
+
+    @staticmethod
+    def scores_of(averages: dict[str, object]) -> dict[str, float | None]:
+        """The :attr:`scores` of a test's averages (``mcd.metrics.aggregate``): every ``FRAME_METRICS`` key,
+        and each ``MODEL_METRICS`` key, ``None`` where the model has no such statistic."""
+        return {**{k: averages[k] for k in FRAME_METRICS},  # type: ignore[misc]
+                **{k: averages.get(k) for k in MODEL_METRICS}}  # type: ignore[misc]
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON object of ``metrics.json``."""
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "scores"}
+        return {k: _json_safe(v) for k, v in {**self.scores, **fields}.items()}
+
+    def write(self, run_dir: Path) -> dict[str, Any]:
+        """Write ``run_dir/metrics.json``; returns what it wrote."""
+        data = self.as_dict()
+        (run_dir / "metrics.json").write_text(json.dumps(data, indent=2))
+        return data
+
+
+def _json_safe(value: object) -> object:
+    """NaN/inf become ``None`` (JSON has no NaN), also inside dicts."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    return value
+
+
+def is_complete(path: Path) -> bool:
+    """Whether ``path`` is a readable ``metrics.json`` holding every key of :data:`REQUIRED_KEYS`."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and all(k in data for k in REQUIRED_KEYS)
+
+
+def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
+    """What makes two runs the same job: the values a :class:`RunRecord` of ``cfg`` holds under these keys.
+
+    Settings a rerun may change without making it another job (epochs, capacity, ...) are left out
+    (sweeps/_sweep_dirs.yaml: such a rerun goes to another ``sweep_tag``).
+    """
+    return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
+            "data_profile": choices.get("data"),
+            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None}
+
+
+def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
+    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped)."""
+    done = json.loads(path.read_text())
+    differs = {k: (done[k], v) for k, v in job_identity(cfg, choices).items() if k in done and done[k] != v}
+    if differs:
+        detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
+        raise FileExistsError(f"{path.parent} holds a finished run of another job ({detail}); give this run "
+                              "its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")
