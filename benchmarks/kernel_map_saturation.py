@@ -49,8 +49,9 @@ VARIANTS = {
     "reads i, tanh (before)": ["method.kp.denoiser_reads_adaptive=true", "method.kp.head_output=tanh"],
     "tanh (paper text)": ["method.kp.head_output=tanh"],
     "tempered z/8": ["method.kp.head_output=tempered", "method.kp.temperature=8"],
-    "rms (default)": ["method.kp.head_output=rms"],
+    "rms": ["method.kp.head_output=rms"],
     "rms, pool x5": ["method.kp.head_output=rms", "method.kp.pool_init_scale=5"],
+    "rms_centred (default)": ["method.kp.head_output=rms_centred"],
 }
 COLUMNS = ("variant", "row", "steps", "z0", "z1", "identity", "id>.975", "index std", "max tap", "L1 i_bar",
            "L1 i", "L1 out", "val PSNR", "s")

@@ -10,6 +10,7 @@ crops), with the validation cadence of the path (validation time counts: it is p
 - ``today``: fp32, every clip frame run (the loss's ``frames_needed`` ignored), validation every epoch,
   a log row every step, contiguous weights;
 - ``default``: the training profile's settings as configured (``train=cpu``: see docs/training.md);
+  ``default-fp32`` the same in fp32 (what ``trainer.precision=auto`` picks where bf16 does not pay);
 - ``fp32``: the clip frames the loss reads (all for temporal models), validation every
   ``train.val_every_steps``, a log row every 10 steps, contiguous weights;
 - ``channels-last``: ``fp32`` with the weights in channels-last memory format (``train.channels_last``);
@@ -48,7 +49,7 @@ log = logging.getLogger("mcd.train_bench")
 
 REPO = Path(__file__).resolve().parent.parent
 METHODS = ("A", "C", "F", "rae", "fastdvdnet", "dasr", "ntasad")
-PATHS = ("today", "default", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
+PATHS = ("today", "default", "default-fp32", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
          "bf16+channels-last", "compile")
 COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss_mb", "threads", "cpu",
            "steps_per_cpu_s")
@@ -59,8 +60,8 @@ def path_overrides(path: str) -> list[str]:
     base = ["trainer.enable_progress_bar=false"]
     if path == "default":
         return base
-    if path == "compile":
-        return [*base, "train.compile=true"]
+    if path in ("compile", "default-fp32"):
+        return [*base, "train.compile=true" if path == "compile" else "trainer.precision=32-true"]
     base += ["trainer.precision=32-true", "train.channels_last=false", "train.grad_frames=null"]
     if path == "today":
         return [*base, "train.val_every_steps=null", "train.val_every=1", "trainer.log_every_n_steps=1"]

@@ -17,7 +17,7 @@ log = logging.getLogger(__name__)
 
 #: Whether bf16-mixed training beat fp32 on a bf16-capable CPU in the throughput benchmark
 #: (reports/bench/train.csv; docs/training.md "Throughput").
-CPU_BF16_PAYS = False
+CPU_BF16_PAYS = True
 
 
 def cpu_bf16_supported() -> bool:

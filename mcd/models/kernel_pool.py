@@ -9,11 +9,12 @@
 - Kernel map ``h`` (2 channels, tanh): from ``F_s``'s finest features, ``g``, the adaptive image ``i`` and the
   descriptor, through a few conv blocks (Fast GhostConv when FG is on, as every block of ``F_s``). What
   enters the final ``tanh`` is ``method.kp.head_output`` (docs/kernel_pool.md): ``tanh`` = the head's output
-  ``z`` as it is (the paper's text), ``tempered`` = ``z / temperature``, ``rms`` (default) = ``z`` divided by
+  ``z`` as it is (the paper's text), ``tempered`` = ``z / temperature``, ``rms`` = ``z`` divided by
   its root mean square over the image, per channel: ``tanh`` then cannot saturate everywhere, so the pool
   keeps receiving gradient (without it the map saturates at the identity within ~100 steps and the pool is
-  never used); ``rms_centred`` = ``rms`` after removing the kernel index's (channel 0's) mean over the
-  image, so the index spreads across the pool instead of settling on one kernel everywhere.
+  never used); ``rms_centred`` (default) = ``rms`` after removing the kernel index's (channel 0's) mean over
+  the image, so the index spreads across the pool instead of settling on one kernel everywhere (with ``rms``,
+  row J's index collapsed to one kernel).
 - Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
   over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
   between that kernel and the identity.
@@ -130,7 +131,7 @@ HEAD_OUTPUTS = ("tanh", "tempered", "rms", "rms_centred")
 class KernelMapHead(nn.Module):
     """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor)."""
 
-    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms",
+    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms_centred",
                  temperature: float = 1.0) -> None:
         super().__init__()
         if output not in HEAD_OUTPUTS:

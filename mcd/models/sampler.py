@@ -41,7 +41,7 @@ class SamplingNetwork(nn.Module):
                                    pool_init_scale=float(options.get("pool_init_scale", 1.0)))
             head_in = widths[0] + 7 + 3 + self.pool.describe.out_channels
             self.head = KernelMapHead(head_in, head_widths, block,
-                                      output=str(options.get("head_output", "rms")),
+                                      output=str(options.get("head_output", "rms_centred")),
                                       temperature=float(options.get("temperature", 1.0)))
 
     def forward(self, x: Tensor) -> dict[str, Tensor]:
