@@ -172,6 +172,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     rows: list[dict[str, object]] = []
+    failed: list[str] = []
     per_profile = dict(p.split("=", 1) for p in args.profile_methods)
     for profile in [p for p in args.profiles.split(",") if p]:
         for method in [m for m in per_profile.get(profile, args.methods).split(",") if m]:
@@ -181,8 +182,13 @@ def main(argv: list[str] | None = None) -> None:
                 if why:
                     log.info("%s %s %s: skipped (%s)", method, profile, path, why)
                     continue
-                row = child([f"--methods={method}", f"--profiles={profile}", f"--paths={path}",
-                             f"--threads={args.threads}", *common])
+                try:
+                    row = child([f"--methods={method}", f"--profiles={profile}", f"--paths={path}",
+                                 f"--threads={args.threads}", *common])
+                except RuntimeError as err:  # one path failing (e.g. a compiler error) loses no other row
+                    failed.append(f"{method} {profile} {path}: {str(err).strip().splitlines()[-1]}")
+                    log.warning("%s", err)
+                    continue
                 rows.append(row)
                 log.info("%s %s %-13s %.2f steps/s", method, profile, path, row["steps_per_s"])
             if args.pair:
@@ -211,6 +217,8 @@ def main(argv: list[str] | None = None) -> None:
               f"{r['steps_per_cpu_s']:11.2f} {cpu_ratio:8.2f} {r['pixels_per_s'] / 1e6:7.2f} "
               f"{r['peak_rss_mb']:7.0f}")
     print(f"{len(rows)} rows -> {args.out}")
+    for line in failed:
+        print(f"failed: {line}")
 
 
 if __name__ == "__main__":
