@@ -18,7 +18,8 @@ written. CPU at 1080p is slow: it uses ``--cpu-1080p-reps`` (default 2) after on
 ``reps`` column states it. Beside the time: the method's MACs at that size (``mcd.complexity``; empty for
 OIDN, whose network torch cannot see) and the achieved GMAC/s, the torch thread count (OIDN runs its own
 threads, one per core), and on CPU the process's peak resident memory during that path's calls (``VmHWM`` of
-``/proc/self/status``, reset before the path; it includes the Python process, the model and the inputs).
+``/proc/self/status``, reset before the path after handing freed heap back to the OS; it includes the Python
+process, the model and the inputs).
 
 Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.Store.load`: exposure
 applied, depth scaled, sanitised, as the models see it; ``--data <profile>``, ``--scene``; default the
@@ -34,6 +35,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import ctypes
 import logging
 import math
 import platform
@@ -256,7 +258,10 @@ def _autocast(device: torch.device, dtype: torch.dtype | None) -> Iterator[None]
 
 
 def reset_peak_rss() -> None:
-    """Restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
+    """Hand freed heap back to the OS (glibc ``malloc_trim``, so memory an earlier method freed does not
+    count) and restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
     with contextlib.suppress(OSError):
         Path("/proc/self/clear_refs").write_text("5")
 

@@ -108,8 +108,8 @@ def table(ms: dict[str, float], total: float, gmacs: dict[str, float]) -> list[s
     lines = ["| stage | ms | share | GMACs | GMAC/s |", "|---|---|---|---|---|"]
 
     def row(name: str, t: float, g: float | None) -> str:
-        rate = f"{g / t * 1e3:.1f}" if g and t > 0 else "—"
-        return f"| {name} | {t:.1f} | {100 * t / total:.1f}% | {f'{g:.2f}' if g else '—'} | {rate} |"
+        rate = f"{g / t * 1e3:.3g}" if g and t > 0 else "—"
+        return f"| {name} | {t:.1f} | {100 * t / total:.1f}% | {f'{g:.3g}' if g else '—'} | {rate} |"
 
     for label, depth in LABELS:
         if ms[label] > 0:

@@ -141,3 +141,21 @@ def test_bench_gpu_paths(tmp_path):
     assert {r["dtype"] for r in rows} >= {"fp32", "fp16"}
     assert any(r["compiled"] == "True" for r in rows)
     assert all(r["status"] == "ok" for r in rows), rows
+
+
+def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
+    """`python -m mcd.bench --profile`: a real profiled forward of row F; each stage label has a time, and
+    the stages with modules have their MACs."""
+    out = tmp_path / "profile.md"
+    bench.main(["--profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
+                "model=cpu"])
+    text = capsys.readouterr().out
+    assert text.strip() == out.read_text().strip()
+    rows = {line.split("|")[1].strip().replace("&nbsp;", ""): line.split("|")[2:6]
+            for line in text.splitlines() if line.startswith("| ") and not line.startswith("| stage")}
+    for stage in ("F_s", "adaptive render", "map normalisation", "kernel pool", "kernel-map head",
+                  "kernel application", "F_d", "PP", "SA", "other", "**frame**"):
+        assert stage in rows, stage
+    for stage in ("F_s", "kernel-map head", "F_d", "PP", "SA", "**frame**"):
+        ms, _, gmacs, rate = (c.strip() for c in rows[stage])
+        assert float(ms) > 0 and float(gmacs) > 0 and float(rate) > 0, stage
