@@ -503,10 +503,9 @@ def summary(rows: list[Row]) -> list[str]:
     return lines
 
 
-def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float) -> Path:
-    """README.md beside the CSV: provenance (command, commit, device, torch) and :func:`summary`."""
-    from mcd.reporting.provenance import git_commit
-
+def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str) -> Path:
+    """README.md beside the CSV: provenance (command, ``commit`` as it was when the run started, device,
+    torch) and :func:`summary`."""
     devices = sorted({f"{r.device}: {r.device_name}" for r in rows})
     inputs = sorted({r.inputs for r in rows if r.inputs})
     reps = sorted({f"{r.device} {r.width}x{r.height}: {r.warmup} warm-up + {r.reps} timed" for r in rows})
@@ -514,7 +513,7 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float) -
         "# Inference speed (python -m mcd.bench)",
         "",
         f"- Command: `{command}`",
-        f"- Commit: `{git_commit()}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
+        f"- Commit: `{commit}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
         f"- Devices: {'; '.join(devices) or 'none'}",
         f"- Capacity profile: {', '.join(sorted({r.model for r in rows}))}; batch 1, one frame per call",
         f"- Inputs: {', '.join(inputs) or 'none'}",
@@ -572,6 +571,9 @@ def main(argv: list[str] | None = None) -> None:
             parse_size(s)
         except ValueError as err:
             parser.error(str(err))
+    from mcd.reporting.provenance import git_commit
+
+    commit = git_commit()  # before this run rewrites its own (tracked) report files
     started = time.perf_counter()
     rows = run(
         [m for m in args.methods.split(",") if m],
@@ -586,7 +588,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     write_csv(rows, args.out)
     command = "python -m mcd.bench " + " ".join(argv)
-    write_readme(rows, args.out, command, time.perf_counter() - started)
+    write_readme(rows, args.out, command, time.perf_counter() - started, commit)
     print(f"{len(rows)} rows -> {args.out}")
 
 
