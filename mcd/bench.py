@@ -11,15 +11,23 @@ device (CPU; CUDA when present), resolution (1920x1080 and 256x256 by default) a
 - the half paths again after ``torch.compile(mode="max-autotune-no-cudagraphs")`` on CUDA (on CPU only with
   ``--cpu-compile``: inductor's C++ build takes minutes on a small machine).
 
-Timing: one output frame per call (batch 1) in steady state (temporal methods keep their state from frame to
-frame; ``reset()`` once before warm-up), ``--warmup`` calls first, then ``--reps`` timed calls, each closed by
-``torch.cuda.synchronize()`` on CUDA; the median and frames/s are written. CPU at 1080p is slow: it uses
-``--cpu-1080p-reps`` (default 2) after one warm-up, and the CSV's ``reps`` column states it.
+Timing: one output frame per call (batch 1, under ``torch.inference_mode``) in steady state (temporal methods
+keep their state from frame to frame; ``reset()`` once before warm-up), ``--warmup`` calls first, then
+``--reps`` timed calls, each closed by ``torch.cuda.synchronize()`` on CUDA; the median and frames/s are
+written. CPU at 1080p is slow: it uses ``--cpu-1080p-reps`` (default 2) after one warm-up, and the CSV's
+``reps`` column states it. Beside the time: the method's MACs at that size (``mcd.complexity``; empty for
+OIDN, whose network torch cannot see) and the achieved GMAC/s, the torch thread count (OIDN runs its own
+threads, one per core), and on CPU the process's peak resident memory during that path's calls (``VmHWM`` of
+``/proc/self/status``, reset before the path after handing freed heap back to the OS; it includes the Python
+process, the model and the inputs).
 
-Inputs: the first frame of a scene in the data store (``--frames <store>/<profile>/<scene>``; tiled to the
-target size), else seeded synthetic HDR buffers (timing of these networks does not depend on pixel values);
-the ``inputs`` column says which. Unavailable paths (no pyoidn, no bf16 on this CPU) get a row whose
-``status`` says why and no time; failures get ``status`` ``failed: <error>``.
+Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.Store.load`: exposure
+applied, depth scaled, sanitised, as the models see it; ``--data <profile>``, ``--scene``; default the
+config's data profile and its first test scene), tiled to the target size; or, with ``--synthetic``, seeded
+synthetic HDR buffers. The ``inputs`` column says which. Unavailable paths (no pyoidn, no bf16 on this CPU)
+get a row whose ``status`` says why and no time; failures get ``status`` ``failed: <error>``.
+
+``--profile``: the time of each stage of one method (mcd/inference_profile.py, docs/inference.md).
 """
 
 from __future__ import annotations
@@ -27,6 +35,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import ctypes
 import logging
 import math
 import platform
@@ -43,6 +52,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.data.store import Store
 from mcd.lit.precision import cpu_bf16_supported
 
 log = logging.getLogger("mcd.bench")
@@ -68,6 +78,10 @@ COLUMNS = (
     "inputs",
     "status",
     "device_name",
+    "threads",
+    "gmacs",
+    "gmac_per_s",
+    "peak_rss_gb",
 )
 
 
@@ -90,6 +104,19 @@ class Row:
     inputs: str
     status: str
     device_name: str
+    threads: int
+    gmacs: float | None
+    gmac_per_s: float | None = None
+    peak_rss_gb: float | None = None
+
+
+@dataclass(frozen=True)
+class StoreFrame:
+    """One stored frame the bench reads its inputs from."""
+
+    store: Store
+    scene: str
+    frame: int = 0
 
 
 @dataclass(frozen=True)
@@ -121,10 +148,28 @@ def inference_paths(device: torch.device, cpu_compile: bool) -> list[InferencePa
     return paths
 
 
+def compose_config(overrides: list[str]) -> DictConfig:
+    """The config of ``conf/config.yaml`` with ``overrides``, as ``python -m mcd.run`` composes it."""
+    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base="1.3"):
+        return compose(config_name="config", overrides=overrides)
+
+
 def compose_cfg(experiment: str, overrides: list[str]) -> DictConfig:
     """The run config of `+experiment=<X>` plus `overrides`, as `python -m mcd.run` composes it."""
-    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base="1.3"):
-        return compose(config_name="config", overrides=[f"+experiment={experiment}", *overrides])
+    return compose_config([f"+experiment={experiment}", *overrides])
+
+
+def store_frame(data: str | None, scene: str | None, frame: int = 0) -> StoreFrame:
+    """Frame ``frame`` of ``scene`` (default: the first of ``data.test_scenes``) in the store of data profile
+    ``data`` (default: the config's), at ``paths.data_dir``."""
+    overrides = [f"data={data}"] if data else []
+    cfg = compose_config(overrides)
+    store = Store.from_cfg(cfg, overrides=overrides)
+    scene = scene or str(list(cfg.data.test_scenes)[0])
+    if scene not in store.specs:
+        raise ValueError(f"--scene {scene!r} is not a scene of data profile {store.profile!r} "
+                         f"(conf/data/{store.profile}.yaml has {sorted(store.specs)})")
+    return StoreFrame(store, scene, frame)
 
 
 def device_name(device: torch.device) -> str:
@@ -155,25 +200,15 @@ def _tile(image: np.ndarray, height: int, width: int) -> np.ndarray:
 
 
 def frame_buffers(
-    names: set[str], height: int, width: int, frames_dir: Path | None
+    names: set[str], height: int, width: int, source: StoreFrame | None
 ) -> tuple[dict[str, np.ndarray], str]:
-    """`H x W x C` float32 buffers by name: a store frame tiled to size, else seeded synthetic ones."""
-    if frames_dir is not None:
-        from mcd.data.exr import read_exr
-
-        frame = sorted(p for p in frames_dir.iterdir() if p.is_dir() and p.name.isdigit())
-        if not frame:
-            raise FileNotFoundError(f"--frames {frames_dir}: no frame folders (0000, 0001, ...) in it")
-        missing = [n for n in sorted(names) if not (frame[0] / f"{n}.exr").is_file()]
-        if missing:
-            raise FileNotFoundError(
-                f"--frames {frame[0]}: buffers {missing} missing; render them first "
-                "(python -m mcd.render) or drop --frames"
-            )
-        return (
-            {n: _tile(read_exr(frame[0] / f"{n}.exr"), height, width) for n in names},
-            f"store frame {frame[0]}",
-        )
+    """`H x W x C` float32 buffers by name: a store frame (``Store.load``) tiled to size, else seeded
+    synthetic ones."""
+    if source is not None:
+        loaded = {n: source.store.load(source.scene, source.frame, n) for n in sorted(names)}
+        h, w = next(iter(loaded.values())).shape[:2] if loaded else (0, 0)
+        where = f"store {source.store.profile}/{source.scene} frame {source.frame:04d} ({w}x{h}, tiled)"
+        return {n: _tile(b, height, width) for n, b in loaded.items()}, where
     rng = np.random.default_rng(0)
     out = {}
     for n in sorted(names):
@@ -222,6 +257,25 @@ def _autocast(device: torch.device, dtype: torch.dtype | None) -> Iterator[None]
             yield
 
 
+def reset_peak_rss() -> None:
+    """Hand freed heap back to the OS (glibc ``malloc_trim``, so memory an earlier method freed does not
+    count) and restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    with contextlib.suppress(OSError):
+        Path("/proc/self/clear_refs").write_text("5")
+
+
+def peak_rss_gb() -> float | None:
+    """The process's peak resident memory in GB (10^9 bytes) since the last :func:`reset_peak_rss`; None
+    where ``/proc`` does not report it."""
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) * 1024 / 1e9
+    return None
+
+
 def time_calls(call: Callable[[], object], device: torch.device, warmup: int, reps: int) -> list[float]:
     """Milliseconds of `reps` calls after `warmup` calls, each closed by a device synchronisation."""
     for _ in range(warmup):
@@ -243,8 +297,9 @@ def bench_one(
     path: InferencePath,
     warmup: int,
     reps: int,
-) -> float:
-    """Median ms per frame of `model` on `device` along `path` (raises on a non-finite output)."""
+) -> tuple[float, float | None]:
+    """Median ms per frame of `model` on `device` along `path` and the peak resident memory (GB, CPU only)
+    during its calls (raises on a non-finite output)."""
     model = model.to(device).eval()
     if path.channels_last:
         model = model.to(memory_format=torch.channels_last)
@@ -260,11 +315,13 @@ def bench_one(
 
     if hasattr(model, "reset"):
         model.reset()
+    reset_peak_rss()
     times = time_calls(call, device, warmup, reps)
+    peak = peak_rss_gb() if device.type == "cpu" else None
     out = outputs[0]["output"]
     if not torch.isfinite(out.float()).all():
         raise FloatingPointError(f"non-finite output along {path}")
-    return statistics.median(times)
+    return statistics.median(times), peak
 
 
 def run(
@@ -276,9 +333,10 @@ def run(
     reps: int,
     cpu_1080p_reps: int,
     cpu_compile: bool,
-    frames_dir: Path | None,
+    source: StoreFrame | None,
 ) -> list[Row]:
     """Every (method, device, size, path) measurement (see the module docstring)."""
+    from mcd.complexity import complexity
     from mcd.models import build
 
     rows: list[Row] = []
@@ -304,15 +362,18 @@ def run(
                     reps=n_reps,
                     model=profile,
                     device_name=dname,
+                    threads=torch.get_num_threads(),
                 )
                 try:
-                    model = build(compose_cfg(method, overrides))
-                    buffers, inputs = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, frames_dir)
+                    cfg = compose_cfg(method, overrides)
+                    model = build(cfg)
+                    gmacs = complexity(cfg, h, w)[1]
+                    base["gmacs"] = None if math.isnan(gmacs) else gmacs
                 except Exception as err:  # e.g. OIDN without pyoidn: a row that says so, not a number
                     why = "unavailable" if isinstance(err, ImportError) else "failed to build"
                     rows.append(
                         Row(
-                            **base,
+                            **{"gmacs": None, **base},
                             dtype="fp32",
                             compiled=False,
                             ms_median=None,
@@ -324,9 +385,12 @@ def run(
                     )
                     log.warning("%s %s: %s", method, why, err)
                     continue
+                # a frame missing from the store raises here, naming the render command
+                buffers, inputs = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, source)
                 for path in paths:
+                    peak = None
                     try:
-                        ms = bench_one(model, buffers, device, path, n_warm, n_reps)
+                        ms, peak = bench_one(model, buffers, device, path, n_warm, n_reps)
                         status, fps = "ok", 1e3 / ms
                     except Exception as err:  # a path that does not work for a method is a row, not a crash
                         ms, fps, status = (
@@ -334,18 +398,19 @@ def run(
                             None,
                             f"failed: {type(err).__name__}: {str(err).splitlines()[0]}",
                         )
-                    rows.append(
-                        Row(
-                            **base,
-                            dtype=path.dtype_name,
-                            compiled=path.compiled,
-                            ms_median=ms,
-                            fps=fps,
-                            channels_last=path.channels_last,
-                            inputs=inputs,
-                            status=status,
-                        )
+                    row = Row(
+                        **base,
+                        dtype=path.dtype_name,
+                        compiled=path.compiled,
+                        ms_median=ms,
+                        fps=fps,
+                        channels_last=path.channels_last,
+                        inputs=inputs,
+                        status=status,
+                        gmac_per_s=None if ms is None or base["gmacs"] is None else base["gmacs"] / ms * 1e3,
+                        peak_rss_gb=peak,
                     )
+                    rows.append(row)
                     log.info(
                         "%-10s %-4s %4dx%-4d %-4s cl=%d compiled=%d: %s",
                         method,
@@ -355,12 +420,17 @@ def run(
                         path.dtype_name,
                         path.channels_last,
                         path.compiled,
-                        f"{ms:.2f} ms ({fps:.1f} fps)" if ms is not None else status,
+                        f"{ms:.2f} ms ({fps:.2f} fps, {_fmt(row.gmac_per_s, '.1f')} GMAC/s, "
+                        f"peak RSS {_fmt(peak, '.2f')} GB)" if ms is not None else status,
                     )
                 del model
                 if device.type == "cuda":
                     torch.cuda.empty_cache()
     return rows
+
+
+def _fmt(value: float | None, spec: str) -> str:
+    return "" if value is None else format(value, spec)
 
 
 def write_csv(rows: list[Row], path: Path) -> None:
@@ -371,43 +441,71 @@ def write_csv(rows: list[Row], path: Path) -> None:
         writer.writeheader()
         for r in rows:
             d = asdict(r)
-            d["ms_median"] = "" if r.ms_median is None else f"{r.ms_median:.4f}"
-            d["fps"] = "" if r.fps is None else f"{r.fps:.3f}"
+            for key, spec in (("ms_median", ".4f"), ("fps", ".3f"), ("gmacs", ".2f"), ("gmac_per_s", ".2f"),
+                              ("peak_rss_gb", ".3f")):
+                d[key] = _fmt(d[key], spec)
             writer.writerow(d)
 
 
+#: The most resident memory a method may need at 1080p (benchmark issue 16; docs/inference.md).
+MEMORY_LIMIT_GB = 8.0
+
+
 def summary(rows: list[Row]) -> list[str]:
-    """Markdown lines: the fastest path per method, device and size, and F's latency as a ratio to OIDN's."""
+    """Markdown lines: the fastest path per method, device and size (time, GMAC/s, peak memory), F's latency
+    as a ratio to OIDN's, F's GMAC/s as a ratio to the U-Net's, and the largest peak memory per size."""
     best: dict[tuple[str, str, int, int], Row] = {}
     for r in rows:
         key = (r.method, r.device, r.height, r.width)
         if r.ms_median is not None and (key not in best or r.ms_median < best[key].ms_median):
             best[key] = r
-    lines = ["| method | device | size | fastest path | ms/frame | frames/s |", "|---|---|---|---|---|---|"]
+    lines = [
+        "| method | device | size | fastest path | ms/frame | frames/s | GMACs | GMAC/s | peak RSS GB |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for (method, device, h, w), r in sorted(
         best.items(), key=lambda kv: (kv[0][1], -kv[0][2], kv[1].ms_median)
     ):
         path = f"{r.dtype}{' channels-last' if r.channels_last else ''}{' compiled' if r.compiled else ''}"
-        lines.append(f"| {method} | {device} | {w}x{h} | {path} | {r.ms_median:.2f} | {r.fps:.2f} |")
+        lines.append(
+            f"| {method} | {device} | {w}x{h} | {path} | {r.ms_median:.2f} | {r.fps:.2f} | "
+            f"{_fmt(r.gmacs, '.1f') or '—'} | {_fmt(r.gmac_per_s, '.1f') or '—'} | "
+            f"{_fmt(r.peak_rss_gb, '.2f') or '—'} |"
+        )
     for bad in (r for r in rows if r.status != "ok"):
         lines.append(
-            f"| {bad.method} | {bad.device} | {bad.width}x{bad.height} | {bad.dtype} | — | {bad.status} |"
+            f"| {bad.method} | {bad.device} | {bad.width}x{bad.height} | {bad.dtype} | — | {bad.status} "
+            "| | | |"
         )
     lines.append("")
     for (method, device, h, w), r in sorted(best.items()):
-        oidn = best.get(("oidn", device, h, w))
+        oidn, unet = best.get(("oidn", device, h, w)), best.get(("unet", device, h, w))
         if method == "F" and oidn is not None:
             lines.append(
                 f"- F / OIDN latency on {device} at {w}x{h} (fastest path of each): "
                 f"{r.ms_median:.2f} / {oidn.ms_median:.2f} ms = {r.ms_median / oidn.ms_median:.2f}x"
             )
+        if method == "F" and unet is not None and r.gmac_per_s and unet.gmac_per_s:
+            lines.append(
+                f"- F / U-Net achieved GMAC/s on {device} at {w}x{h} (fastest path of each): "
+                f"{r.gmac_per_s:.1f} / {unet.gmac_per_s:.1f} = {r.gmac_per_s / unet.gmac_per_s:.2f}x"
+            )
+    for (device, h, w) in sorted({(r.device, r.height, r.width) for r in rows}):
+        peaks = [r for r in rows if (r.device, r.height, r.width) == (device, h, w) and r.peak_rss_gb]
+        if peaks:
+            top = max(peaks, key=lambda r: r.peak_rss_gb or 0.0)
+            verdict = "within" if (top.peak_rss_gb or 0.0) <= MEMORY_LIMIT_GB else "ABOVE"
+            lines.append(
+                f"- Largest peak RSS on {device} at {w}x{h}: {top.method} ({top.dtype}"
+                f"{' channels-last' if top.channels_last else ''}) {top.peak_rss_gb:.2f} GB, {verdict} "
+                f"the {MEMORY_LIMIT_GB:.0f} GB limit"
+            )
     return lines
 
 
-def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float) -> Path:
-    """README.md beside the CSV: provenance (command, commit, device, torch) and :func:`summary`."""
-    from mcd.reporting.provenance import git_commit
-
+def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str) -> Path:
+    """README.md beside the CSV: provenance (command, ``commit`` as it was when the run started, device,
+    torch) and :func:`summary`."""
     devices = sorted({f"{r.device}: {r.device_name}" for r in rows})
     inputs = sorted({r.inputs for r in rows if r.inputs})
     reps = sorted({f"{r.device} {r.width}x{r.height}: {r.warmup} warm-up + {r.reps} timed" for r in rows})
@@ -415,7 +513,7 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float) -
         "# Inference speed (python -m mcd.bench)",
         "",
         f"- Command: `{command}`",
-        f"- Commit: `{git_commit()}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
+        f"- Commit: `{commit}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
         f"- Devices: {'; '.join(devices) or 'none'}",
         f"- Capacity profile: {', '.join(sorted({r.model for r in rows}))}; batch 1, one frame per call",
         f"- Inputs: {', '.join(inputs) or 'none'}",
@@ -437,6 +535,12 @@ def main(argv: list[str] | None = None) -> None:
         argv.remove("--train")
         train_bench.main(argv)
         return
+    if "--profile" in argv:  # time per stage of one method: mcd/inference_profile.py
+        from mcd import inference_profile
+
+        argv.remove("--profile")
+        inference_profile.main(argv)
+        return
     parser = argparse.ArgumentParser(
         prog="python -m mcd.bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -452,7 +556,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--cpu-compile", action="store_true", help="also torch.compile on CPU (slow to build)"
     )
-    parser.add_argument("--frames", type=Path, help="a scene folder of the store (<data>/<profile>/<scene>)")
+    parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
+    parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
+    parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
     parser.add_argument("--out", type=Path, default=Path("reports/bench/bench.csv"))
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -465,6 +571,9 @@ def main(argv: list[str] | None = None) -> None:
             parse_size(s)
         except ValueError as err:
             parser.error(str(err))
+    from mcd.reporting.provenance import git_commit
+
+    commit = git_commit()  # before this run rewrites its own (tracked) report files
     started = time.perf_counter()
     rows = run(
         [m for m in args.methods.split(",") if m],
@@ -475,11 +584,11 @@ def main(argv: list[str] | None = None) -> None:
         args.reps,
         args.cpu_1080p_reps,
         args.cpu_compile,
-        args.frames,
+        None if args.synthetic else store_frame(args.data, args.scene),
     )
     write_csv(rows, args.out)
     command = "python -m mcd.bench " + " ".join(argv)
-    write_readme(rows, args.out, command, time.perf_counter() - started)
+    write_readme(rows, args.out, command, time.perf_counter() - started, commit)
     print(f"{len(rows)} rows -> {args.out}")
 
 

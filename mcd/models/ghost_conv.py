@@ -6,8 +6,16 @@ concatenation and ReLU. It replaces every 3x3 conv + ReLU block of the sampling 
 
 PyTorch's CPU backward of grouped convolutions is an order of magnitude slower than a dense one of the same
 shape, so when training on the CPU the group and depth-wise convolutions run as dense convolutions with
-block-diagonal (masked) weights: the same function, parameters and gradients. Inference, MAC counting and
-other devices use the grouped convolutions (whose MACs are the block's true cost).
+block-diagonal (masked) weights: the same function, parameters and gradients. MAC counting and other devices
+use the grouped convolutions (whose MACs are the block's true cost).
+
+CPU inference (docs/inference.md, "Grouped convolutions"): oneDNN computes each group's output channels in
+blocks of :data:`LANES`, so a group of 2 or 5 outputs leaves most of every block empty (a 7x7 group conv with
+2 outputs per group runs at a fifth of a dense 3x3 conv's MACs per second). :func:`lane_filled_conv` fills
+the blocks with ``S`` horizontally adjacent outputs: a stride-``(1, S)`` convolution whose ``S * cout_g``
+outputs per group hold the same kernel shifted by ``0 .. S - 1`` columns (width ``k + S - 1``), then one
+copy interleaves the ``S`` phases back into columns. Same function (the zero taps add nothing), chosen per
+layer by :func:`lane_stride`'s cost model.
 
 The group convolution's output width is not given by the paper; it is ``mid_ratio * cout`` (default 0.5),
 which makes the block cheaper than the 3x3 block it replaces, as the paper's component table requires (rows
@@ -47,10 +55,62 @@ class FastGhostConv(nn.Module):
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
 
 
+#: Output channels oneDNN's CPU convolutions compute together (one AVX-512 register of fp32, or of bf16
+#: pairs): a group's outputs are padded to a multiple of this.
+LANES = 16
+#: Cost of interleaving one output channel of the ``S`` phases back into columns, in the units of
+#: :func:`lane_stride` (MACs of one lane); measured on the shapes of ``F_s`` (docs/inference.md).
+INTERLEAVE_COST = 100
+
+
+def lane_stride(cin_g: int, cout_g: int, kernel: int) -> int:
+    """The ``S`` in 1..16 that minimises the modelled cost per output pixel of a group conv with ``cin_g``
+    inputs and ``cout_g`` outputs per group: ``cin_g * ceil(S cout_g / LANES) * LANES * (k + S - 1) / S``
+    lane-MACs, plus :data:`INTERLEAVE_COST` per output channel when ``S > 1``."""
+    def cost(s: int) -> float:
+        lanes = -(-s * cout_g // LANES) * LANES
+        return cin_g * lanes * (kernel + s - 1) / s + (INTERLEAVE_COST * cout_g if s > 1 else 0)
+
+    return min(range(1, LANES + 1), key=lambda s: (cost(s), s))
+
+
+def lane_filled_conv(conv: nn.Conv2d, x: Tensor, stride: int) -> Tensor:
+    """``conv(x)`` for a stride-1, zero-padded group ``conv``, computed as a stride-``(1, stride)`` conv with
+    ``stride`` column phases per output channel (see the module docstring). ``stride = 1`` is ``conv(x)``."""
+    if stride == 1:
+        return conv(x)
+    g, s = conv.groups, stride
+    cout, cin_g, kh, kw = conv.weight.shape
+    cout_g = cout // g
+    weight = conv.weight.new_zeros(g, s, cout_g, cin_g, kh, kw + s - 1)
+    for phase in range(s):
+        weight[:, phase, ..., phase : phase + kw] = conv.weight.view(g, cout_g, cin_g, kh, kw)
+    bias = None if conv.bias is None else conv.bias.view(g, 1, cout_g).expand(g, s, cout_g).reshape(-1)
+    b, _, h, w = x.shape
+    wo = -(-w // s)
+    if wo * s != w:                              # zero columns on the right; their outputs are cropped
+        x = F.pad(x, (0, wo * s - w))
+    y = F.conv2d(x, weight.view(g * s * cout_g, cin_g, kh, kw + s - 1), bias, stride=(1, s),
+                 padding=conv.padding, groups=g)                              # [B, (g, phase, o), H, wo]
+    y = y.permute(0, 2, 3, 1).reshape(b, h, wo, g, s, cout_g).transpose(3, 4).reshape(b, h, wo * s, cout)
+    return y[:, :, :w].permute(0, 3, 1, 2).contiguous(memory_format=torch.channels_last)
+
+
 def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
-    """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight."""
+    """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight; under
+    ``torch.inference_mode`` on the CPU a group conv (not depth-wise) runs :func:`lane_filled_conv`. Plain
+    ``no_grad`` runs ``conv`` itself, so ``FlopCounterMode`` on a CPU forward (mcd.complexity) counts the
+    block's true MACs."""
     g = conv.groups
-    if g == 1 or x.device.type != "cpu" or not torch.is_grad_enabled():
+    if g == 1 or x.device.type != "cpu":
+        return conv(x)
+    if torch.is_inference_mode_enabled():
+        plain = (*conv.stride, *conv.dilation) == (1,) * 4 and conv.padding_mode == "zeros"
+        if g == conv.in_channels or not plain:
+            return conv(x)
+        cout, cin_g, _, kw = conv.weight.shape
+        return lane_filled_conv(conv, x, lane_stride(cin_g, cout // g, kw))
+    if not torch.is_grad_enabled():
         return conv(x)
     cout, cin_g = conv.weight.shape[:2]
     mask = torch.block_diag(*[x.new_ones(cout // g, cin_g) for _ in range(g)])[:, :, None, None]

@@ -2,8 +2,13 @@
 
 For every 2x2 window (stride 2) a cheap MLP of 1x1 convolutions scores each of the 4 members from its
 features, its absolute position (x, y in (-1, 1) over the whole feature map) and its relative position in the
-window (one-hot of 4); a softmax over the 4 scores weights the members' sum. ``pixel_unshuffle`` forms the
-windows. Odd sizes are replicate-padded to even first, so the output is ``ceil(H/2) x ceil(W/2)``.
+window (one-hot of 4); a softmax over the 4 scores weights the members' sum. Odd sizes are replicate-padded
+to even first, so the output is ``ceil(H/2) x ceil(W/2)``.
+
+No temporary larger than a quarter of the input (docs/inference.md, "Position-aware pooling"): the scoring
+MLP's first 1x1 layer is split into its feature part (run on the features) and its position part (run on the
+6 position channels and broadcast over the batch), so features and positions are never concatenated; the
+members are the four stride-2 views of the input, summed by in-place multiply-adds.
 """
 
 from __future__ import annotations
@@ -11,6 +16,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
+from torch.profiler import record_function
 
 
 def position_features(h: int, w: int, like: Tensor) -> Tensor:
@@ -36,13 +42,22 @@ class PositionAwarePool(nn.Module):
         else:
             self.score = nn.Conv2d(cin, 1, 1)
 
+    def scores(self, x: Tensor) -> Tensor:
+        """``[B, 1, H, W]`` member scores: the MLP on ``cat([x, position_features])`` without the concat."""
+        first = self.score[0] if isinstance(self.score, nn.Sequential) else self.score
+        c = x.shape[1]
+        pos = position_features(*x.shape[-2:], x)
+        y = F.conv2d(x, first.weight[:, :c], first.bias) + F.conv2d(pos, first.weight[:, c:].to(pos.dtype))
+        return self.score[1:](y) if isinstance(self.score, nn.Sequential) else y
+
+    @record_function("PP")
     def forward(self, x: Tensor) -> Tensor:
         h, w = x.shape[-2:]
         if h % 2 or w % 2:
             x = F.pad(x, (0, w % 2, 0, h % 2), mode="replicate")
-        b, c, h, w = x.shape
-        pos = position_features(h, w, x).expand(b, -1, -1, -1)
-        scores = F.pixel_unshuffle(self.score(torch.cat([x, pos], 1)), 2)          # [B, 4, h/2, w/2]
-        weights = torch.softmax(scores.float(), dim=1).to(x.dtype)
-        members = F.pixel_unshuffle(x, 2).view(b, c, 4, h // 2, w // 2)
-        return (members * weights[:, None]).sum(2)
+        weights = torch.softmax(F.pixel_unshuffle(self.scores(x), 2).float(), dim=1).to(x.dtype)  # [B,4,h,w]
+        out = x[..., 0::2, 0::2] * weights[:, 0:1]
+        for slot in range(1, 4):                                  # slot = 2 * row offset + column offset
+            dy, dx = divmod(slot, 2)
+            out.addcmul_(x[..., dy::2, dx::2], weights[:, slot : slot + 1])
+        return out

@@ -12,6 +12,7 @@ from functools import partial
 
 import torch
 from torch import Tensor, nn
+from torch.profiler import record_function
 
 from mcd.models.blocks import BlockFactory, ConvReLU
 from mcd.models.ghost_conv import FastGhostConv
@@ -58,9 +59,11 @@ class SamplingNetwork(nn.Module):
         desc = self.pool.descriptor(adjusted)
         b, _, h, w = image.shape
         support = desc[:, :, None, None].expand(b, desc.shape[1], h, w).to(finest.dtype)
-        kmap = self.head(torch.cat([finest, g.to(finest.dtype), image.to(finest.dtype), support], 1))
+        with record_function("kernel-map head"):
+            kmap = self.head(torch.cat([finest, g.to(finest.dtype), image.to(finest.dtype), support], 1))
         normalised = self.pool.normalised(adjusted)
-        kernels = interpolate_kernels(normalised, kmap.float())
-        return {"kernel_map": kmap, "initial": apply_pixel_kernels(image.float(), kernels),
-                "pool": normalised}
+        with record_function("kernel application"):
+            kernels = interpolate_kernels(normalised, kmap.float())
+            initial = apply_pixel_kernels(image.float(), kernels)
+        return {"kernel_map": kmap, "initial": initial, "pool": normalised}
 

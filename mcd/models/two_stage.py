@@ -12,6 +12,8 @@
 - PP: position-aware pooling in ``F_d``'s encoder. FG (needs AS): Fast GhostConv blocks in ``F_s``.
   SA: semantic alignment at ``F_d``'s deepest level (state across frames until :meth:`reset`).
 Colour is compressed inside (``method.colour``, default ``log1p``); inputs and outputs are linear HDR.
+The stages run under ``torch.profiler.record_function`` labels (:data:`STAGES`), which
+``python -m mcd.bench --profile`` reads (docs/inference.md).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from __future__ import annotations
 import torch
 from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
+from torch.profiler import record_function
 
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import compress, expand, gbuffers, grey, need
@@ -29,6 +32,9 @@ from mcd.models.switches import check_switches
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
 
 GBUFFERS = ("depth", "normal", "albedo")
+#: Profiler labels of the stages of :meth:`TwoStage.forward` (nested ones: ``map normalisation`` in
+#: ``adaptive render``; ``PP`` and ``SA`` in ``F_d``).
+STAGES = ("F_s", "adaptive render", "kernel pool", "F_d")
 
 
 class TwoStage(nn.Module):
@@ -96,14 +102,17 @@ class TwoStage(nn.Module):
         out: dict[str, Tensor] = {}
         if self.sampler is not None:
             c1 = need(x, "c1_in", who)
-            s = self.sampler(self.sampler_input(x))
-            stack = stack_buffers(x, self.levels)
-            image, m = adaptive_render(s["logits"], c1, stack, x.get("ref"), self.budget)
+            with record_function("F_s"):
+                s = self.sampler(self.sampler_input(x))
+            with record_function("adaptive render"):
+                stack = stack_buffers(x, self.levels)
+                image, m = adaptive_render(s["logits"], c1, stack, x.get("ref"), self.budget)
             ic = compress(image, self.colour)
             smap = m / (self.budget - 1)
             feats = [ic, g, smap]
             if self.sw["KP"]:
-                kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic)
+                with record_function("kernel pool"):
+                    kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic)
                 feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, smap]
                 out["kernel_map"] = kp["kernel_map"].float()
                 if not self.training:  # a picture of this frame's adjusted pool for the samples
@@ -113,7 +122,8 @@ class TwoStage(nn.Module):
             out["adaptive"] = image
         else:
             feats = [compress(need(x, f"c{int(self.budget)}", who), self.colour), g]
-        y = self.denoiser(torch.cat([f.float() for f in feats], 1))
+        with record_function("F_d"):
+            y = self.denoiser(torch.cat([f.float() for f in feats], 1))
         out["output"] = expand(y, self.colour)
         return out
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import torch
 from torch import Tensor
+from torch.profiler import record_function
 
 from mcd.sampling.normalise import cap_for_levels, frame_budget, normalise_map, shares
 from mcd.sampling.simulate import blend_with_c1
@@ -25,7 +26,8 @@ class AdaptiveRender(torch.autograd.Function):
     @staticmethod
     def forward(ctx, p: Tensor, c1: Tensor, stack: Tensor, ref: Tensor | None, budget: float):
         cap = cap_for_levels(stack.shape[1] - 1)
-        m = normalise_map(p, budget, cap)
+        with record_function("map normalisation"):
+            m = normalise_map(p, budget, cap)
         i = blend_with_c1(c1.float(), m.float(), stack.float())
         ctx.mark_non_differentiable(m)
         ctx.budget = budget

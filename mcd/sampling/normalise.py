@@ -3,8 +3,12 @@
 ``m = round(softmax(m̄) * N * (s - 1))`` per frame, each pixel capped at ``2^0 + ... + 2^t`` (63 for ``t =
 5``), with an exact budget: ``sum(m) == N * (s - 1)`` for every frame. The cap is honoured by water-filling
 (the capped pixels' excess goes to the others in proportion to their share) and the rounding by largest
-remainder. Everything here is a non-differentiable integer map; the gradient is
-:mod:`mcd.sampling.dasr_grad`'s job.
+remainder (ties to the lower pixel index). Everything here is a non-differentiable integer map; the gradient
+is :mod:`mcd.sampling.dasr_grad`'s job.
+
+Neither step sorts the ``N`` pixels (two sorts of 2 M doubles took ~0.5-1 s of a 1080p frame on one CPU
+thread; docs/inference.md): water-filling grows the capped set until it is stable (a few passes), and the
+largest remainders are those above the ``k``-th largest (``kthvalue``, linear time).
 """
 
 from __future__ import annotations
@@ -67,10 +71,7 @@ def normalise_map(p: Tensor, budget: float, cap: int = 63) -> Tensor:
     floor = raw.floor()
     deficit = (total - floor.sum(1)).round().long()                          # [B], in [0, N)
     remainder = torch.where(floor >= cap, torch.full_like(raw, -1.0), raw - floor)
-    order = remainder.argsort(dim=1, descending=True)
-    rank = torch.empty_like(order)
-    rank.scatter_(1, order, torch.arange(n, device=p.device).expand(b, n))
-    m = floor + (rank < deficit[:, None]).double()
+    m = floor + _largest(remainder, deficit).double()
     if not (bool((m.sum(1) == total).all()) and float(m.max()) <= cap and float(m.min()) >= 0):
         raise RuntimeError(f"sampling-map normalisation broke its invariant: sums {m.sum(1).tolist()} != "
                            f"{total} or values outside [0, {cap}]")
@@ -78,17 +79,35 @@ def normalise_map(p: Tensor, budget: float, cap: int = 63) -> Tensor:
 
 
 def _water_fill(p: Tensor, total: float, cap: float) -> Tensor:
-    """``min(lam * p, cap)`` with, per row, the ``lam`` that makes the row sum to ``total`` (``p > 0``
-    everywhere).
+    """``min(lam * p, cap)`` with, per row, the ``lam`` that makes the row sum to ``total`` (rows of ``p > 0``
+    that sum to 1).
 
-    Exact and loop-free: with the shares sorted, if the ``k`` largest are capped then ``lam_k = (total - k
-    cap) / (sum of the rest)``; the answer is the smallest ``k`` whose next share is not capped by ``lam_k``.
+    The capped set ``C`` starts empty; ``lam = (total - |C| cap) / (sum of p outside C)`` and ``C`` gains
+    every pixel with ``lam * p > cap``, until no pixel joins. ``lam`` only grows, so the set only grows and
+    the fixed point is the unique water level.
     """
-    ps, _ = p.sort(dim=1, descending=True)
-    n = ps.shape[1]
-    rest = ps.flip(1).cumsum(1).flip(1)                                        # sum_{j >= k} ps_j
-    k = torch.arange(n, device=p.device, dtype=p.dtype)
-    ok = (total - k * cap) * ps <= cap * rest                                  # lam_k * ps_k <= cap
-    first = ok.double().argmax(dim=1)                          # smallest valid k (ok[:, -1] always holds)
-    lam = (total - first.to(p.dtype) * cap) / rest.gather(1, first[:, None]).squeeze(1)
-    return torch.minimum(lam[:, None] * p, torch.full_like(p, cap))
+    capped = torch.zeros_like(p, dtype=torch.bool)
+    lam = torch.full_like(p[:, :1], total)
+    n_capped = -1
+    while True:
+        capped |= lam * p > cap
+        now = int(capped.sum())
+        if now == n_capped:
+            return torch.where(capped, torch.full_like(p, cap), lam * p)
+        n_capped = now
+        free = p.masked_fill(capped, 0).sum(1, keepdim=True)
+        lam = (total - cap * capped.sum(1, keepdim=True)) / free.clamp_min(1e-300)
+
+
+def _largest(values: Tensor, counts: Tensor) -> Tensor:
+    """Mask of the ``counts[b]`` largest entries of each row of ``values`` (ties to the lower index)."""
+    chosen = torch.zeros_like(values, dtype=torch.bool)
+    n = values.shape[1]
+    for i, (row, k) in enumerate(zip(values, counts.tolist(), strict=True)):
+        if k <= 0:
+            continue
+        threshold = row.kthvalue(n - k + 1).values
+        above, tie = row > threshold, row == threshold
+        need = k - int(above.sum())
+        chosen[i] = above | (tie & (tie.cumsum(0) <= need))
+    return chosen

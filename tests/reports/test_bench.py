@@ -29,6 +29,7 @@ def test_bench_cpu_writes_the_interface_columns(tmp_path):
             "2",
             "--out",
             str(out),
+            "--synthetic",
             "model=cpu",
         ]
     )
@@ -54,20 +55,35 @@ def test_unknown_method_is_a_row_not_a_crash(tmp_path):
     assert len(rows) == 1 and rows[0].ms_median is None and rows[0].status.startswith("failed to build")
 
 
-def test_missing_store_frames_name_the_folder(tmp_path):
-    with pytest.raises(FileNotFoundError, match="no frame folders"):
-        bench.frame_buffers({"c1"}, 8, 8, tmp_path)
+def test_unknown_scene_is_named_before_any_work():
+    with pytest.raises(ValueError, match="no_such_scene"):
+        bench.store_frame("tiny", "no_such_scene")
 
 
-def test_store_frames_are_tiled_to_size(tmp_path):
-    from mcd.data.exr import write_exr
+def test_store_frames_are_read_through_the_store_and_tiled(cbox_store):
+    """The inputs are what the models see (Store.load: exposure, sanitising), tiled to the target size."""
+    _, store = cbox_store
+    source = bench.StoreFrame(store, "cbox", 1)
+    buffers, inputs = bench.frame_buffers({"c1", "depth"}, 40, 70, source)
+    assert buffers["c1"].shape == (40, 70, 3) and buffers["depth"].shape == (40, 70, 1)
+    assert "store test32/cbox frame 0001" in inputs
+    loaded = store.load("cbox", 1, "c1")
+    assert (buffers["c1"][32:40, 32:64] == loaded[:8]).all()
 
-    (tmp_path / "0000").mkdir()
-    img = torch.arange(2 * 3 * 3, dtype=torch.float32).reshape(2, 3, 3).numpy()
-    write_exr(tmp_path / "0000" / "c1.exr", img)
-    buffers, inputs = bench.frame_buffers({"c1"}, 5, 7, tmp_path)
-    assert buffers["c1"].shape == (5, 7, 3) and "store frame" in inputs
-    assert (buffers["c1"][2:4, 3:6] == img).all()
+
+def test_rows_carry_macs_throughput_memory_and_threads(cbox_store):
+    _, store = cbox_store
+    rows = bench.run(["F", "unet"], ["32x32"], ["cpu"], ["model=cpu"], 1, 1, 1, False,
+                     bench.StoreFrame(store, "cbox"))
+    for r in rows:
+        assert r.status == "ok", r
+        assert r.threads == torch.get_num_threads() and r.gmacs > 0
+        assert r.gmac_per_s == pytest.approx(r.gmacs / r.ms_median * 1e3)
+        assert r.peak_rss_gb is not None and 0.05 < r.peak_rss_gb < 8
+        assert r.inputs.startswith("store test32/cbox")
+    lines = bench.summary(rows)
+    assert any("F / U-Net achieved GMAC/s on cpu at 32x32" in line for line in lines)
+    assert any("Largest peak RSS on cpu at 32x32" in line and "within the 8 GB" in line for line in lines)
 
 
 def test_ratio_line_compares_f_with_oidn():
@@ -83,6 +99,8 @@ def test_ratio_line_compares_f_with_oidn():
         inputs="synthetic (seeded)",
         status="ok",
         device_name="gpu",
+        threads=1,
+        gmacs=None,
     )
     rows = [
         bench.Row(method="F", dtype="fp16", ms_median=8.0, fps=125.0, **common),
@@ -123,3 +141,21 @@ def test_bench_gpu_paths(tmp_path):
     assert {r["dtype"] for r in rows} >= {"fp32", "fp16"}
     assert any(r["compiled"] == "True" for r in rows)
     assert all(r["status"] == "ok" for r in rows), rows
+
+
+def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
+    """`python -m mcd.bench --profile`: a real profiled forward of row F; each stage label has a time, and
+    the stages with modules have their MACs."""
+    out = tmp_path / "profile.md"
+    bench.main(["--profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
+                "model=cpu"])
+    text = capsys.readouterr().out
+    assert text.strip() == out.read_text().strip()
+    rows = {line.split("|")[1].strip().replace("&nbsp;", ""): line.split("|")[2:6]
+            for line in text.splitlines() if line.startswith("| ") and not line.startswith("| stage")}
+    for stage in ("F_s", "adaptive render", "map normalisation", "kernel pool", "kernel-map head",
+                  "kernel application", "F_d", "PP", "SA", "other", "**frame**"):
+        assert stage in rows, stage
+    for stage in ("F_s", "kernel-map head", "F_d", "PP", "SA", "**frame**"):
+        ms, _, gmacs, rate = (c.strip() for c in rows[stage])
+        assert float(ms) > 0 and float(gmacs) > 0 and float(rate) > 0, stage

@@ -1,0 +1,80 @@
+"""Group convolutions of row F's Fast GhostConv blocks on the CPU, as oneDNN runs them and lane-filled
+(mcd/models/ghost_conv.py; docs/inference.md, "Grouped convolutions"), beside a dense 3x3 convolution.
+
+For every Fast GhostConv block of ``F_s`` and the kernel-map head (paper capacity) at its resolution for a
+``--width`` x ``--height`` frame: GMAC/s of its 7x7 group convolution as ``conv(x)`` (oneDNN) and through
+:func:`mcd.models.ghost_conv.lane_filled_conv` with the ``S`` that :func:`lane_stride` picks, bf16 autocast
+and channels-last (the bench's fastest CPU path). Times are the best of ``--reps`` calls in thread CPU time
+(``time.thread_time``), which a machine shared with other jobs disturbs far less than wall time; run it with
+``OMP_NUM_THREADS=1``.
+
+    OMP_NUM_THREADS=1 python benchmarks/grouped_conv_lanes.py --width 960 --height 544
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+
+import torch
+import torch.nn.functional as F
+
+from mcd.bench import compose_cfg, device_name
+from mcd.models import build
+from mcd.models.ghost_conv import lane_filled_conv, lane_stride
+
+CL = torch.channels_last
+
+
+def best_cpu_ms(call: Callable[[], object], reps: int) -> float:
+    """Best thread CPU time of ``reps`` calls (after one warm-up), in ms."""
+    call()
+    best = float("inf")
+    for _ in range(reps):
+        t0 = time.thread_time()
+        call()
+        best = min(best, time.thread_time() - t0)
+    return best * 1e3
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--width", type=int, default=960)
+    parser.add_argument("--height", type=int, default=544)
+    parser.add_argument("--reps", type=int, default=3)
+    args = parser.parse_args()
+    model = build(compose_cfg("F", ["model=paper"])).eval().to(memory_format=torch.channels_last)
+    unet = model.sampler.unet
+    levels = [(f"F_s encoder {j}", unet.encoder[j], 2 ** j) for j in range(len(unet.encoder))]
+    levels += [(f"F_s decoder {j}", unet.decoder[j], 2 ** (len(unet.decoder) - 1 - j))
+               for j in range(len(unet.decoder))]
+    levels.append(("kernel-map head", model.sampler.head.blocks, 1))
+    print(f"{device_name(torch.device('cpu'))}, {args.width}x{args.height}, bf16 channels-last, "
+          f"best of {args.reps} (thread CPU time)")
+    print("| block | group conv | S | oneDNN GMAC/s | lane-filled GMAC/s | speed-up |")
+    print("|---|---|---|---|---|---|")
+    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16):
+        for name, blocks, scale in levels:
+            for block in blocks:
+                conv = block.group
+                h, w = args.height // scale, args.width // scale
+                x = torch.rand(1, conv.in_channels, h, w).bfloat16().contiguous(memory_format=CL)
+                cout, cin_g, kh, kw = conv.weight.shape
+                s = lane_stride(cin_g, cout // conv.groups, kw)
+                gmacs = h * w * cout * cin_g * kh * kw / 1e9
+                plain = best_cpu_ms(lambda conv=conv, x=x: conv(x), args.reps)
+                filled = best_cpu_ms(lambda conv=conv, x=x, s=s: lane_filled_conv(conv, x, s), args.reps)
+                print(f"| {name} | {conv.in_channels}->{cout}, {conv.groups} groups | {s} | "
+                      f"{gmacs / plain * 1e3:.1f} | {gmacs / filled * 1e3:.1f} | {plain / filled:.2f}x |")
+        for cin, cout in ((16, 16), (32, 32), (64, 64)):
+            x = torch.rand(1, cin, args.height, args.width).bfloat16().contiguous(memory_format=CL)
+            weight = torch.rand(cout, cin, 3, 3).bfloat16().contiguous(memory_format=CL)
+            gmacs = args.height * args.width * cin * cout * 9 / 1e9
+            ms = best_cpu_ms(lambda x=x, weight=weight: F.conv2d(x, weight, padding=1), args.reps)
+            print(f"| dense 3x3 reference | {cin}->{cout} | — | {gmacs / ms * 1e3:.1f} | — | — |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,170 @@
+"""CPU inference fast paths (docs/inference.md) against fp32 eager reference formulations: lane-filled group
+convolutions, in-place kernel application, position-aware pooling without temporaries, sort-free map
+normalisation, and the whole row F along the bench's fastest path against fp32 eager."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+import torch.nn.functional as F
+
+from mcd.lit.precision import cpu_bf16_supported
+from mcd.models import build
+from mcd.models.ghost_conv import FastGhostConv, grouped_conv, lane_filled_conv, lane_stride
+from mcd.models.kernel_pool import apply_pixel_kernels
+from mcd.models.position_pooling import PositionAwarePool, position_features
+from mcd.sampling import frame_budget, normalise_map, shares
+from tests.models.helpers import row_cfg
+
+needs_bf16 = pytest.mark.skipif(not cpu_bf16_supported(), reason="this CPU has no native bf16")
+
+
+@pytest.mark.parametrize(("cin", "cout", "groups", "stride"),
+                         [(16, 8, 4, 8), (12, 8, 4, 8), (40, 20, 4, 3), (144, 24, 4, 2), (16, 24, 4, 5)])
+@pytest.mark.parametrize("width", [24, 29])                    # a multiple of every stride, and not
+def test_lane_filled_conv_is_the_group_conv(cin, cout, groups, stride, width):
+    torch.manual_seed(cin + width)
+    conv = torch.nn.Conv2d(cin, cout, 7, padding=3, groups=groups)
+    x = torch.randn(2, cin, 11, width)
+    with torch.no_grad():
+        ref = conv(x)
+        for fmt in (torch.contiguous_format, torch.channels_last):
+            torch.testing.assert_close(lane_filled_conv(conv, x.contiguous(memory_format=fmt), stride), ref,
+                                       rtol=1e-5, atol=1e-5)
+
+
+def test_lane_stride_fills_the_lanes_of_thin_groups_only():
+    assert lane_stride(4, 2, 7) > 1 and lane_stride(36, 6, 7) == 2 and lane_stride(10, 5, 7) == 3
+    assert lane_stride(24, 16, 7) == 1 and lane_stride(24, 12, 7) == 1
+
+
+def test_inference_mode_runs_the_lane_filled_path_with_the_same_result():
+    torch.manual_seed(0)
+    block = FastGhostConv(16, 16).eval()
+    x = torch.rand(1, 16, 13, 21)
+    with torch.no_grad():
+        ref = block(x)                                       # plain no_grad: the grouped conv itself
+    with torch.inference_mode():
+        fast = block(x)
+        assert grouped_conv(block.group, x).is_contiguous(memory_format=torch.channels_last)  # the fast path
+    torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-5)
+
+
+def _unfold_kernels(image: torch.Tensor, kernels: torch.Tensor) -> torch.Tensor:
+    """Reference: unfold the replicate-padded image and take each pixel's weighted sum of its 25 taps."""
+    b, c, h, w = image.shape
+    cols = F.unfold(F.pad(image, (2, 2, 2, 2), mode="replicate"), 5).view(b, c, 25, h, w)
+    return (cols * kernels[:, None]).sum(2)
+
+
+def test_in_place_kernel_application_matches_unfold_in_value_and_gradient():
+    torch.manual_seed(0)
+    image = (torch.rand(2, 3, 9, 14) * 50).requires_grad_()
+    kernels = torch.softmax(torch.randn(2, 25, 9, 14), 1).requires_grad_()
+    fast, ref = apply_pixel_kernels(image, kernels), _unfold_kernels(image, kernels)
+    torch.testing.assert_close(fast, ref)
+    g = torch.randn_like(ref)
+    grads_fast = torch.autograd.grad(fast, (image, kernels), g)
+    grads_ref = torch.autograd.grad(ref, (image, kernels), g)
+    for a, b in zip(grads_fast, grads_ref, strict=True):
+        torch.testing.assert_close(a, b)
+
+
+def _pp_reference(pool: PositionAwarePool, x: torch.Tensor) -> torch.Tensor:
+    """Reference: concatenate features and positions, score, pixel-unshuffle the members, weighted sum."""
+    h, w = x.shape[-2:]
+    if h % 2 or w % 2:
+        x = F.pad(x, (0, w % 2, 0, h % 2), mode="replicate")
+    b, c, h, w = x.shape
+    pos = position_features(h, w, x).expand(b, -1, -1, -1)
+    scores = F.pixel_unshuffle(pool.score(torch.cat([x, pos], 1)), 2)
+    weights = torch.softmax(scores.float(), dim=1).to(x.dtype)
+    return (F.pixel_unshuffle(x, 2).view(b, c, 4, h // 2, w // 2) * weights[:, None]).sum(2)
+
+
+@pytest.mark.parametrize("hidden", [0, 8])
+@pytest.mark.parametrize("size", [(12, 18), (13, 7)])
+def test_position_aware_pooling_matches_the_concatenating_reference(hidden, size):
+    torch.manual_seed(hidden)
+    pool = PositionAwarePool(16, hidden=hidden)
+    x = torch.randn(2, 16, *size, requires_grad=True)
+    fast, ref = pool(x), _pp_reference(pool, x)
+    torch.testing.assert_close(fast, ref)
+    torch.testing.assert_close(torch.autograd.grad(fast.sum(), x)[0], torch.autograd.grad(ref.sum(), x)[0])
+
+
+@needs_bf16
+def test_position_aware_pooling_in_bf16_stays_near_fp32():
+    torch.manual_seed(0)
+    pool = PositionAwarePool(32).to(memory_format=torch.channels_last)
+    x = torch.randn(1, 32, 40, 64).contiguous(memory_format=torch.channels_last)
+    with torch.inference_mode():
+        ref = _pp_reference(pool, x)
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            fast = pool(x.bfloat16())
+    assert float((fast.float() - ref).abs().max()) < 0.05 * float(ref.abs().max())
+
+
+def _normalise_reference(p: torch.Tensor, budget: float, cap: int) -> torch.Tensor:
+    """Reference: water level from the sorted shares, largest remainders by a full sort (the implementation
+    before the sort-free one)."""
+    b = p.shape[0]
+    flat = p.reshape(b, -1).double()
+    n = flat.shape[1]
+    total = frame_budget(n, budget)
+    flat = flat / flat.sum(1, keepdim=True)
+    flat = (1 - 1e-6) * flat + 1e-6 / n
+    ps, _ = flat.sort(dim=1, descending=True)
+    rest = ps.flip(1).cumsum(1).flip(1)
+    k = torch.arange(n, dtype=flat.dtype)
+    first = ((total - k * cap) * ps <= cap * rest).double().argmax(dim=1)
+    lam = (total - first.double() * cap) / rest.gather(1, first[:, None]).squeeze(1)
+    raw = torch.minimum(lam[:, None] * flat, torch.full_like(flat, cap))
+    floor = raw.floor()
+    deficit = (total - floor.sum(1)).round().long()
+    remainder = torch.where(floor >= cap, torch.full_like(raw, -1.0), raw - floor)
+    order = remainder.argsort(dim=1, descending=True, stable=True)        # ties to the lower index
+    rank = torch.empty_like(order)
+    rank.scatter_(1, order, torch.arange(n).expand(b, n))
+    return (floor + (rank < deficit[:, None]).double()).reshape(p.shape)
+
+
+@pytest.mark.parametrize("scale", [0.5, 3.0, 8.0])
+@pytest.mark.parametrize("budget", [2, 4, 16.5])
+def test_sort_free_normalisation_equals_the_sorting_reference(scale, budget):
+    torch.manual_seed(int(scale * 10) + int(budget))
+    p = shares(torch.randn(2, 1, 37, 53) * scale)
+    m = normalise_map(p, budget)
+    assert torch.equal(m.double(), _normalise_reference(p, budget, 63))
+
+
+def test_a_long_capping_cascade_reaches_the_same_water_level():
+    """Geometric shares: each pixel capped pushes the next over the cap, one more per pass."""
+    p = (0.5 ** torch.arange(40, dtype=torch.float64) + 1e-3).view(1, 1, 5, 8)
+    p = p / p.sum()
+    m = normalise_map(p, 30)
+    assert torch.equal(m.double(), _normalise_reference(p, 30, 63))
+    assert int((m == 63).sum()) >= 5
+
+
+@needs_bf16
+@pytest.mark.parametrize("row", ["F", "A"])
+def test_fastest_cpu_path_of_a_row_stays_near_fp32_eager(row):
+    """The bench's fastest CPU path (inference mode, bf16 autocast, channels-last, every fast path) against
+    the fp32 eager forward under plain no_grad (grouped convs as they are)."""
+    torch.manual_seed(0)
+    model = build(row_cfg(row, profile="paper")).eval()
+    x = {name: torch.rand(1, 1 if name == "depth" else 3, 48, 80) * (20 if name.startswith("c") else 1)
+         for name in model.required_buffers()}
+    x["ref"] = None
+    with torch.no_grad():
+        ref = model(x)["output"]
+    fast_model = model.to(memory_format=torch.channels_last)
+    xl = {k: v if v is None else v.contiguous(memory_format=torch.channels_last) for k, v in x.items()}
+    with torch.inference_mode():
+        fp32 = fast_model(xl)["output"]
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            fast = fast_model(xl)["output"]
+    torch.testing.assert_close(fp32, ref, rtol=1e-4, atol=1e-4)         # fast paths, same precision
+    rel = float(((fast - ref).abs() / (ref.abs() + 1)).mean())
+    assert torch.isfinite(fast).all() and rel < 0.02, rel
