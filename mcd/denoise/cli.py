@@ -76,7 +76,9 @@ def load_model(args: argparse.Namespace) -> weights.Loaded:
     return weights.Loaded(build(cfg).eval(), cfg, f"experiment {args.experiment} (no weights)")
 
 
-def main(argv: list[str] | None = None) -> dict:
+def run(argv: list[str] | None = None) -> dict:
+    """Parse ``argv``, denoise, write ``<output>/denoise.json``; returns its content. A refused input exits 2
+    with the message on stderr."""
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     try:
@@ -119,3 +121,9 @@ def main(argv: list[str] | None = None) -> dict:
     args.output.mkdir(parents=True, exist_ok=True)
     (args.output / "denoise.json").write_text(json.dumps(report, indent=1, default=str))
     return report
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The console script ``mcd-denoise`` (exit status 0; 2 for a refused input)."""
+    run(argv)
+    return 0

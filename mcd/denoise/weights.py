@@ -3,11 +3,11 @@
 ``--checkpoint`` is a run directory of ``python -m mcd.run`` (its best checkpoint, else its last: the rule of
 ``transfer.init_from``, :func:`mcd.lit.transfer.checkpoint_of`), a ``.ckpt`` file of such a run, or the name
 of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.json``, made by
-``python -m mcd.denoise.bundle``). Every file is read with ``weights_only=True``
-(:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the checkpoint was trained
-with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit it exactly
-(:func:`mcd.lit.checkpoint.check_fits`). ``--experiment`` / ``--model`` state what the user expects: a
-checkpoint of another method or capacity is refused, naming both.
+``python -m mcd.denoise.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
+``weights_only=True`` (:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the
+checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
+it exactly (:func:`mcd.lit.checkpoint.check_fits`). ``--experiment`` / ``--model`` state what the user
+expects: a checkpoint of another method or capacity is refused, naming both.
 """
 
 from __future__ import annotations
@@ -66,8 +66,8 @@ def _from_run_ckpt(path: Path) -> tuple[DictConfig, dict[str, Any], dict[str, An
     return OmegaConf.create(cfg), weights, {"checkpoint": str(path), "global_step": state.get("global_step")}
 
 
-def _from_bundle(name: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
-    pt, meta = BUNDLED_DIR / f"{name}.pt", BUNDLED_DIR / f"{name}.json"
+def _from_bundle(pt: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
+    meta = pt.with_suffix(".json")
     provenance = json.loads(meta.read_text())
     weights = checkpoint.safe_load(pt, "--checkpoint")
     return OmegaConf.create(provenance["config"]), weights, provenance
@@ -76,9 +76,12 @@ def _from_bundle(name: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]
 def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]:
     """``(config, weights, provenance, source)`` of what ``--checkpoint=spec`` names (module docstring)."""
     if spec in bundled_names():
-        cfg, weights, prov = _from_bundle(spec)
+        cfg, weights, prov = _from_bundle(BUNDLED_DIR / f"{spec}.pt")
         return cfg, weights, prov, f"bundled checkpoint {spec} ({BUNDLED_DIR / spec}.pt)"
     path = Path(spec).expanduser()
+    if path.suffix == ".pt" and path.is_file() and path.with_suffix(".json").is_file():
+        cfg, weights, prov = _from_bundle(path)
+        return cfg, weights, prov, f"bundled checkpoint {path}"
     if path.is_dir() or path.is_file():
         from mcd.lit.transfer import checkpoint_of
 
