@@ -1,6 +1,6 @@
 """Benchmark data path: scenes, camera paths, Mitsuba rendering, the EXR store and the datamodule.
 
-See docs/architecture.md ("The store", "Batches"), /work/shared/spec/benchmark.md and rendering.md.
+See docs/architecture.md ("The store", "Batches") and docs/data.md.
 Importing this package does not import Mitsuba; the variant is chosen when something is first rendered.
 """
 

@@ -121,7 +121,7 @@ class Store:
         data_dir: str | Path,
         data_cfg: DictConfig,
         render_cfg: DictConfig | None = None,
-        scenes_dir: str | Path = "../shared/scenes",
+        scenes_dir: str | Path | None = None,
         overrides: Iterable[str] | None = None,
     ):
         """``overrides``: the command-line overrides that made this config (its store-shaping ones are
@@ -141,7 +141,9 @@ class Store:
                 if name not in self.specs:
                     raise ValueError(
                         f"data.{key} names scene {name!r}, which is not registered in data.scenes "
-                        f"(registered: {sorted(self.specs)}); add it to conf/data/{self.profile}.yaml"
+                        f"(registered: {sorted(self.specs)}); give the scene file's path in the list instead "
+                        f"(data.{key}=[path/to/scene.xml]) or register it with "
+                        f"'+data.scenes.{name}={{kind: xml, file: /path/to/scene.xml}}' (docs/scenes.md)"
                     )
         self._manifests: dict[str, dict] = {}
         self._warned: set[str] = set()
@@ -154,6 +156,9 @@ class Store:
     def from_cfg(cls, cfg: DictConfig, overrides: Iterable[str] | None = None) -> Store:
         """The store of the full Hydra config (``cfg.data``, ``cfg.paths``, ``cfg.render``).
 
+        Scenes given by path in ``cfg.data``'s scene lists are registered first, in ``cfg`` itself
+        (:func:`mcd.data.scenes.register_paths`), so that the datamodule built from the same ``cfg`` reads them.
+
         ``overrides`` default to those of the running Hydra app (``python -m mcd.run``/``mcd.render``).
         """
         if overrides is None:
@@ -161,10 +166,10 @@ class Store:
 
             if HydraConfig.initialized():
                 overrides = list(HydraConfig.get().overrides.task)
-        return cls(
-            cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir", "../shared/scenes"),
-            overrides,
-        )
+        from mcd.data.scenes import register_paths
+
+        register_paths(cfg)
+        return cls(cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir"), overrides)
 
     # ----------------------------------------------------------------------------------------------- layout
     @property
