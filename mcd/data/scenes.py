@@ -135,7 +135,11 @@ class SceneSpec:
             kwargs: dict[str, Any] = {"resx": width, "resy": height}
             if max_depth is not None:
                 kwargs["max_depth"] = max_depth
-            scene = mi.load_file(str(self.file), **kwargs)
+            declared = declared_defaults(self.file)
+            if "max_depth" in kwargs and "max_depth" not in declared:
+                log.info("scene %s declares no <default name=\"max_depth\">: its integrator's own depth is used",
+                         self.name)
+            scene = mi.load_file(str(self.file), **{k: v for k, v in kwargs.items() if k in declared})
             sensor = scene.sensors()[0]
             params = mi.traverse(sensor)
             fov = float(np.asarray(params["x_fov"], dtype=np.float64).ravel()[0])
@@ -155,6 +159,22 @@ class SceneSpec:
             )
         check_segments_clear(scene, nodes, self.name)
         return LoadedScene(self, scene, nodes, fov)
+
+
+def declared_defaults(file: Path) -> set[str]:
+    """Names of the ``<default>`` parameters a Mitsuba scene file declares (Mitsuba refuses others).
+
+    The film size of a scene without ``resx``/``resy`` does not matter (every render uses the store's own
+    sensor, :mod:`mcd.data.renderer`); a file that is not well-formed XML yields none, and Mitsuba's loader
+    then reports the error.
+    """
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(file).getroot()
+    except ET.ParseError:
+        return set()
+    return {str(d.get("name")) for d in root.iter("default")}
 
 
 @dataclass

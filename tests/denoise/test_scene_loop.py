@@ -38,3 +38,35 @@ def test_cbox_real_adaptive_render_spends_exactly_n_times_s(tmp_path, monkeypatc
         assert np.array_equal(stored, m)  # the map written is the map rendered
     img = read_exr(out / "cbox_0000.exr")
     assert img.shape == (32, 32, 3) and np.isfinite(img).all()
+
+
+#: A scene as Bitterli's Mitsuba 0.5 files are written: version 0.5.0, camelCase names, no <default>s.
+OLD_FORMAT = """<?xml version="1.0" encoding="utf-8"?>
+<scene version="0.5.0">
+  <integrator type="path"><integer name="maxDepth" value="6"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="45"/>
+    <transform name="toWorld"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sampleCount" value="16"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="640"/><integer name="height" value="480"/></film>
+  </sensor>
+  <shape type="sphere"><float name="radius" value="1"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf></shape>
+  <shape type="rectangle">
+    <transform name="toWorld"><scale value="4"/><translate z="-1.5"/></transform>
+    <bsdf type="diffuse"/></shape>
+  <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
+</scene>
+"""
+
+
+def test_an_old_format_scene_without_defaults_renders_with_a_uniform_method(tmp_path):
+    """Mitsuba 3 upgrades the 0.5 names itself; the film size comes from --width/--height, not the file."""
+    scene = tmp_path / "mine" / "sphere.xml"
+    scene.parent.mkdir()
+    scene.write_text(OLD_FORMAT)
+    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "model=cpu")
+    report = run(["--scene", str(scene), "-o", str(tmp_path / "out"), "--checkpoint", str(unet),
+                  "--width", "32", "--height", "24", "--no-progress"])
+    assert report["frames"][0]["samples"] == 32 * 24 * 4  # the uniform render c_s at the budget
+    assert read_exr(tmp_path / "out" / "sphere_0000.exr").shape == (24, 32, 3)
