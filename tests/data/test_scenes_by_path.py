@@ -79,3 +79,18 @@ def test_render_of_a_transfer_run_renders_the_transfer_scene_only(tmp_path, my_s
                           env=env, cwd=REPO, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert sorted(p.name for p in (data / "test32").iterdir()) == ["mybox"]  # not the training scene
+
+
+def test_the_documented_registrations_compose(tmp_path):
+    """docs/scenes.md: one override with the scene's settings, or a config file in the user's own folder."""
+    inline = compose_cfg("data=tiny", "+data.scenes.kitchen={kind: xml, file: /abs/kitchen/scene.xml, "
+                         "exposure: auto, path: {dolly: 0.2, truck: 0.1, pan_deg: 5}}",
+                         "data.test_scenes=[kitchen]")
+    assert inline.data.scenes.kitchen.path.dolly == 0.2
+    (tmp_path / "scene").mkdir()
+    (tmp_path / "scene" / "kitchen.yaml").write_text("kind: xml\nfile: /abs/kitchen/scene.xml\n")
+    own = compose_cfg("data=tiny", f"hydra.searchpath=[file://{tmp_path}]",
+                      "+scene@data.scenes.kitchen=kitchen", "data.test_scenes=[kitchen]")
+    assert own.data.scenes.kitchen.file == "/abs/kitchen/scene.xml"
+    doc = (REPO / "docs" / "scenes.md").read_text()
+    assert "+data.scenes.kitchen={kind: xml" in doc and "hydra.searchpath=[file://" in doc
