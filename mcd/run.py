@@ -193,7 +193,12 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
                  "none" if score is None else f"{float(score):.2f} dB")
     else:
         tested = None
-        log.info("method %s is not trained (method.trainable=false): testing it as built", cfg.method.name)
+        if transfer_info is not None:
+            log.info("testing the weights loaded from %s as they are (transfer.finetune_epochs=0)",
+                     transfer_info["init_from"])
+        else:
+            log.info("method %s is not trained (method.trainable=false): testing it as built",
+                     cfg.method.name)
     train_s = time.perf_counter() - t0
     stopped = budget.stop_reason(trainer, cfg.train, train_s) if trainable else "not trained"
     t0 = time.perf_counter()
