@@ -36,8 +36,13 @@ METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse
 DATA_KEYS = ("name", "exposure_target", "max_depth", "gbuffer_spp", "ref_spp", "width", "height")
 
 
-def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR) -> dict[str, Any]:
-    """Write ``<out_dir>/<name>.pt`` and ``.json`` from ``run_dir`` (module docstring); returns the JSON."""
+def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
+           source_commit: str | None = None) -> dict[str, Any]:
+    """Write ``<out_dir>/<name>.pt`` and ``.json`` from ``run_dir`` (module docstring); returns the JSON.
+
+    ``source_commit``: the commit the run's code was exported from, for a run outside a git checkout (its
+    ``metrics.json`` then says ``commit: unknown``); recorded as given, beside the run's own record.
+    """
     from mcd.models import build
 
     check_name(name, "--name")
@@ -57,6 +62,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR) -> dict[str, A
         "checkpoint": f"{ckpt.relative_to(run_dir)} (global step {state.get('global_step')})",
         "train": OmegaConf.to_container(cfg.train, resolve=True),
         "metrics": {k: metrics.get(k) for k in METRICS},
+        **({"source_commit": source_commit} if source_commit else {}),
     }
     return write_bundle(weights, cfg, name, provenance, out_dir)
 
@@ -87,8 +93,9 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--name", required=True, help="the bundled checkpoint's name (e.g. F-cpu-small)")
     p.add_argument("--out", type=Path, default=BUNDLED_DIR,
                    help="folder (default: the package's mcd/bundled)")
+    p.add_argument("--source-commit", help="the commit a run outside a git checkout was exported from")
     args = p.parse_args(argv)
-    meta = bundle(args.run_dir, args.name, args.out)
+    meta = bundle(args.run_dir, args.name, args.out, args.source_commit)
     m = meta["metrics"]
     size = (args.out / meta["weights_file"]).stat().st_size / 1e6
     print(f"{args.out / args.name}.pt ({size:.2f} MB): "

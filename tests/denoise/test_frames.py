@@ -30,7 +30,8 @@ def test_bundled_checkpoints_are_package_data_with_provenance():
     assert set(BUNDLED) <= set(bundled_names())
     for name in BUNDLED:
         meta = json.loads((BUNDLED_DIR / f"{name}.json").read_text())
-        assert meta["command"].startswith("python -m mcd.run") and meta["metrics"]["commit"]
+        assert meta["command"].startswith("python -m mcd.run")
+        assert meta["metrics"]["commit"] != "unknown" or len(meta.get("source_commit", "")) == 40
         assert meta["metrics"]["data_profile"] == "small" and meta["config"]["model"]
         assert meta["metrics"]["psnr"] > meta["metrics"]["input_psnr"]  # it beat its noisy input when tested
         assert (BUNDLED_DIR / meta["weights_file"]).stat().st_size < 8e6
