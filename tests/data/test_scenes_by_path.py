@@ -4,6 +4,7 @@ scene, never to edit the repository. ``mcd.render`` renders exactly the scenes t
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -94,3 +95,20 @@ def test_the_documented_registrations_compose(tmp_path):
     assert own.data.scenes.kitchen.file == "/abs/kitchen/scene.xml"
     doc = (REPO / "docs" / "scenes.md").read_text()
     assert "+data.scenes.kitchen={kind: xml" in doc and "hydra.searchpath=[file://" in doc
+
+
+@pytest.mark.slow
+def test_a_run_trains_and_tests_on_a_scene_given_by_path(tmp_path, my_scene):
+    """``mcd.run`` reads the scene the path names (the datamodule gets the registered name)."""
+    args = ["+experiment=unet", "data.width=32", "data.height=32", "data.frames_per_segment=6",
+            "data.ref_spp=16", "data.gbuffer_spp=2", "data.train_crop=32", "data.val_crop=32",
+            f"data.train_scenes=[{my_scene}]", f"data.test_scenes=[{my_scene}]", "train.batch_size=1",
+            "train.epochs=1", "train.max_steps=1",
+            "trainer.enable_progress_bar=false", f"paths.data_dir={tmp_path / 'data'}",
+            f"hydra.run.dir={tmp_path / 'run'}"]
+    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, "-m", "mcd.run", *args], capture_output=True, text=True, env=env,
+                          cwd=REPO, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert metrics["scenes_test"] == ["mybox"] and metrics["test_frames"] == {"mybox": 2}
