@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from mcd.denoise.frames import write_layers
 from tests.conftest import compose_cfg
 
 REPO = Path(__file__).resolve().parents[2]
@@ -20,33 +19,18 @@ SIZE = 32
 
 def render_sequence(folder: Path, frames: int = 3, spp: int = 4, ref_spp: int = 0,
                     siblings: bool = False) -> list[np.ndarray]:
-    """Render cbox at 32x32 along its camera path: ``<folder>/f000k.exr`` (colour at ``spp`` + G-buffers as
-    layers, or as sibling files), returns the references at ``ref_spp`` (empty when 0)."""
-    from mcd.data.camera import interpolate_path
-    from mcd.data.mitsuba_env import select_variant
-    from mcd.data.renderer import SceneRenderer
-    from mcd.data.scenes import VENDORED_DIR, SceneSpec
+    """Cornell box at 32x32 along its derived camera path, written by ``mcd.denoise.render_frames`` as
+    ``<folder>/cbox_000k.exr``; returns the references at ``ref_spp`` (empty when 0)."""
+    from mcd.data.scenes import VENDORED_DIR
+    from mcd.denoise.frames import read_channels
+    from mcd.denoise.render_frames import render_frames
 
-    select_variant("auto")
-    spec = SceneSpec("cbox", "xml", file=VENDORED_DIR / "cbox" / "scene.xml",
-                     path={"dolly": 0.45, "truck": 0.04, "pan_deg": 2})
-    loaded = spec.load(SIZE, SIZE, 8, 1)
-    r = SceneRenderer(loaded.scene, SIZE, SIZE, loaded.fov)
+    paths = render_frames(VENDORED_DIR / "cbox" / "scene.xml", folder, frames, spp, SIZE, SIZE, gbuffer_spp=8,
+                          reference_spp=ref_spp, siblings=siblings)
     refs = []
-    for f, cam in enumerate(interpolate_path(loaded.nodes, frames)):
-        r.set_camera(cam)
-        colour = r.color(spp, seed=100 + f)
-        gb = r.gbuffer(8, seed=200 + f)
-        path = folder / f"f{f:04d}.exr"
-        if siblings:
-            write_layers(path, colour)
-            for name in ("albedo", "normal", "depth"):
-                sibling = path.with_name(f"{path.stem}.{name}.exr")
-                write_layers(sibling, np.zeros_like(colour), {name: gb[name]})
-        else:
-            write_layers(path, colour, gb)
-        if ref_spp:
-            refs.append(r.color(ref_spp, seed=300 + f))
+    for p in paths if ref_spp else []:
+        chans = read_channels(folder / "reference" / p.name)
+        refs.append(np.stack([chans[c] for c in "RGB"], -1))
     return refs
 
 

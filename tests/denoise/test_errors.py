@@ -53,7 +53,8 @@ def test_sibling_files_are_read(tmp_path, unet):
     report = run([str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--checkpoint", str(unet),
                   "--no-progress"])
     assert report["frames"] == 2  # the sibling layer files are not frames
-    assert (tmp_path / "out" / "f0001.exr").is_file() and (tmp_path / "out" / "f0001.png").is_file()
+    assert (tmp_path / "out" / "cbox_0001.exr").is_file()
+    assert (tmp_path / "out" / "cbox_0001.png").is_file()
 
 
 def test_layer_of_another_size(tmp_path, capsys, unet):
@@ -73,28 +74,28 @@ def test_frame_of_another_size(tmp_path, capsys, unet, frames):
         (folder / p.name).parent.mkdir(exist_ok=True)
         (folder / p.name).write_bytes(p.read_bytes())
     rng = np.random.default_rng(2)
-    write_layers(folder / "f0009.exr", rng.random((24, 32, 3), dtype=np.float32),
+    write_layers(folder / "cbox_0009.exr", rng.random((24, 32, 3), dtype=np.float32),
                  {k: rng.random((24, 32, c), dtype=np.float32) for k, c in (("albedo", 3), ("normal", 3),
                                                                           ("depth", 1))})
     err = refused(capsys, str(folder), "-o", str(tmp_path / "out"), "--checkpoint", str(unet))
-    assert "f0009.exr: frame 2 is 32x24 but frame 0 (f0000.exr) is 32x32" in err
+    assert "cbox_0009.exr: frame 2 is 32x24 but frame 0 (cbox_0000.exr) is 32x32" in err
 
 
 def test_nan_and_inf_pixels_are_sanitised_and_counted(tmp_path, capsys, unet, frames):
     folder = tmp_path / "in"
     from mcd.denoise.frames import read_channels
 
-    chans = read_channels(frames / "f0000.exr")
+    chans = read_channels(frames / "cbox_0000.exr")
     colour = np.stack([chans[c] for c in "RGB"], -1)
     colour[3, 4, 0], colour[5, 6, 1], colour[7, 8, 2] = np.nan, np.inf, -np.inf
     layers = {"albedo": np.stack([chans[f"albedo.{c}"] for c in "RGB"], -1),
               "normal": np.stack([chans[f"normal.{c}"] for c in "XYZ"], -1),
               "depth": chans["depth.Z"][..., None]}
-    write_layers(folder / "f0000.exr", colour, layers)
+    write_layers(folder / "cbox_0000.exr", colour, layers)
     report = run([str(folder), "-o", str(tmp_path / "out"), "--checkpoint", str(unet), "--no-progress"])
-    assert report["sanitised"] == {"f0000.exr:colour": 3}
+    assert report["sanitised"] == {"cbox_0000.exr:colour": 3}
     assert "sanitised: 3 NaN/Inf/negative input values replaced by 0" in capsys.readouterr().out
-    assert np.isfinite(read_exr(tmp_path / "out" / "f0000.exr")).all()
+    assert np.isfinite(read_exr(tmp_path / "out" / "cbox_0000.exr")).all()
 
 
 def test_checkpoint_of_another_method(tmp_path, capsys, unet, frames):

@@ -44,10 +44,10 @@ def test_console_script_denoises_frames_from_disk_better_than_the_input(sequence
     assert done.returncode == 0, done.stderr[-3000:]
     gains = []
     for f, ref in enumerate(refs):
-        chans = read_channels(folder / f"f{f:04d}.exr")
+        chans = read_channels(folder / f"cbox_{f:04d}.exr")
         noisy = np.stack([chans[c] for c in "RGB"], -1)
-        denoised = read_exr(out / f"f{f:04d}.exr")
-        assert denoised.shape == (32, 32, 3) and (out / f"f{f:04d}.png").is_file()
+        denoised = read_exr(out / f"cbox_{f:04d}.exr")
+        assert denoised.shape == (32, 32, 3) and (out / f"cbox_{f:04d}.png").is_file()
         gains.append(psnr(denoised, ref) - psnr(noisy, ref))
     assert np.mean(gains) > 0, gains
     report = json.loads((out / "denoise.json").read_text())
@@ -61,7 +61,7 @@ def test_tiles_under_a_memory_cap_agree_with_the_whole_frame(sequence, tmp_path)
     tiled = run([str(folder), "-o", str(tmp_path / "tiled"), *args, "--max-memory-mb", "1", "--overlap", "4"])
     assert whole["tiles"] == 1 and tiled["tiles"] > 1
     for f in range(4):
-        a, b = (read_exr(tmp_path / d / f"f{f:04d}.exr") for d in ("whole", "tiled"))
+        a, b = (read_exr(tmp_path / d / f"cbox_{f:04d}.exr") for d in ("whole", "tiled"))
         assert psnr(b, a) > 40
 
 
@@ -76,4 +76,4 @@ def test_fastdvdnet_reads_its_window_of_neighbours(sequence, tmp_path):
     folder, _ = sequence
     fdv = untrained_bundle(tmp_path, "fastdvdnet", "+experiment=fastdvdnet", "model=cpu")
     report = run([str(folder), "-o", str(tmp_path / "out"), "--checkpoint", str(fdv), "--no-progress"])
-    assert report["frames"] == 4 and all((tmp_path / "out" / f"f{f:04d}.exr").is_file() for f in range(4))
+    assert report["frames"] == 4 and all((tmp_path / "out" / f"cbox_{f:04d}.exr").is_file() for f in range(4))
