@@ -113,6 +113,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     def colour(spp: int, key: str, f: int) -> np.ndarray:
         """A render of frame ``f`` at ``spp`` (not part of the budget), normalised as the network's inputs."""
         return normalise(r.color(spp, derive_seed(seed, key, f)), key, exposure, scale, colour=True)[0]
+
     for f, to_world in enumerate(tqdm(cams, desc=f"denoise {path.name}", unit="frame", disable=not progress)):
         r.set_camera(to_world)
         cam = r.camera(to_world)
