@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -20,14 +21,18 @@ from mcd.denoise.frames import write_layers
 
 def render_frames(scene_file: Path, out_dir: Path, frames: int = 4, spp: int = 4, width: int = 128,
                   height: int = 128, gbuffer_spp: int = 16, reference_spp: int = 0, seed: int = 0,
-                  max_depth: int | None = 8, siblings: bool = False) -> list[Path]:
-    """Render the sequence (module docstring); returns the colour frames written, in order."""
+                  max_depth: int | None = 8, siblings: bool = False,
+                  camera_path: dict[str, Any] | None = None) -> list[Path]:
+    """Render the sequence (module docstring); returns the colour frames written, in order.
+
+    ``camera_path``: ``dolly``, ``truck``, ``pan_deg`` of the derived path (docs/scenes.md, "Camera paths").
+    """
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
     from mcd.denoise.scene import load_scene
 
     select_variant("auto")
-    loaded, cams = load_scene(scene_file, width, height, max_depth, frames)
+    loaded, cams = load_scene(scene_file, width, height, max_depth, frames, camera_path)
     r = SceneRenderer(loaded.scene, width, height, loaded.fov)
     written = []
     for f, cam in enumerate(cams):
@@ -62,9 +67,14 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--reference-spp", type=int, default=0, help="also write references at this spp")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--siblings", action="store_true", help="G-buffers as sibling files, not layers")
+    p.add_argument("--dolly", type=float, default=0.3, help="camera path: forward share of the free distance")
+    p.add_argument("--truck", type=float, default=0.15,
+                   help="camera path: sideways share of the free distance")
+    p.add_argument("--pan-deg", type=float, default=10.0, help="camera path: pan in degrees")
     a = p.parse_args(argv)
+    path = {"dolly": a.dolly, "truck": a.truck, "pan_deg": a.pan_deg}
     paths = render_frames(a.scene, a.folder, a.frames, a.spp, a.width, a.height, a.gbuffer_spp,
-                          a.reference_spp, a.seed, siblings=a.siblings)
+                          a.reference_spp, a.seed, siblings=a.siblings, camera_path=path)
     print(f"{len(paths)} frames -> {a.folder}")
 
 

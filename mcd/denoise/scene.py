@@ -30,7 +30,7 @@ from tqdm import tqdm
 from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import auto_exposure, depth_scale, normalise
 from mcd.data.renderer import derive_seed
-from mcd.data.scenes import SceneNotFoundError, SceneSpec
+from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
 from mcd.data.store import GBUFFERS
 from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.weights import Loaded
@@ -44,10 +44,12 @@ class SceneLoadError(RuntimeError):
     """A scene file that Mitsuba cannot load; the message names it and what to do."""
 
 
-def load_scene(path: Path, width: int, height: int, max_depth: int | None, frames: int) -> tuple[Any, list]:
-    """``(loaded scene, camera transforms)``: the scene's own camera, or a derived path of ``frames``."""
-    spec = SceneSpec(path.stem if path.stem != "scene" else path.parent.name, "xml", file=path.resolve(),
-                     path={}, missing_hint="check the path given to --scene")
+def load_scene(path: Path, width: int, height: int, max_depth: int | None, frames: int,
+               camera_path: dict[str, Any] | None = None) -> tuple[Any, list]:
+    """``(loaded scene, camera transforms)``: the scene's own camera, or a path of ``frames`` derived from it
+    (``camera_path``: ``dolly``, ``truck``, ``pan_deg`` or ``nodes`` as in docs/scenes.md, "Camera paths")."""
+    spec = SceneSpec(path_scene_name(path), "xml", file=path.resolve(), path=dict(camera_path or {}),
+                     missing_hint="check the path given to --scene")
     try:
         loaded = spec.load(width, height, max_depth, segments=1)
     except SceneNotFoundError:

@@ -10,6 +10,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+from omegaconf import OmegaConf
 
 from tests.conftest import compose_cfg
 
@@ -18,15 +19,17 @@ SIZE = 32
 
 
 def render_sequence(folder: Path, frames: int = 3, spp: int = 4, ref_spp: int = 0,
-                    siblings: bool = False) -> list[np.ndarray]:
-    """Cornell box at 32x32 along its derived camera path, written by ``mcd.denoise.render_frames`` as
-    ``<folder>/cbox_000k.exr``; returns the references at ``ref_spp`` (empty when 0)."""
+                    siblings: bool = False, size: int = SIZE) -> list[np.ndarray]:
+    """Cornell box at ``size`` x ``size`` (32) along its benchmark camera path (``conf/scene/cbox.yaml``),
+    written by ``mcd.denoise.render_frames`` as ``<folder>/cbox_000k.exr``; returns the references at
+    ``ref_spp``."""
     from mcd.data.scenes import VENDORED_DIR
     from mcd.denoise.frames import read_channels
     from mcd.denoise.render_frames import render_frames
 
-    paths = render_frames(VENDORED_DIR / "cbox" / "scene.xml", folder, frames, spp, SIZE, SIZE, gbuffer_spp=8,
-                          reference_spp=ref_spp, siblings=siblings)
+    camera = OmegaConf.to_container(OmegaConf.load(REPO / "conf" / "scene" / "cbox.yaml").path)
+    paths = render_frames(VENDORED_DIR / "cbox" / "scene.xml", folder, frames, spp, size, size, gbuffer_spp=8,
+                          reference_spp=ref_spp, siblings=siblings, camera_path=camera)
     refs = []
     for p in paths if ref_spp else []:
         chans = read_channels(folder / "reference" / p.name)
