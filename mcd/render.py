@@ -1,7 +1,10 @@
 """``python -m mcd.render data=<profile>``: render what the profile's scenes need into the store.
 
 Which buffers: ``render.buffers`` = ``method`` (default: those the configured method reads, from
-``mcd.models.build(cfg).required_buffers()``, plus ``ref``), ``all``, or a list such as ``[c4,ref]``.
+``mcd.models.build(cfg).required_buffers()``, plus ``ref`` and the uniform render at the budget, as
+``python -m mcd.run`` asks), ``all``, or a list such as ``[c4,ref]``. Which scenes: those the same
+``mcd.run`` command would read (with ``transfer.init_from`` set, the transfer scenes only); scenes may be
+given by path (``data.test_scenes=[path/to/scene.xml]``, docs/scenes.md).
 ``--force`` (or ``render.force=true``) re-renders them; ``render.verify=true`` checks every checksum and re-
 renders damaged files; ``render.variant`` picks the Mitsuba variant (default ``auto``: CUDA, else LLVM, else
 scalar; logged). The store lives in ``paths.data_dir`` (env ``MCD_DATA_DIR``); Hydra's ``hydra.run.dir`` holds
@@ -31,7 +34,7 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
     if spec == "method":
         from mcd.models import build
 
-        return set(build(cfg).required_buffers()) | {"ref"}
+        return set(build(cfg).required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
     raise ValueError(
         f"render.buffers={spec!r}: expected 'method', 'all' or a list of buffers {list(BUFFERS)}"
     )
@@ -39,6 +42,9 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
 
 @hydra.main(config_path="../conf", config_name="config", version_base=None)
 def main(cfg: DictConfig) -> dict:
+    from mcd.lit.transfer import prepare
+
+    cfg, _ = prepare(cfg)  # a transfer run reads its held-out scenes only
     store = Store.from_cfg(cfg)
     buffers = requested_buffers(cfg)
     log.info("rendering profile %s into %s: buffers %s", store.profile, store.root, ",".join(sorted(buffers)))

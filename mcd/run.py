@@ -209,8 +209,12 @@ def fit(job: Job) -> Fitted:
     trainer = job.trainer
     t0 = time.perf_counter()
     if not job.trainable:
-        log.info("method %s is not trained (method.trainable=false): testing it as built",
-                 job.cfg.method.name)
+        if job.transfer is not None:
+            log.info("testing the weights loaded from %s as they are (transfer.finetune_epochs=0)",
+                     job.transfer["init_from"])
+        else:
+            log.info("method %s is not trained (method.trainable=false): testing it as built",
+                     job.cfg.method.name)
         return Fitted(checkpoint=None, best_val_psnr=None, stop_reason="not trained",
                       seconds=time.perf_counter() - t0)
     trainer.fit(job.module, datamodule=job.datamodule, ckpt_path=job.resume, weights_only=True)

@@ -2,9 +2,10 @@
 
 A scene config (``data.scenes.<name>``, composed from ``conf/scene/<file>.yaml``) is either
 
-- ``kind: xml``: ``file`` relative to the repository's ``scenes/`` folder when ``vendored: true``, else to
-  ``paths.scenes_dir`` (env ``MCD_SCENES_DIR``); loaded with ``mi.load_file(file, resx, resy, max_depth)``
-  (every ``scene.xml`` declares those ``<default>``s, /work/shared/scenes/README.md); or
+- ``kind: xml``: ``file`` relative to the repository's ``scenes/`` folder when ``vendored: true``, an absolute
+  path, or relative to ``paths.scenes_dir`` (env ``MCD_SCENES_DIR``; needed only for the scenes that are not
+  vendored, docs/scenes.md); loaded with ``mi.load_file(file, resx, resy, max_depth)`` (a scene that declares
+  those ``<default>``s takes them; docs/scenes.md, "Your own scene"); or
 - ``kind: procedural``: a room from :mod:`mcd.data.procedural` with its ``seed``.
 
 The camera path (benchmark.md, "Camera"): explicit key nodes ``path.nodes`` (``origin``/``target``/``up``), or
@@ -12,6 +13,10 @@ derived from the scene's own camera (XML scenes): the first node is that camera;
 fraction ``path.dolly`` of the free distance ahead, truck sideways by ``path.truck`` of the free distance to
 the side, and pan by alternating ``path.pan_deg``. Every segment is checked against the scene's geometry (a
 ray from node to node must not hit anything), so that no frame is rendered from inside a wall.
+
+Scenes by path (docs/scenes.md): an entry of ``data.train_scenes`` / ``transfer_scenes`` / ``test_scenes``
+that names an ``.xml`` file is registered by :func:`register_paths` as an XML scene (its name: the file's
+stem, or its folder's name for ``scene.xml``), with the derived camera path and ``exposure: auto``.
 """
 
 from __future__ import annotations
@@ -52,26 +57,30 @@ class SceneSpec:
     missing_hint: str = ""
 
     @staticmethod
-    def from_cfg(name: str, scfg: DictConfig | dict, scenes_dir: str | Path) -> SceneSpec:
+    def from_cfg(name: str, scfg: DictConfig | dict, scenes_dir: str | Path | None) -> SceneSpec:
         d = OmegaConf.to_container(scfg, resolve=True) if isinstance(scfg, DictConfig) else dict(scfg)
         kind = d.get("kind")
         if kind == "xml":
             rel = d.get("file")
             if not rel:
                 raise ValueError(f"scene {name!r}: kind xml needs a 'file' (conf/scene/)")
+            file: Path | None
             if d.get("vendored", False):
                 file = VENDORED_DIR / rel
                 hint = f"the repository's scenes/ folder ({VENDORED_DIR}) should hold it: restore it from git"
+            elif Path(rel).expanduser().is_absolute():
+                file = Path(rel).expanduser()
+                hint = f"check the path data.scenes.{name}.file={rel}"
             else:
-                base = Path(scenes_dir).expanduser()
-                if not base.is_absolute() and not (Path.cwd() / base).exists():
-                    base = REPO_ROOT / base
-                file = base / rel
-                hint = (
-                    f"set paths.scenes_dir=<dir> or the environment variable MCD_SCENES_DIR to the folder "
-                    f"that "
-                    f"holds {rel} (now {scenes_dir!r}); see /work/shared/scenes/README.md"
-                )
+                hint = (f"set paths.scenes_dir=<dir> or the environment variable MCD_SCENES_DIR to the folder "
+                        f"that holds {rel} (now {scenes_dir!r}); docs/scenes.md says where to get each scene")
+                if scenes_dir is None:
+                    file = None
+                else:
+                    base = Path(scenes_dir).expanduser()
+                    if not base.is_absolute() and not (Path.cwd() / base).exists():
+                        base = REPO_ROOT / base
+                    file = base / rel
             return SceneSpec(
                 name,
                 "xml",
@@ -93,7 +102,10 @@ class SceneSpec:
 
     def check_exists(self) -> None:
         """Raise SceneNotFoundError naming the path and how to fix it."""
-        if self.kind == "xml" and (self.file is None or not self.file.is_file()):
+        if self.kind == "xml" and self.file is None:
+            raise SceneNotFoundError(f"scene {self.name!r} is not vendored in the repository and no scenes folder "
+                                     f"is set: {self.missing_hint}")
+        if self.kind == "xml" and not self.file.is_file():
             raise SceneNotFoundError(f"scene {self.name!r}: file {self.file} not found; {self.missing_hint}")
 
     def source(self) -> dict[str, Any]:
@@ -123,7 +135,11 @@ class SceneSpec:
             kwargs: dict[str, Any] = {"resx": width, "resy": height}
             if max_depth is not None:
                 kwargs["max_depth"] = max_depth
-            scene = mi.load_file(str(self.file), **kwargs)
+            declared = declared_defaults(self.file)
+            if "max_depth" in kwargs and "max_depth" not in declared:
+                log.info("scene %s declares no <default name=\"max_depth\">: its integrator's own depth is used",
+                         self.name)
+            scene = mi.load_file(str(self.file), **{k: v for k, v in kwargs.items() if k in declared})
             sensor = scene.sensors()[0]
             params = mi.traverse(sensor)
             fov = float(np.asarray(params["x_fov"], dtype=np.float64).ravel()[0])
@@ -143,6 +159,22 @@ class SceneSpec:
             )
         check_segments_clear(scene, nodes, self.name)
         return LoadedScene(self, scene, nodes, fov)
+
+
+def declared_defaults(file: Path) -> set[str]:
+    """Names of the ``<default>`` parameters a Mitsuba scene file declares (Mitsuba refuses others).
+
+    The film size of a scene without ``resx``/``resy`` does not matter (every render uses the store's own
+    sensor, :mod:`mcd.data.renderer`); a file that is not well-formed XML yields none, and Mitsuba's loader
+    then reports the error.
+    """
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(file).getroot()
+    except ET.ParseError:
+        return set()
+    return {str(d.get("name")) for d in root.iter("default")}
 
 
 @dataclass
@@ -202,5 +234,52 @@ def check_segments_clear(scene: Any, nodes: list[np.ndarray], name: str) -> None
         if hit <= seg:
             raise ValueError(
                 f"scene {name!r}: the camera path between key nodes {k} and {k + 1} passes through geometry "
-                f"(hit at {hit:.3g} of {seg:.3g}); change the scene's path settings in conf/scene/"
+                f"(hit at {hit:.3g} of {seg:.3g}); set data.scenes.{name}.path.dolly / truck / pan_deg, or "
+                "explicit path.nodes (docs/scenes.md, 'Camera paths')"
             )
+
+
+SCENE_LISTS = ("train_scenes", "transfer_scenes", "test_scenes")
+
+
+def path_scene_name(file: str | Path) -> str:
+    """The name a scene given by path is registered under: its folder's name for ``scene.xml``, else its stem."""
+    p = Path(file)
+    return p.parent.resolve().name if p.stem == "scene" else p.stem
+
+
+def register_paths(cfg: DictConfig) -> DictConfig:
+    """Register every ``.xml`` entry of ``cfg.data``'s scene lists as a scene and name it in the lists, in place.
+
+    ``data.test_scenes=[~/scenes/kitchen/scene.xml]`` becomes ``data.scenes.kitchen = {kind: xml, file:
+    <absolute path>, exposure: auto}`` and ``data.test_scenes=[kitchen]`` (relative paths are taken from the
+    working directory). A name already registered for another file is an error naming both.
+    """
+    from omegaconf import open_dict
+
+    data = cfg.data
+    with open_dict(cfg):
+        for key in SCENE_LISTS:
+            entries = list(data.get(key) or [])
+            if not any(str(e).endswith(".xml") for e in entries):
+                continue
+            names = []
+            for entry in entries:
+                entry = str(entry)
+                if not entry.endswith(".xml"):
+                    names.append(entry)
+                    continue
+                file = Path(entry).expanduser().resolve()
+                name = path_scene_name(file)
+                known = data.scenes.get(name) if data.get("scenes") is not None else None
+                if known is not None and str(known.get("file")) != str(file):
+                    raise ValueError(f"data.{key}: {entry} would be registered as scene {name!r}, which already "
+                                     f"names {known.get('file')}; register it under another name with "
+                                     f"'+data.scenes.<name>={{kind: xml, file: {file}}}' (docs/scenes.md)")
+                if known is None:
+                    if data.get("scenes") is None:
+                        data.scenes = {}
+                    data.scenes[name] = {"kind": "xml", "file": str(file), "exposure": "auto", "path": {}}
+                names.append(name)
+            data[key] = names
+    return cfg

@@ -41,7 +41,8 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.data.camera import Camera, backward_motion, interpolate_path
-from mcd.data.exr import CorruptEXRError, count_bad, read_exr, sanitise, sha256, umask_mode, write_exr
+from mcd.data.exposure import NEGATIVE_OK, auto_exposure, depth_scale, normalise
+from mcd.data.exr import CorruptEXRError, count_bad, read_exr, sha256, umask_mode, write_exr
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneSpec
 
@@ -52,7 +53,6 @@ COLOUR_BUFFERS = ("c1_in", *SPP_BUFFERS, "ref")
 GBUFFERS = ("depth", "normal", "albedo")
 BUFFERS = (*COLOUR_BUFFERS, *GBUFFERS, "motion")
 CHANNELS = {**dict.fromkeys(COLOUR_BUFFERS, 3), "depth": 1, "normal": 3, "albedo": 3, "motion": 2}
-NEGATIVE_OK = {"normal", "motion"}
 MANIFEST_VERSION = 1
 #: A profile or scene name is one folder name of the store: letters, digits, ``_``, ``-``, ``.`` (not leading).
 SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
@@ -121,7 +121,7 @@ class Store:
         data_dir: str | Path,
         data_cfg: DictConfig,
         render_cfg: DictConfig | None = None,
-        scenes_dir: str | Path = "../shared/scenes",
+        scenes_dir: str | Path | None = None,
         overrides: Iterable[str] | None = None,
     ):
         """``overrides``: the command-line overrides that made this config (its store-shaping ones are
@@ -141,7 +141,9 @@ class Store:
                 if name not in self.specs:
                     raise ValueError(
                         f"data.{key} names scene {name!r}, which is not registered in data.scenes "
-                        f"(registered: {sorted(self.specs)}); add it to conf/data/{self.profile}.yaml"
+                        f"(registered: {sorted(self.specs)}); give the scene file's path in the list instead "
+                        f"(data.{key}=[path/to/scene.xml]) or register it with "
+                        f"'+data.scenes.{name}={{kind: xml, file: /path/to/scene.xml}}' (docs/scenes.md)"
                     )
         self._manifests: dict[str, dict] = {}
         self._warned: set[str] = set()
@@ -154,6 +156,9 @@ class Store:
     def from_cfg(cls, cfg: DictConfig, overrides: Iterable[str] | None = None) -> Store:
         """The store of the full Hydra config (``cfg.data``, ``cfg.paths``, ``cfg.render``).
 
+        Scenes given by path in ``cfg.data``'s scene lists are registered first, in ``cfg`` itself
+        (:func:`mcd.data.scenes.register_paths`), so that the datamodule built from the same ``cfg`` reads them.
+
         ``overrides`` default to those of the running Hydra app (``python -m mcd.run``/``mcd.render``).
         """
         if overrides is None:
@@ -161,10 +166,10 @@ class Store:
 
             if HydraConfig.initialized():
                 overrides = list(HydraConfig.get().overrides.task)
-        return cls(
-            cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir", "../shared/scenes"),
-            overrides,
-        )
+        from mcd.data.scenes import register_paths
+
+        register_paths(cfg)
+        return cls(cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir"), overrides)
 
     # ----------------------------------------------------------------------------------------------- layout
     @property
@@ -488,8 +493,7 @@ class Store:
                 if f == 0 and b == "ref":
                     self._set_exposure(spec, man, img)
                 if f == 0 and b == "depth":
-                    pos = img[img > 0]
-                    man["depth_scale"] = float(np.median(pos)) if pos.size else 1.0
+                    man["depth_scale"] = depth_scale(img)
             self._save(spec.name, man)
             dt = time.perf_counter() - t0
             bar.set_postfix_str(f"{r.samples_rendered / 1e6 / max(dt, 1e-9):.2f} Msamples/s")
@@ -504,19 +508,15 @@ class Store:
         elif man.get("exposure") is None and "0000/ref.exr" in man["files"]:
             self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command("ref")))
         if man.get("depth_scale") is None and "0000/depth.exr" in man["files"]:
-            depth = read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth"))
-            pos = depth[depth > 0]
-            man["depth_scale"] = float(np.median(pos)) if pos.size else 1.0
+            man["depth_scale"] = depth_scale(read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth")))
 
     def _set_exposure(self, spec: SceneSpec, man: dict, ref0: np.ndarray) -> None:
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
             return
-        clean, _ = sanitise(ref0, allow_negative=False)
-        mean = float(clean.mean())
-        target = float(self.data_cfg.get("exposure_target", 0.5))
-        man["exposure"] = target / mean if mean > 0 else 1.0
-        if mean <= 0:
+        exposure = auto_exposure(ref0, float(self.data_cfg.get("exposure_target", 0.5)))
+        man["exposure"] = exposure or 1.0
+        if exposure is None:
             log.warning("scene %s: frame 0's reference is black; exposure left at 1", spec.name)
 
     def _write(
@@ -571,13 +571,8 @@ class Store:
             raise CorruptEXRError(
                 p, f"{img.shape[-1]} channels, {buffer} has {CHANNELS[buffer]}", self.fix_command(buffer)
             )
-        # scale first, then sanitise: a finite value that overflows float32 when scaled becomes 0, not Inf
-        if buffer in COLOUR_BUFFERS:
-            with np.errstate(over="ignore"):
-                img *= np.float32(man.get("exposure") or 1.0)
-        elif buffer == "depth":
-            img /= np.float32(man.get("depth_scale") or 1.0)
-        img, n_bad = sanitise(img, allow_negative=buffer in NEGATIVE_OK)
+        img, n_bad = normalise(img, buffer, man.get("exposure") or 1.0, man.get("depth_scale") or 1.0,
+                               colour=buffer in COLOUR_BUFFERS)
         if n_bad and str(p) not in self._warned:
             self._warned.add(str(p))
             log.warning(

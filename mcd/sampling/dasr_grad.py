@@ -17,6 +17,7 @@ from torch import Tensor
 from torch.profiler import record_function
 
 from mcd.sampling.normalise import cap_for_levels, frame_budget, normalise_map, shares
+from mcd.sampling.real import active_renderer
 from mcd.sampling.simulate import blend_with_c1
 
 
@@ -54,9 +55,14 @@ def adaptive_render(logits: Tensor, c1: Tensor, stack: Tensor, ref: Tensor | Non
     ``c1`` is the render the sampler saw (``c1_in``), ``stack`` the ``[B, K, 3, H, W]`` renders ``c_{2^k}``,
     ``ref`` the reference (training only). Computed in fp32 whatever the autocast state. On the meta device
     (MAC counting, :mod:`mcd.complexity`) only shapes are produced: these steps hold no multiply-accumulates.
+    Inside :func:`mcd.sampling.real.real_renderer` the map is rendered for real (``stack`` is not read).
     """
     if logits.device.type == "meta":
         return c1.float().clone(), logits.float().clone()
     with torch.autocast(device_type=logits.device.type, enabled=False):
         p = shares(logits)
+        render_sum = active_renderer()
+        if render_sum is not None:
+            m = normalise_map(p, budget, cap_for_levels(stack.shape[1] - 1))
+            return (c1.float() + render_sum(m).float()) / (1 + m.float()), m
         return AdaptiveRender.apply(p, c1, stack, ref, budget)

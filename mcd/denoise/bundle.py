@@ -1,0 +1,106 @@
+"""``python -m mcd.denoise.bundle <run dir> --name <name>``: a finished run -> a bundled checkpoint
+(docs/denoise.md, "Bundled checkpoints").
+
+Writes ``mcd/bundled/<name>.pt`` (the model's weights only: a flat state dict of float tensors, loadable with
+``weights_only=True``) and ``<name>.json``: its provenance (the ``mcd.run`` command that trained it, the
+commit and whether the tree was dirty, the data profile, the budget in samples per pixel, the training budget
+and why it stopped, the device, the test metrics from the run's ``metrics.json``), the SHA-256 of the ``.pt``
+and the configuration the model is built from (``experiment``, ``method``, ``model``, ``budget``, the data
+keys the inputs are normalised with). ``--checkpoint <name>`` of ``mcd-denoise`` then finds it. The weights
+are checked against the model they are built into before anything is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+import torch
+import yaml
+from omegaconf import DictConfig, OmegaConf
+
+from mcd.data.store import check_name
+from mcd.denoise.weights import BUNDLED_DIR
+from mcd.lit import checkpoint
+from mcd.lit.transfer import checkpoint_of
+
+#: Keys of a run's metrics.json copied into the provenance.
+METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse", "per_scene",
+           "scenes_test", "params_m", "macs_g", "best_val_psnr", "train_steps", "stop_reason", "epochs",
+           "train_s", "wall_s", "commit", "dirty", "device", "torch", "precision", "data_profile",
+           "model_profile", "train_profile", "budget", "seed", "experiment")
+#: Data keys the inputs are normalised with (mcd.data.exposure) and the scene renders use.
+DATA_KEYS = ("name", "exposure_target", "max_depth", "gbuffer_spp", "ref_spp", "width", "height")
+
+
+def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
+           source_commit: str | None = None) -> dict[str, Any]:
+    """Write ``<out_dir>/<name>.pt`` and ``.json`` from ``run_dir`` (module docstring); returns the JSON.
+
+    ``source_commit``: the commit the run's code was exported from, for a run outside a git checkout (its
+    ``metrics.json`` then says ``commit: unknown``); recorded as given, beside the run's own record.
+    """
+    from mcd.models import build
+
+    check_name(name, "--name")
+    metrics_path = run_dir / "metrics.json"
+    if not metrics_path.is_file():
+        raise FileNotFoundError(f"{metrics_path}: missing; bundle a finished run of python -m mcd.run")
+    metrics = json.loads(metrics_path.read_text())
+    ckpt = checkpoint_of(run_dir)
+    state = checkpoint.safe_load(ckpt, "run dir")
+    cfg = OmegaConf.create(state["hyper_parameters"]["cfg"])
+    weights = {k: v.detach().float().contiguous() for k, v in checkpoint.model_weights(state).items()}
+    checkpoint.check_fits(build(cfg), weights, "run dir", ckpt)
+    overrides_file = run_dir / ".hydra" / "overrides.yaml"
+    overrides = yaml.safe_load(overrides_file.read_text()) if overrides_file.is_file() else None
+    provenance = {
+        "command": None if overrides is None else " ".join(["python -m mcd.run", *overrides]),
+        "checkpoint": f"{ckpt.relative_to(run_dir)} (global step {state.get('global_step')})",
+        "train": OmegaConf.to_container(cfg.train, resolve=True),
+        "metrics": {k: metrics.get(k) for k in METRICS},
+        **({"source_commit": source_commit} if source_commit else {}),
+    }
+    return write_bundle(weights, cfg, name, provenance, out_dir)
+
+
+def write_bundle(weights: dict[str, torch.Tensor], cfg: DictConfig, name: str, provenance: dict[str, Any],
+                 out_dir: Path = BUNDLED_DIR) -> dict[str, Any]:
+    """``<out_dir>/<name>.pt`` (``weights``) and ``<name>.json`` (``provenance``, the ``.pt``'s SHA-256 and
+    the model's configuration from ``cfg``, module docstring); returns the JSON."""
+    config = {
+        "experiment": str(cfg.get("experiment", cfg.method.name)),
+        "method": OmegaConf.to_container(cfg.method, resolve=True),
+        "model": OmegaConf.to_container(cfg.model, resolve=True),
+        "budget": cfg.budget,
+        "data": {k: cfg.data.get(k) for k in DATA_KEYS},
+    }
+    out_dir.mkdir(parents=True, exist_ok=True)
+    pt = out_dir / f"{name}.pt"
+    torch.save(weights, pt)
+    meta = {"name": name, "weights_file": pt.name, "sha256": hashlib.sha256(pt.read_bytes()).hexdigest(),
+            **provenance, "config": config}
+    (out_dir / f"{name}.json").write_text(json.dumps(meta, indent=1) + "\n")
+    return meta
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(prog="python -m mcd.denoise.bundle", description=__doc__.split("\n\n")[0])
+    p.add_argument("run_dir", type=Path, help="a finished run directory of python -m mcd.run")
+    p.add_argument("--name", required=True, help="the bundled checkpoint's name (e.g. F-cpu-small)")
+    p.add_argument("--out", type=Path, default=BUNDLED_DIR,
+                   help="folder (default: the package's mcd/bundled)")
+    p.add_argument("--source-commit", help="the commit a run outside a git checkout was exported from")
+    args = p.parse_args(argv)
+    meta = bundle(args.run_dir, args.name, args.out, args.source_commit)
+    m = meta["metrics"]
+    size = (args.out / meta["weights_file"]).stat().st_size / 1e6
+    print(f"{args.out / args.name}.pt ({size:.2f} MB): "
+          f"{meta['config']['experiment']}, test PSNR {m.get('psnr')} dB (input {m.get('input_psnr')} dB)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,85 @@
+"""Input (a) of ``mcd.denoise``: a sequence of EXR frames on disk (docs/denoise.md, "Frames from disk").
+
+For the methods that read a uniform render (U-Net = row A, other rows without AS, RAE, FastDVDnet, OIDN,
+``noisy``): each frame's colour is fed as the uniform render ``c_s`` the method was trained on, with the
+G-buffers it reads, in sequence order; the model is reset once at the start, so temporal methods carry their
+state across the sequence, and a model with a frame window (FastDVDnet: 2 before, 2 after) gets its
+neighbours, edge frames repeated (as the test datamodule does, docs/architecture.md "Batches").
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from mcd.denoise.frames import LAYERS, FrameError, FrameSequence
+from mcd.denoise.output import write_frame
+from mcd.denoise.tiles import PROBE, TiledModel, bytes_per_pixel, tile_size
+from mcd.denoise.weights import Loaded
+
+log = logging.getLogger(__name__)
+
+
+def colour_key(loaded: Loaded) -> str:
+    """The buffer a uniform method reads its colour from (``c{budget}``); FrameError for adaptive methods."""
+    reads = set(loaded.model.required_buffers())
+    colour = sorted(reads - set(LAYERS))
+    if loaded.adaptive or len(colour) != 1:
+        raise FrameError(
+            f"{loaded.source}: experiment {loaded.experiment} samples adaptively (it reads {sorted(reads)}): "
+            "it needs a renderer, not finished frames; give a Mitsuba scene with --scene path/to/scene.xml, "
+            "or a checkpoint of a uniform method (e.g. --checkpoint unet-cpu-small)")
+    return colour[0]
+
+
+def to_tensor(img: np.ndarray, device: torch.device) -> torch.Tensor:
+    return torch.from_numpy(np.ascontiguousarray(img.transpose(2, 0, 1)))[None].to(device)
+
+
+def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: torch.device,
+                   max_memory_mb: float, overlap: int, progress: bool = True) -> dict[str, Any]:
+    """Denoise ``paths`` (one sequence) into ``out_dir``; returns a summary (frames, tiles, sanitised, s)."""
+    model = loaded.model.to(device)
+    key = colour_key(loaded)
+    want = set(model.required_buffers()) & set(LAYERS)
+    seq = FrameSequence(paths, want, key, float(loaded.cfg.data.get("exposure_target", 0.5)))
+    past, future = (int(v) for v in model.window)
+    cache: dict[int, dict[str, torch.Tensor]] = {}
+
+    def frame(i: int) -> dict[str, torch.Tensor]:
+        i = min(max(i, 0), len(seq) - 1)
+        if i not in cache:
+            cache[i] = {k: to_tensor(v, device) for k, v in seq.load(i).items()}
+        return cache[i]
+
+    def inputs(i: int) -> dict[str, torch.Tensor | None]:
+        if (past, future) == (0, 0):
+            return dict(frame(i))
+        frames = [frame(j) for j in range(i - past, i + future + 1)]
+        return {k: torch.stack([f[k] for f in frames], dim=1) for k in frames[0]}
+
+    h, w = seq.size
+    probe = {k: v[..., :PROBE, :PROBE] for k, v in inputs(0).items()}
+    per_pixel = bytes_per_pixel(model, probe)
+    side = tile_size(per_pixel, max_memory_mb, overlap)
+    tiled = TiledModel(model, h, w, side, overlap)
+    log.info("%d frames of %dx%d from %s: %s reads %s as %s; exposure x%.4g; %d tile(s) (%.0f bytes/pixel, "
+             "cap %g MB)", len(seq), w, h, paths[0].parent, loaded.experiment,
+             ",".join(sorted(want)) or "colour", key, seq.exposure, len(tiled), per_pixel, max_memory_mb)
+    t0 = time.perf_counter()
+    tiled.reset()
+    bar = tqdm(range(len(seq)), desc="denoise", unit="frame", disable=not progress)
+    with torch.no_grad():
+        for i in bar:
+            out = tiled(inputs(i))
+            write_frame(out_dir, paths[i].stem, out, seq.exposure)
+            for j in [j for j in cache if j < i - past]:
+                del cache[j]
+    return {"frames": len(seq), "tiles": len(tiled), "size": [h, w], "exposure": seq.exposure,
+            "sanitised": seq.bad, "seconds": time.perf_counter() - t0, "out_dir": str(out_dir)}

@@ -1,0 +1,133 @@
+"""What ``--checkpoint`` names, loaded as weights only (docs/denoise.md, "Checkpoints").
+
+``--checkpoint`` is a run directory of ``python -m mcd.run`` (its best checkpoint, else its last: the rule of
+``transfer.init_from``, :func:`mcd.lit.transfer.checkpoint_of`), a ``.ckpt`` file of such a run, or the name
+of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.json``, made by
+``python -m mcd.denoise.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
+``weights_only=True`` (:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the
+checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
+it exactly (:func:`mcd.lit.checkpoint.check_fits`). ``--experiment`` / ``--model`` state what the user
+expects: a checkpoint of another method or capacity is refused, naming both.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf
+from torch import nn
+
+from mcd.lit import checkpoint
+
+BUNDLED_DIR = Path(__file__).resolve().parents[1] / "bundled"
+#: Methods whose first stage samples adaptively: they need a renderer (``--scene``), not frames from disk.
+ADAPTIVE = ("dasr", "ntasad")
+
+
+def bundled_names() -> list[str]:
+    """Names of the checkpoints shipped with the package."""
+    return sorted(p.stem for p in BUNDLED_DIR.glob("*.pt") if p.with_suffix(".json").is_file())
+
+
+@dataclass
+class Loaded:
+    """A model with its trained weights and what is known about them."""
+
+    model: nn.Module
+    cfg: DictConfig
+    source: str
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def experiment(self) -> str:
+        return str(self.cfg.get("experiment", self.cfg.method.name))
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the method's first stage places samples (rows B-M, DASR, NTASAD)."""
+        m = self.cfg.method
+        return str(m.name) in ADAPTIVE or (str(m.name) == "two_stage" and bool(m.get("AS", False)))
+
+
+def _from_run_ckpt(path: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
+    state = checkpoint.safe_load(path, "--checkpoint")
+    cfg = (state.get("hyper_parameters") or {}).get("cfg")
+    if cfg is None:
+        resolved = path.parent.parent / "resolved_config.yaml"
+        if not resolved.is_file():
+            raise checkpoint.CheckpointError(
+                f"--checkpoint={path}: no training configuration inside and no {resolved}; give a checkpoint "
+                "written by python -m mcd.run, its run directory, or a bundled name")
+        cfg = OmegaConf.load(resolved)
+    weights = checkpoint.model_weights(state)
+    return OmegaConf.create(cfg), weights, {"checkpoint": str(path), "global_step": state.get("global_step")}
+
+
+def _from_bundle(pt: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
+    meta = pt.with_suffix(".json")
+    provenance = json.loads(meta.read_text())
+    weights = checkpoint.safe_load(pt, "--checkpoint")
+    return OmegaConf.create(provenance["config"]), weights, provenance
+
+
+def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]:
+    """``(config, weights, provenance, source)`` of what ``--checkpoint=spec`` names (module docstring)."""
+    if spec in bundled_names():
+        cfg, weights, prov = _from_bundle(BUNDLED_DIR / f"{spec}.pt")
+        return cfg, weights, prov, f"bundled checkpoint {spec} ({BUNDLED_DIR / spec}.pt)"
+    path = Path(spec).expanduser()
+    if path.suffix == ".pt" and path.is_file() and path.with_suffix(".json").is_file():
+        cfg, weights, prov = _from_bundle(path)
+        return cfg, weights, prov, f"bundled checkpoint {path}"
+    if path.is_dir() or path.is_file():
+        from mcd.lit.transfer import checkpoint_of
+
+        try:
+            ckpt = checkpoint_of(path)
+        except FileNotFoundError:
+            raise FileNotFoundError(
+                f"--checkpoint={spec}: a folder without checkpoints/best*.ckpt or checkpoints/last.ckpt; "
+                "give a finished run directory of python -m mcd.run, a .ckpt file, or a bundled name "
+                f"({', '.join(bundled_names()) or 'none installed'})") from None
+        cfg, weights, prov = _from_run_ckpt(ckpt)
+        return cfg, weights, prov, str(ckpt)
+    raise FileNotFoundError(
+        f"--checkpoint={spec}: no such file or folder, and not a bundled checkpoint (bundled: "
+        f"{', '.join(bundled_names()) or 'none installed'}); give a run directory of python -m mcd.run, a "
+        ".ckpt file, or one of the bundled names")
+
+
+def load(spec: str, experiment: str | None = None, capacity: str | None = None) -> Loaded:
+    """The model of ``--checkpoint=spec`` with its weights (evaluation mode, CPU).
+
+    ``experiment`` / ``capacity``: what the user expects (``--experiment``, ``--model``); a checkpoint of
+    another method or model profile raises :class:`mcd.lit.checkpoint.CheckpointError` naming both.
+    """
+    from mcd.models import build
+
+    cfg, weights, prov, source = resolve(spec)
+    got = str(cfg.get("experiment", cfg.method.name))
+    if experiment is not None and experiment != got:
+        raise checkpoint.CheckpointError(
+            f"--checkpoint={spec}: a checkpoint of experiment {got!r}, not {experiment!r}; give a checkpoint "
+            f"trained with +experiment={experiment} (or drop --experiment)")
+    widths = {k: OmegaConf.to_container(v, resolve=True) for k, v in (cfg.get("model") or {}).items()}
+    if capacity is not None:
+        from mcd.denoise.configs import model_profile
+
+        expected = model_profile(capacity)
+        name = str(cfg.method.name)
+        key = "two_stage" if name in ("two_stage", "unet") else name
+        if key in expected and widths.get(key) != expected[key]:
+            raise checkpoint.CheckpointError(
+                f"--checkpoint={spec}: its {key} widths are not those of model={capacity} "
+                f"({widths.get(key)} vs {expected[key]}); give a checkpoint trained with model={capacity} "
+                "(or drop --model)")
+    model = build(cfg)
+    checkpoint.check_fits(model, weights, "--checkpoint", source)
+    model.load_state_dict(weights)
+    model.eval()
+    return Loaded(model, cfg, source, prov)
