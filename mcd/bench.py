@@ -1,4 +1,5 @@
-"""``python -m mcd.bench``: inference speed of every method (benchmark.md "Metrics", speed), beside Intel Open
+"""``python -m mcd.bench``: inference speed of every method (docs/benchmark.md "Metrics", speed), beside
+Intel Open
 Image Denoise on the same frames; writes ``reports/bench/bench.csv`` (read by ``mcd.report``'s speed-against-
 error plot) and prints a table.
 

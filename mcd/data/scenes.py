@@ -8,7 +8,7 @@ A scene config (``data.scenes.<name>``, composed from ``conf/scene/<file>.yaml``
   those ``<default>``s takes them; docs/scenes.md, "Your own scene"); or
 - ``kind: procedural``: a room from :mod:`mcd.data.procedural` with its ``seed``.
 
-The camera path (benchmark.md, "Camera"): explicit key nodes ``path.nodes`` (``origin``/``target``/``up``), or
+The camera path (docs/benchmark.md, "Camera"): explicit key nodes ``path.nodes`` (``origin``/``target``/``up``), or
 derived from the scene's own camera (XML scenes): the first node is that camera; the others dolly forward by a
 fraction ``path.dolly`` of the free distance ahead, truck sideways by ``path.truck`` of the free distance to
 the side, and pan by alternating ``path.pan_deg``. Every segment is checked against the scene's geometry (a

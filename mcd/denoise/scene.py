@@ -1,5 +1,5 @@
 """Input (b) of ``mcd.denoise``: a Mitsuba scene, rendered and sampled for real (docs/denoise.md, "Scenes:
-the real loop"; method.md "Adaptive sampling"; paper Sec. 3.1).
+the real loop"; docs/method.md "Adaptive sampling"; paper Sec. 3.1).
 
 Per frame (the scene's own camera; with ``frames > 1`` a path derived from it as for the benchmark's scenes,
 :func:`mcd.data.scenes.derive_nodes`): render ``c_1`` (1 spp, ``N`` samples) and the G-buffers (their own

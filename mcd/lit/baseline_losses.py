@@ -1,4 +1,4 @@
-"""The baselines' own training losses (baselines.md), registered in :mod:`mcd.lit.losses` by name.
+"""The baselines' own training losses (docs/baselines.md), registered in :mod:`mcd.lit.losses` by name.
 
 Select one with ``loss=<name>`` (configs ``conf/loss/<name>.yaml`` set ``loss.module`` to this module); the
 paper's loss (``loss=paper``) is the alternative the paper itself used for every method. Like the paper's
@@ -81,7 +81,7 @@ def temporal_l1(p: Tensor, r: Tensor) -> Tensor:
 
 @register_loss("rae")
 class RAELoss(BaselineLoss):
-    """RAE's loss (baselines.md "RAE"): ``w_s`` L1 + ``w_g`` L1 of LoG(``sigma``) + ``w_t`` temporal L1,
+    """RAE's loss (docs/baselines.md "RAE"): ``w_s`` L1 + ``w_g`` L1 of LoG(``sigma``) + ``w_t`` temporal L1,
     each frame weighted by ``frame_weights`` (the last ``T``; the temporal term from the clip's second
     frame)."""
 
@@ -113,7 +113,8 @@ class RAELoss(BaselineLoss):
 
 @register_loss("dasr")
 class DASRLoss(BaselineLoss):
-    """DASR's loss (baselines.md "DASR"): relative L1 ``|p - r| / (|r| + eps)`` + ``w_g`` times the same on
+    """DASR's loss (docs/baselines.md "DASR"): relative L1 ``|p - r| / (|r| + eps)`` + ``w_g`` times the same
+    on
     LoG(``sigma``) images, over every frame of the clip (DASR is single-frame)."""
 
     name = "dasr"
@@ -136,7 +137,7 @@ class DASRLoss(BaselineLoss):
 
 @register_loss("ntasad")
 class NTASADLoss(BaselineLoss):
-    """NTASAD's loss (baselines.md "NTASAD"): ``w_s`` L1 over all frames + ``w_t`` temporal L1 over the
+    """NTASAD's loss (docs/baselines.md "NTASAD"): ``w_s`` L1 over all frames + ``w_t`` temporal L1 over the
     unroll."""
 
     name = "ntasad"
@@ -156,7 +157,7 @@ class NTASADLoss(BaselineLoss):
 
 @register_loss("mse")
 class MSELoss(BaselineLoss):
-    """FastDVDnet's original loss (baselines.md "FastDVDnet"): mean squared error over every frame."""
+    """FastDVDnet's original loss (docs/baselines.md "FastDVDnet"): mean squared error over every frame."""
 
     name = "mse"
 

@@ -1,4 +1,4 @@
-"""The basic building block of both networks: a 3x3 convolution followed by ReLU (paper Sec. 3)."""
+"""The basic building block of both networks: a 3x3 convolution followed by ReLU (paper Sec. 4)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The denoising network ``F_d`` (paper Sec. 3; method.md "Networks", "Position-aware pooling", "SA").
+"""The denoising network ``F_d`` (paper Sec. 4; docs/method.md "Networks", "Position-aware pooling", "SA").
 
 A deeper, wider U-Net than ``F_s`` that directly predicts the denoised image in the compressed colour range.
 PP swaps its encoder's max pooling for position-aware pooling; SA puts semantic alignment at its deepest level

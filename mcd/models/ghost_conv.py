@@ -1,4 +1,4 @@
-"""Fast GhostConv (paper Sec. 3.2 "Fast GhostConv"; method.md "Fast GhostConv").
+"""Fast GhostConv (paper Sec. 4.2 "Fast GhostConv"; docs/method.md "Fast GhostConv").
 
 A large-kernel group convolution gathers a wide neighbourhood cheaply; a point-wise convolution mixes its
 channels into half the output; a depth-wise 3x3 convolution on that half makes the other ("ghost") half;

@@ -1,4 +1,4 @@
-"""Input preparation shared by the two-stage networks (method.md "Inputs").
+"""Input preparation shared by the two-stage networks (docs/method.md "Inputs").
 
 Colour enters the networks compressed (default ``log1p``, ``method.colour``) and leaves through the inverse;
 depth enters as ``log1p(depth)`` so distant surfaces stay in range; the sampler also sees two grey images.

@@ -1,4 +1,5 @@
-"""Kernel pool: adjustment, interpolation, per-pixel application (paper Sec. 3.1; method.md "Kernel pool").
+"""Kernel pool: adjustment, interpolation, per-pixel application (paper Sec. 4.1; docs/method.md "Kernel
+pool").
 
 - Pool ``pi``: ``q`` learnable ``l x l`` kernels, initialised Bernoulli(0.5) in {0, 1} (times
   ``pool_init_scale``, default 1 = the paper; a larger scale gives sharper kernels under the softmax).

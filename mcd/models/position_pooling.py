@@ -1,4 +1,4 @@
-"""Position-aware pooling (paper Sec. 3.2 "Position-aware pooling"; method.md "Position-aware pooling").
+"""Position-aware pooling (paper Sec. 4.2 "Position-aware pooling"; docs/method.md "Position-aware pooling").
 
 For every 2x2 window (stride 2) a cheap MLP of 1x1 convolutions scores each of the 4 members from its
 features, its absolute position (x, y in (-1, 1) over the whole feature map) and its relative position in the

@@ -1,4 +1,4 @@
-"""The sampling network ``F_s`` (paper Sec. 3 and 3.1; method.md "Adaptive sampling", "Kernel pool",
+"""The sampling network ``F_s`` (paper Sec. 4 and 3.1; docs/method.md "Adaptive sampling", "Kernel pool",
 "Inputs").
 
 A light U-Net on ``c_1`` (compressed), the G-buffers and two grey images (luminance of ``c_1`` and of the

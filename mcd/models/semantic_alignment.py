@@ -1,4 +1,4 @@
-"""Semantic alignment (paper Sec. 3.2 "Semantic Alignment"; method.md "Semantic alignment").
+"""Semantic alignment (paper Sec. 4.2 "Semantic Alignment"; docs/method.md "Semantic alignment").
 
 At the denoiser's deepest level: the query is the current features plus a 2-D sine-cosine positional encoding;
 key and value are the previous frame's attended features, kept from the last call (the first frame after

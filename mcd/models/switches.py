@@ -1,4 +1,4 @@
-"""The component switches ``UN AS KP PP FG SA`` and their dependencies (method.md, "The five switches").
+"""The component switches ``UN AS KP PP FG SA`` and their dependencies (docs/method.md, "The five switches").
 
 One definition serves the config-time check of ``mcd.run`` (before anything is rendered) and the build-time
 check of the two-stage model.
@@ -35,11 +35,11 @@ def check_switches(method: Mapping[str, object], *, complete: bool = False) -> d
                          "or use method.name=noisy for the noisy input")
     for key, (need, why) in NEEDS.items():
         if method.get(key) and not method.get(need, False):
-            raise ValueError(f"method.{key}=true needs method.{need}=true: {why} (method.md, 'The five "
+            raise ValueError(f"method.{key}=true needs method.{need}=true: {why} (docs/method.md, 'The five "
                              f"switches'). Set method.{need}=true or method.{key}=false.")
     return {s: bool(method.get(s, False)) for s in SWITCHES}
 
 
 def switch_row(method: Mapping[str, object]) -> str:
-    """The switches as method.md writes a row, e.g. ``111111`` for F."""
+    """The switches as docs/method.md writes a row, e.g. ``111111`` for F."""
     return "".join("1" if method.get(k) else "0" for k in SWITCHES)

@@ -1,10 +1,11 @@
-"""The two-stage model of the component study, composed from the switches ``UN AS KP PP FG SA`` (method.md).
+"""The two-stage model of the component study, composed from the switches ``UN AS KP PP FG SA``
+(docs/method.md).
 
 - UN: the denoiser ``F_d`` (always on). Without AS it denoises the uniform render at the budget, ``c_s``.
 - AS: the sampling network ``F_s`` predicts logits, :func:`mcd.sampling.adaptive_render` turns them into the
   sampling map ``m`` and the adaptive image ``i``; ``F_d`` sees ``i``, ``g`` and ``m / (s - 1)``.
 - KP (needs AS): ``F_s`` also predicts the kernel map; the kernel pool's per-pixel kernels give ``i_bar``;
-  ``F_d`` sees ``i_bar``, ``g`` and ``m / (s - 1)`` (paper Sec. 3.1: each pixel of ``i_bar`` switches between
+  ``F_d`` sees ``i_bar``, ``g`` and ``m / (s - 1)`` (paper Sec. 4.1: each pixel of ``i_bar`` switches between
   the filtered and the raw adaptive pixel, so ``F_d`` does not read ``i`` itself). ``method.kp`` holds the
   kernel pool's options (docs/kernel_pool.md): ``denoiser_reads_adaptive: true`` feeds ``i`` to ``F_d``
   beside ``i_bar`` (this project's behaviour before; the map then bypasses the pool), ``head_output``,
@@ -90,7 +91,7 @@ class TwoStage(nn.Module):
         self.denoiser.reset()
 
     def sampler_input(self, x: dict[str, Tensor | None]) -> Tensor:
-        """``F_s``'s input (method.md "Inputs"): ``c_1``, ``g``, grey ``c_1`` and grey albedo."""
+        """``F_s``'s input (docs/method.md "Inputs"): ``c_1``, ``g``, grey ``c_1`` and grey albedo."""
         who = "two_stage"
         c1, albedo = need(x, "c1_in", who), need(x, "albedo", who)
         return torch.cat([compress(c1, self.colour), gbuffers(x, who), compress(grey(c1), self.colour),

@@ -1,4 +1,4 @@
-"""A configurable U-Net of conv blocks with skip connections (paper Sec. 3: both ``F_s`` and ``F_d``).
+"""A configurable U-Net of conv blocks with skip connections (paper Sec. 4: both ``F_s`` and ``F_d``).
 
 Level ``j`` works at ``1 / 2^j`` resolution with ``widths[j]`` channels and ``convs`` blocks; the encoder
 pools between levels (max pooling, or position-aware pooling), the decoder upsamples bilinearly, concatenates

@@ -27,7 +27,8 @@ PANELS = (
 def spp_frame(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     """One row per (experiment, budget) with a finished or failed run, preferring the spp sweep's jobs.
 
-    Where the U-Net has no finished run at a budget, row A's run (the same network, baselines.md) stands in
+    Where the U-Net has no finished run at a budget, row A's run (the same network, docs/baselines.md) stands
+    in
     and its ``source`` says A, as in Table 1.
     """
     keys = {(r.experiment, r.budget) for r in runs if r.budget is not None and r.transfer is None}

@@ -50,7 +50,7 @@ def _status(run: Run | None) -> str:
 def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     """PSNR, SSIM x1e2, GMACs, M params at 4 spp per method, our value beside the paper's.
 
-    U-Net is row A's network (baselines.md); when no `unet` job ran, row A's run stands in and says so.
+    U-Net is row A's network (docs/baselines.md); when no `unet` job ran, row A's run stands in and says so.
     """
     rows = []
     for exp in TABLE1_ROWS:

@@ -1,5 +1,6 @@
 """Every baseline composes from ``+experiment=<name>``, builds through the registry, selects its own loss,
-and at the ``paper`` capacity profile lands within 10% of Table 1's params and 1080p MACs (baselines.md)."""
+and at the ``paper`` capacity profile lands within 10% of Table 1's params and 1080p MACs
+(docs/baselines.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""DASR (baselines.md "DASR"): the sampling map keeps its budget; the sampler learns through DASR's gradient.
+"""DASR (docs/baselines.md "DASR"): the sampling map keeps its budget; the sampler learns through DASR's
+gradient.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""FastDVDnet (baselines.md "FastDVDnet"): 5-frame window, two stages; the output depends on all 5 frames."""
+"""FastDVDnet (docs/baselines.md "FastDVDnet"): 5-frame window, two stages; the output depends on all 5
+frames."""
 
 from __future__ import annotations
 

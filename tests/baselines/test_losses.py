@@ -1,4 +1,4 @@
-"""The baselines' own losses (baselines.md), registered in the project's loss registry."""
+"""The baselines' own losses (docs/baselines.md), registered in the project's loss registry."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""NTASAD (baselines.md "NTASAD"): output feedback across frames, hierarchical kernels, budgeted sampling."""
+"""NTASAD (docs/baselines.md "NTASAD"): output feedback across frames, hierarchical kernels, budgeted
+sampling."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""RAE (baselines.md "RAE"): recurrent state persists across frames, resets between sequences."""
+"""RAE (docs/baselines.md "RAE"): recurrent state persists across frames, resets between sequences."""
 
 from __future__ import annotations
 

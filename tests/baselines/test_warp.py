@@ -1,4 +1,4 @@
-"""NTASAD's feedback warp (baselines.md "NTASAD"): zero motion is the identity, a shift moves content."""
+"""NTASAD's feedback warp (docs/baselines.md "NTASAD"): zero motion is the identity, a shift moves content."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""The baselines of the paper's Table 1 (baselines.md; benchmark.md "Experiments"), each registered in
+"""The baselines of the paper's Table 1 (docs/baselines.md; docs/benchmark.md "Experiments"), each registered
+in
 :mod:`mcd.models.registry` under its ``method.name``: ``unet`` (= component row A), ``rae``, ``fastdvdnet``,
 ``dasr``, ``ntasad``, and the parameter-free ``oidn`` (Intel Open Image Denoise) and ``noisy`` (the input)."""
 

@@ -1,4 +1,4 @@
-"""DASR, deep adaptive sampling and reconstruction (Kuznetsov et al. 2018; baselines.md "DASR").
+"""DASR, deep adaptive sampling and reconstruction (Kuznetsov et al. 2018; docs/baselines.md "DASR").
 
 Sampler and denoiser are the same U-Net, RAE's without recurrence
 (:class:`~mcd.models.baselines.rae.RAEUNet`, ``recurrent=False``). The sampler sees the 1 spp render
@@ -9,7 +9,7 @@ simulated render from the 2^k stack, blended with ``c_1``; the gradient through 
 (:func:`mcd.sampling.adaptive_render`). The denoiser sees the adaptive image (``log1p``) + G-buffers.
 
 Training: the original trains in stages (denoiser on random smooth maps, then sampler, then both); here both
-networks are trained jointly from the start with DASR's loss (``loss=dasr``), as baselines.md allows.
+networks are trained jointly from the start with DASR's loss (``loss=dasr``), as docs/baselines.md allows.
 """
 
 from __future__ import annotations

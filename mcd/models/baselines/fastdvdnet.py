@@ -1,4 +1,4 @@
-"""FastDVDnet (Tassano et al. 2020; official code m-tassano/fastdvdnet), baselines.md "FastDVDnet".
+"""FastDVDnet (Tassano et al. 2020; official code m-tassano/fastdvdnet), docs/baselines.md "FastDVDnet".
 
 A 5-frame window to one output, no flow and no warping. Stage 1: one shared denoising block on the frame
 triplets (t-2..t), (t-1..t+1), (t..t+2); stage 2: a second block on those three outputs. A block is the

@@ -1,4 +1,5 @@
-"""The noisy input itself as a row of the baselines table (benchmark.md "Experiments"): the uniform render
+"""The noisy input itself as a row of the baselines table (docs/benchmark.md "Experiments"): the uniform
+render
 at the budget, no parameters, no training (``method.trainable: false``)."""
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""NTASAD, neural temporal adaptive sampling and denoising (Hasselgren et al. 2020; baselines.md "NTASAD").
+"""NTASAD, neural temporal adaptive sampling and denoising (Hasselgren et al. 2020; docs/baselines.md
+"NTASAD").
 
 Sampler and denoiser are two U-Nets of one design (:class:`NTASADUNet`): two full-resolution convs of width
 ``enc``, then max-pool + one conv of width ``enc`` at each of 1/2..1/32; a decoder of nearest upsampling +

@@ -1,4 +1,5 @@
-"""Intel Open Image Denoise through ``pyoidn`` (benchmark.md "Experiments"; baselines.md "Open points").
+"""Intel Open Image Denoise through ``pyoidn`` (docs/benchmark.md "Experiments"; docs/baselines.md "Choices
+the papers leave open").
 
 Pretrained, single frame, colour + albedo + normal, HDR mode: the reference a practitioner would reach for.
 No parameters and no training (``method.trainable: false``); it reads the uniform render at the budget.

@@ -1,4 +1,4 @@
-"""RAE, the recurrent denoising autoencoder of Chaitanya et al. 2017 (baselines.md, "RAE").
+"""RAE, the recurrent denoising autoencoder of Chaitanya et al. 2017 (docs/baselines.md, "RAE").
 
 A U-Net of 3x3 convolutions and LeakyReLU(0.1): five encoder levels (full resolution to 1/16, 2x2 max-pool
 between them) and a bottleneck at 1/32, each a recurrent block (conv -> concat with this block's own output

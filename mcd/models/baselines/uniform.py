@@ -1,5 +1,5 @@
 """The uniform render at the budget, ``c{s}``, that the uniform baselines read (architecture.md "The store":
-"Uniform methods at budget s read ``c{s}``"; benchmark.md "Experiments")."""
+"Uniform methods at budget s read ``c{s}``"; docs/benchmark.md "Experiments")."""
 
 from __future__ import annotations
 

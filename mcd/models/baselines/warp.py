@@ -1,4 +1,4 @@
-"""Backward warping by motion vectors (NTASAD's output feedback; baselines.md "NTASAD").
+"""Backward warping by motion vectors (NTASAD's output feedback; docs/baselines.md "NTASAD").
 
 The store's ``motion`` buffer (architecture.md) is backward motion in pixels: pixel ``(x, y)`` of frame
 ``t`` was at ``(x + mx, y + my)`` in frame ``t - 1``. Warping frame ``t - 1`` to frame ``t`` therefore
