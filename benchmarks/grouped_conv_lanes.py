@@ -1,12 +1,15 @@
-"""Group convolutions of row F's Fast GhostConv blocks on the CPU, as oneDNN runs them and lane-filled
-(mcd/models/ghost_conv.py; docs/inference.md, "Grouped convolutions"), beside a dense 3x3 convolution.
+"""Group convolutions of row F's Fast GhostConv blocks on the CPU, as oneDNN runs them, lane-filled and split
+into depth-wise convolutions (mcd/models/ghost_conv.py; docs/inference.md, "Grouped convolutions"), beside a
+dense 3x3 convolution.
 
 For every Fast GhostConv block of ``F_s`` and the kernel-map head (paper capacity) at its resolution for a
 ``--width`` x ``--height`` frame: GMAC/s of its 7x7 group convolution as ``conv(x)`` (oneDNN) and through
 :func:`mcd.models.ghost_conv.lane_filled_conv` with the ``S`` that :func:`lane_stride` picks, bf16 autocast
-and channels-last (the bench's fastest CPU path). Times are the best of ``--reps`` calls in thread CPU time
-(``time.thread_time``), which a machine shared with other jobs disturbs far less than wall time; run it with
-``OMP_NUM_THREADS=1``.
+and channels-last (the bench's fastest CPU path); and for the blocks where
+:func:`mcd.models.ghost_conv.split_depthwise_applies` holds, the group conv followed by the block's point-wise
+conv both ways (lane-filled then ``point``, and :func:`split_depthwise_point`). Times are the best of
+``--reps`` calls in thread CPU time (``time.thread_time``), which a machine shared with other jobs disturbs
+far less than wall time; run it with ``OMP_NUM_THREADS=1``.
 
     OMP_NUM_THREADS=1 python benchmarks/grouped_conv_lanes.py --width 960 --height 544
 """
@@ -22,7 +25,12 @@ import torch.nn.functional as F
 
 from mcd.bench import compose_cfg, device_name
 from mcd.models import build
-from mcd.models.ghost_conv import lane_filled_conv, lane_stride
+from mcd.models.ghost_conv import (
+    lane_filled_conv,
+    lane_stride,
+    split_depthwise_applies,
+    split_depthwise_point,
+)
 
 CL = torch.channels_last
 
@@ -53,8 +61,9 @@ def main() -> None:
     levels.append(("kernel-map head", model.sampler.head.blocks, 1))
     print(f"{device_name(torch.device('cpu'))}, {args.width}x{args.height}, bf16 channels-last, "
           f"best of {args.reps} (thread CPU time)")
-    print("| block | group conv | S | oneDNN GMAC/s | lane-filled GMAC/s | speed-up |")
-    print("|---|---|---|---|---|---|")
+    print("| block | group conv | S | oneDNN GMAC/s | lane-filled GMAC/s | speed-up "
+          "| group + point: lane-filled ms | split depth-wise ms | speed-up |")
+    print("|---|---|---|---|---|---|---|---|---|")
     with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16):
         for name, blocks, scale in levels:
             for block in blocks:
@@ -66,8 +75,15 @@ def main() -> None:
                 gmacs = h * w * cout * cin_g * kh * kw / 1e9
                 plain = best_cpu_ms(lambda conv=conv, x=x: conv(x), args.reps)
                 filled = best_cpu_ms(lambda conv=conv, x=x, s=s: lane_filled_conv(conv, x, s), args.reps)
+                split = "| — | — | — |"
+                if split_depthwise_applies(conv, x):
+                    p = block.point
+                    lanes = best_cpu_ms(lambda c=conv, x=x, s=s, p=p: p(lane_filled_conv(c, x, s)), args.reps)
+                    parts = best_cpu_ms(lambda c=conv, x=x, p=p: split_depthwise_point(c, p, x), args.reps)
+                    split = f"| {lanes:.1f} | {parts:.1f} | {lanes / parts:.2f}x |"
                 print(f"| {name} | {conv.in_channels}->{cout}, {conv.groups} groups | {s} | "
-                      f"{gmacs / plain * 1e3:.1f} | {gmacs / filled * 1e3:.1f} | {plain / filled:.2f}x |")
+                      f"{gmacs / plain * 1e3:.1f} | {gmacs / filled * 1e3:.1f} | {plain / filled:.2f}x "
+                      f"{split}")
         for cin, cout in ((16, 16), (32, 32), (64, 64)):
             x = torch.rand(1, cin, args.height, args.width).bfloat16().contiguous(memory_format=CL)
             weight = torch.rand(cout, cin, 3, 3).bfloat16().contiguous(memory_format=CL)

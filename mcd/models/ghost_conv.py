@@ -15,7 +15,10 @@ blocks of :data:`LANES`, so a group of 2 or 5 outputs leaves most of every block
 the blocks with ``S`` horizontally adjacent outputs: a stride-``(1, S)`` convolution whose ``S * cout_g``
 outputs per group hold the same kernel shifted by ``0 .. S - 1`` columns (width ``k + S - 1``), then one
 copy interleaves the ``S`` phases back into columns. Same function (the zero taps add nothing), chosen per
-layer by :func:`lane_stride`'s cost model.
+layer by :func:`lane_stride`'s cost model. Blocks whose groups have at most :data:`SPLIT_MAX_OUT` outputs and
+whose input has at most :data:`SPLIT_MAX_IN` channels instead run :func:`split_depthwise_point`: one
+depth-wise convolution per output of a group (oneDNN vectorises those over the input channels) with the
+point-wise convolution folded in, which sums over each group's inputs.
 
 The group convolution's output width is not given by the paper; it is ``mid_ratio * cout`` (default 0.5),
 which makes the block cheaper than the 3x3 block it replaces, as the paper's component table requires (rows
@@ -51,7 +54,10 @@ class FastGhostConv(nn.Module):
         self.act = nn.ReLU(inplace=True)
 
     def forward(self, x: Tensor) -> Tensor:
-        primary = self.point(grouped_conv(self.group, x))
+        if split_depthwise_applies(self.group, x):
+            primary = split_depthwise_point(self.group, self.point, x)
+        else:
+            primary = self.point(grouped_conv(self.group, x))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
 
 
@@ -94,6 +100,49 @@ def lane_filled_conv(conv: nn.Conv2d, x: Tensor, stride: int) -> Tensor:
                  padding=conv.padding, groups=g)                              # [B, (g, phase, o), H, wo]
     y = y.permute(0, 2, 3, 1).reshape(b, h, wo, g, s, cout_g).transpose(3, 4).reshape(b, h, wo * s, cout)
     return y[:, :, :w].permute(0, 3, 1, 2).contiguous(memory_format=torch.channels_last)
+
+
+#: :func:`split_depthwise_point` runs where a group has at most this many outputs and the block's input at
+#: most :data:`SPLIT_MAX_IN` channels: the widths where it measured faster than :func:`lane_filled_conv`
+#: (docs/inference.md, "Measured: the group convolutions"; oneDNN's depth-wise rate falls for wider inputs).
+SPLIT_MAX_OUT = 2
+SPLIT_MAX_IN = 16
+
+
+def split_depthwise_applies(conv: nn.Conv2d, x: Tensor) -> bool:
+    """Whether a Fast GhostConv block's group ``conv`` runs :func:`split_depthwise_point` on ``x``: CPU
+    inference mode, a plain stride-1 zero-padded group conv (not depth-wise) of thin groups on a narrow
+    input."""
+    g = conv.groups
+    plain = (*conv.stride, *conv.dilation) == (1,) * 4 and conv.padding_mode == "zeros"
+    thin = 1 < g < conv.in_channels and conv.out_channels // g <= SPLIT_MAX_OUT
+    return (x.device.type == "cpu" and torch.is_inference_mode_enabled() and plain and thin
+            and conv.in_channels <= SPLIT_MAX_IN)
+
+
+def split_depthwise_point(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:
+    """``point(group(x))`` for a stride-1 zero-padded group conv followed by a 1x1 conv, computed per output
+    ``o`` of a group as a depth-wise conv of ``x`` (input channel ``c`` of group ``j`` with the kernel
+    ``group.weight[j, o, c]``) and a 1x1 conv of that whose weight repeats ``point``'s column for ``(j, o)``
+    over the group's inputs, which sums them; the ``cout_g`` results are added in place. Same function: the
+    group conv's bias moves into ``point``'s. Same MACs in the depth-wise convs as in the group conv."""
+    g = group.groups
+    cout, cin_g, kh, kw = group.weight.shape
+    cout_g, cin = cout // g, cin_g * g
+    depthwise = group.weight.view(g, cout_g, cin_g, kh, kw).transpose(0, 1).reshape(cout_g, cin, 1, kh, kw)
+    mix = point.weight.view(-1, g, cout_g, 1)
+    bias = torch.mv(point.weight.view(-1, cout), group.bias) if group.bias is not None else None
+    if point.bias is not None:
+        bias = point.bias if bias is None else bias + point.bias
+
+    def part(o: int, b: Tensor | None) -> Tensor:
+        y = F.conv2d(x, depthwise[o], padding=group.padding, groups=cin)
+        return F.conv2d(y, mix[:, :, o].expand(-1, g, cin_g).reshape(-1, cin, 1, 1), b)
+
+    out = part(0, bias)
+    for o in range(1, cout_g):
+        out.add_(part(o, None))
+    return out
 
 
 def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:

@@ -10,7 +10,14 @@ import torch.nn.functional as F
 
 from mcd.lit.precision import cpu_bf16_supported
 from mcd.models import build
-from mcd.models.ghost_conv import FastGhostConv, grouped_conv, lane_filled_conv, lane_stride
+from mcd.models.ghost_conv import (
+    FastGhostConv,
+    grouped_conv,
+    lane_filled_conv,
+    lane_stride,
+    split_depthwise_applies,
+    split_depthwise_point,
+)
 from mcd.models.kernel_pool import apply_pixel_kernels
 from mcd.models.position_pooling import PositionAwarePool, position_features
 from mcd.sampling import frame_budget, normalise_map, shares
@@ -48,6 +55,45 @@ def test_inference_mode_runs_the_lane_filled_path_with_the_same_result():
         fast = block(x)
         assert grouped_conv(block.group, x).is_contiguous(memory_format=torch.channels_last)  # the fast path
     torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize(("cin", "cout", "groups"), [(16, 8, 4), (12, 8, 4), (16, 24, 4), (6, 4, 2)])
+@pytest.mark.parametrize("bias", [True, False])
+def test_split_depthwise_point_is_the_group_conv_then_the_point_conv(cin, cout, groups, bias):
+    torch.manual_seed(cin + cout)
+    group = torch.nn.Conv2d(cin, cout, 7, padding=3, groups=groups, bias=bias)
+    point = torch.nn.Conv2d(cout, cout // 2 + 1, 1, bias=bias)
+    x = torch.randn(2, cin, 9, 13) * 10
+    with torch.no_grad():
+        ref = point(group(x))
+        for fmt in (torch.contiguous_format, torch.channels_last):
+            fast = split_depthwise_point(group, point, x.contiguous(memory_format=fmt))
+            torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
+
+
+def test_split_depthwise_runs_for_thin_groups_on_narrow_inputs_in_inference_mode_only():
+    x = torch.rand(1, 16, 8, 8)
+    thin, wide = (torch.nn.Conv2d(16, cout, 7, padding=3, groups=4) for cout in (8, 24))
+    deep = torch.nn.Conv2d(64, 8, 7, padding=3, groups=4)
+    with torch.inference_mode():
+        assert split_depthwise_applies(thin, x) and not split_depthwise_applies(wide, x)
+        assert not split_depthwise_applies(deep, torch.rand(1, 64, 8, 8))
+    with torch.no_grad():
+        assert not split_depthwise_applies(thin, x)
+
+
+@pytest.mark.parametrize(("cin", "cout"), [(12, 16), (16, 16), (16, 48)])
+def test_fast_ghost_conv_in_inference_mode_is_the_block(cin, cout):
+    """Each of the block's inference paths (split depth-wise for 2 outputs per group, lane-filled otherwise)
+    against the block under plain no_grad, fp32, both memory formats, an odd size."""
+    torch.manual_seed(cin)
+    block = FastGhostConv(cin, cout).eval()
+    x = torch.rand(1, cin, 15, 23) * 5
+    with torch.no_grad():
+        ref = block(x)
+    with torch.inference_mode():
+        for fmt in (torch.contiguous_format, torch.channels_last):
+            torch.testing.assert_close(block(x.contiguous(memory_format=fmt)), ref, rtol=1e-5, atol=1e-4)
 
 
 def _unfold_kernels(image: torch.Tensor, kernels: torch.Tensor) -> torch.Tensor:
