@@ -58,10 +58,10 @@ COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss
 def path_overrides(path: str) -> list[str]:
     """Hydra overrides of a path (see the module docstring)."""
     base = ["trainer.enable_progress_bar=false"]
-    if path == "default":
-        return base
-    if path in ("compile", "default-fp32"):
-        return [*base, "train.compile=true" if path == "compile" else "trainer.precision=32-true"]
+    as_configured = {"default": [], "default-fp32": ["trainer.precision=32-true"],
+                     "compile": ["train.compile=true"]}
+    if path in as_configured:
+        return [*base, *as_configured[path]]
     base += ["trainer.precision=32-true", "train.channels_last=false", "train.grad_frames=null"]
     if path == "today":
         return [*base, "train.val_every_steps=null", "train.val_every=1", "trainer.log_every_n_steps=1"]
