@@ -13,6 +13,8 @@
 - PP: position-aware pooling in ``F_d``'s encoder. FG (needs AS): Fast GhostConv blocks in ``F_s``.
   SA: semantic alignment at ``F_d``'s deepest level (state across frames until :meth:`reset`).
 Colour is compressed inside (``method.colour``, default ``log1p``); inputs and outputs are linear HDR.
+``method.mean_match`` rescales the output per channel to the frame mean of the render ``F_d`` denoised
+(``i`` with AS, ``c_s`` without; mcd.models.mean_match, docs/method.md "Output"; not in the paper).
 The stages run under ``torch.profiler.record_function`` labels (:data:`STAGES`), which
 ``python -m mcd.bench --profile`` reads (docs/inference.md).
 """
@@ -27,6 +29,7 @@ from torch.profiler import record_function
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
+from mcd.models.mean_match import match_frame_mean
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
@@ -44,10 +47,11 @@ class TwoStage(nn.Module):
     window = (0, 0)
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
-                 colour: str = "log1p", kp: dict | None = None) -> None:
+                 colour: str = "log1p", kp: dict | None = None, mean_match: bool = False) -> None:
         super().__init__()
         self.sw = dict(switches)
         self.budget, self.levels, self.colour = float(budget), levels, colour
+        self.mean_match = bool(mean_match)
         compress(torch.zeros(1), colour)                                  # fail early on an unknown transform
         den = widths["denoiser"]
         if self.sw["AS"]:
@@ -121,11 +125,15 @@ class TwoStage(nn.Module):
                 out["initial"] = expand(kp["initial"], self.colour)
             out["sampling_map"] = m
             out["adaptive"] = image
+            render = image
         else:
-            feats = [compress(need(x, f"c{int(self.budget)}", who), self.colour), g]
+            render = need(x, f"c{int(self.budget)}", who)
+            feats = [compress(render, self.colour), g]
         with record_function("F_d"):
             y = self.denoiser(torch.cat([f.float() for f in feats], 1))
         out["output"] = expand(y, self.colour)
+        if self.mean_match:
+            out["output"] = match_frame_mean(out["output"], render)
         return out
 
 
@@ -142,4 +150,5 @@ def build_two_stage(cfg: DictConfig) -> TwoStage:
     kp = cfg.method.get("kp", None)
     return TwoStage(switches, cfg.budget, widths, levels=int(sampling.get("levels", 5)),
                     colour=cfg.method.get("colour", "log1p"),
-                    kp=OmegaConf.to_container(kp, resolve=True) if kp is not None else None)
+                    kp=OmegaConf.to_container(kp, resolve=True) if kp is not None else None,
+                    mean_match=bool(cfg.method.get("mean_match", False)))
