@@ -7,6 +7,18 @@ Every function takes linear HDR images as ``H x W x 3`` float arrays (NumPy) and
 - rMSE (Rousselle et al. 2011): mean of ``(x - ref)^2 / (ref^2 + 1e-2)`` on linear HDR (reports scale by 1e3).
 - L_t: mean of ``|(d_t - d_{t-1}) - (ref_t - ref_{t-1})|`` on display images, one value per consecutive pair
   (reports scale by 1e2).
+
+Beside the paper's metrics (which stay as they are), docs/benchmark.md ("Metrics") adds:
+
+- FLIP (NVIDIA's ꟻLIP, the ``flip-evaluator`` package): mean LDR-FLIP error of the same display images
+  (read as sRGB-encoded), 0 = identical, lower is better; :func:`flip_map` gives the per-pixel map.
+- tPSNR: the PSNR of the frame differences, ``10 log10(1 / mean(((d_t - d_{t-1}) - (ref_t - ref_{t-1}))^2))``
+  on display images, one value per consecutive pair (the squared counterpart of L_t).
+- border gap: PSNR of the outer :data:`BORDER`-pixel frame minus PSNR of the interior, in dB (below 0: the
+  border is worse); compare a method's with its input's (``input_border_gap``), which shows how much of the
+  gap is the content.
+- colour shift: the largest relative difference of a channel's frame mean from the reference's,
+  ``max_c |mean(x_c) / mean(ref_c) - 1|`` on linear HDR (0.05 = 5%; NaN for a black reference channel).
 - Averages: per frame, then over the frames of a scene, then over scenes (each scene weighs the same).
 """
 
@@ -15,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 
+import flip_evaluator
 import numpy as np
 from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
@@ -22,8 +35,16 @@ from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 PSNR_CAP_DB = 100.0
 RMSE_EPS = 1e-2
 
+#: Width in pixels of the image frame that :func:`border_gap` compares with the interior.
+BORDER = 4
+
+#: The paper's per-frame metrics (docs/benchmark.md "Metrics"); every finished run's metrics.json has them.
+PAPER_METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse")
+#: Metrics this project adds (FLIP, tPSNR, border gap, colour shift; runs before them have none).
+ADDED_METRICS = ("flip", "tpsnr", "border_gap", "colour_shift",
+                 "input_flip", "input_tpsnr", "input_border_gap")
 #: Per-frame metric names, in the order of ``frames.csv``.
-FRAME_METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse")
+FRAME_METRICS = (*PAPER_METRICS, *ADDED_METRICS)
 #: Per-frame statistics of a model's internals, present only for the models that have them: the kernel map's
 #: identity share and the spread of its kernel index across the frame (KP, ``mcd.lit.module``).
 MODEL_METRICS = ("kp_identity", "kp_index_std")
@@ -86,9 +107,64 @@ def temporal_l1(x: np.ndarray, x_prev: np.ndarray, ref: np.ndarray, ref_prev: np
     return float(np.mean(np.abs(dx - dr)))
 
 
+def _psnr_of_mse(mse: float) -> float:
+    return PSNR_CAP_DB if mse <= 0 else min(10.0 * math.log10(1.0 / mse), PSNR_CAP_DB)
+
+
+def temporal_psnr(x: np.ndarray, x_prev: np.ndarray, ref: np.ndarray, ref_prev: np.ndarray) -> float:
+    """tPSNR of one consecutive pair: PSNR (peak 1, capped) of ``(d_t - d_{t-1})`` against
+    ``(ref_t - ref_{t-1})`` on display images."""
+    _check_pair(x, ref)
+    _check_pair(x_prev, ref_prev)
+    err = (to_display(x) - to_display(x_prev)) - (to_display(ref) - to_display(ref_prev))
+    return _psnr_of_mse(float(np.mean(err**2)))
+
+
+def flip_map(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Per-pixel LDR-FLIP error (``H x W``, 0..1) of the display images of ``x`` against ``ref``."""
+    _check_pair(x, ref)
+    err, _, _ = flip_evaluator.evaluate(to_display(ref).astype(np.float32), to_display(x).astype(np.float32),
+                                        "LDR", inputsRGB=True, applyMagma=False, computeMeanError=False)
+    return np.asarray(err, dtype=np.float32).reshape(x.shape[:2])
+
+
+def flip(x: np.ndarray, ref: np.ndarray) -> float:
+    """Mean LDR-FLIP error of the display images (0 = identical; lower is better)."""
+    return float(np.mean(flip_map(x, ref), dtype=np.float64))
+
+
+def border_gap(x: np.ndarray, ref: np.ndarray, width: int = BORDER) -> float:
+    """PSNR (display images) of the outer ``width``-pixel frame minus that of the interior, in dB; NaN for an
+    image without an interior (a side under ``3 * width``)."""
+    _check_pair(x, ref)
+    h, w = x.shape[:2]
+    if min(h, w) < 3 * width:
+        return math.nan
+    inner = np.zeros((h, w), dtype=bool)
+    inner[width:h - width, width:w - width] = True
+    sq = (to_display(x) - to_display(ref)) ** 2
+    return _psnr_of_mse(float(np.mean(sq[~inner]))) - _psnr_of_mse(float(np.mean(sq[inner])))
+
+
+def colour_shift(x: np.ndarray, ref: np.ndarray) -> float:
+    """``max_c |mean(x_c) / mean(ref_c) - 1|`` over the channels on linear HDR (negative values count as 0);
+    NaN where a reference channel is black (its mean is below 1e-8)."""
+    _check_pair(x, ref)
+    mx = np.maximum(np.asarray(x, dtype=np.float64), 0).reshape(-1, 3).mean(0)
+    mr = np.maximum(np.asarray(ref, dtype=np.float64), 0).reshape(-1, 3).mean(0)
+    if np.any(mr < 1e-8):
+        return math.nan
+    return float(np.max(np.abs(mx / mr - 1.0)))
+
+
 def frame_metrics(x: np.ndarray, ref: np.ndarray, prefix: str = "") -> dict[str, float]:
-    """PSNR, SSIM and rMSE of one frame, keyed ``{prefix}psnr`` etc."""
-    return {f"{prefix}psnr": psnr(x, ref), f"{prefix}ssim": ssim(x, ref), f"{prefix}rmse": rmse(x, ref)}
+    """PSNR, SSIM, rMSE, FLIP and border gap of one frame (and its colour shift, unless ``prefix`` is set: a
+    noisy input's frame mean is the reference's up to noise), keyed ``{prefix}psnr`` etc."""
+    out = {f"{prefix}psnr": psnr(x, ref), f"{prefix}ssim": ssim(x, ref), f"{prefix}rmse": rmse(x, ref),
+           f"{prefix}flip": flip(x, ref), f"{prefix}border_gap": border_gap(x, ref)}
+    if not prefix:
+        out["colour_shift"] = colour_shift(x, ref)
+    return out
 
 
 def _mean(values: Iterable[float]) -> float:

@@ -8,7 +8,8 @@ recorder, ``mcd.lit.test_recorder``, writes ``frames.csv`` and ``samples/``), th
 metrics are averaged over the processes, rank 0 tests every frame and alone writes the run's files.
 
 Overrides: ``paths.data_dir=<dir>``, ``hydra.run.dir=<dir>``, ``ckpt_path=<file>`` (resume training from a
-checkpoint), ``trainer.precision=bf16-mixed`` (GPU), any ``train.*`` / ``data.*`` / ``method.*`` key.
+checkpoint; ``auto``: from the run directory's ``last.ckpt`` if a killed run left one, as the sweeps do),
+``trainer.precision=bf16-mixed`` (GPU), any ``train.*`` / ``data.*`` / ``method.*`` key.
 Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` of the same job
 (``mcd.run_record.job_identity``) is skipped, one of another job is an error; a job that raises writes
 ``error.json`` (overrides, config, traceback) and the sweep goes on, then exits 1 naming the failed jobs
@@ -126,6 +127,20 @@ class Fitted:
     seconds: float
 
 
+def resume_checkpoint(ckpt_path: str | None, out_dir: Path) -> str | None:
+    """The checkpoint training resumes from: ``ckpt_path`` as given, or with ``ckpt_path=auto`` the run
+    directory's own ``checkpoints/last.ckpt`` where a killed run left one (else None: a fresh start). The
+    sweeps set ``auto`` (sweeps/_sweep_dirs.yaml), so a sweep run again after an interruption continues its
+    unfinished jobs where they stopped instead of training them from the start."""
+    if ckpt_path != "auto":
+        return ckpt_path or None
+    last = out_dir / "checkpoints" / "last.ckpt"
+    if last.is_file():
+        log.info("ckpt_path=auto: resuming the interrupted run from %s", last)
+        return str(last)
+    return None
+
+
 def build(cfg: DictConfig, out_dir: Path) -> Job:
     """Check the config, render (or reuse) the data, and build model, datamodule, module and trainer.
 
@@ -139,7 +154,7 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
     check_run(cfg)  # budget and image size, before anything is rendered
-    resume = cfg.get("ckpt_path")
+    resume = resume_checkpoint(cfg.get("ckpt_path"), out_dir)
     if resume and not Path(resume).is_file():
         raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
                                 "(give a run's checkpoints/last.ckpt)")

@@ -19,11 +19,12 @@ from typing import Any
 
 from omegaconf import DictConfig
 
-from mcd.metrics import FRAME_METRICS, MODEL_METRICS
+from mcd.metrics import FRAME_METRICS, MODEL_METRICS, PAPER_METRICS
 from mcd.models.switches import switch_row
 
-#: Keys a finished run's ``metrics.json`` must hold (a sweep skips jobs that have them all).
-REQUIRED_KEYS = (*FRAME_METRICS, "macs_g", "params_m", "experiment", "method", "budget", "data_profile",
+#: Keys a finished run's ``metrics.json`` must hold (a sweep skips jobs that have them all); runs from before
+#: ``ADDED_METRICS`` lack those and still count as finished.
+REQUIRED_KEYS = (*PAPER_METRICS, "macs_g", "params_m", "experiment", "method", "budget", "data_profile",
                  "commit", "device", "wall_s", "per_scene", "perceptual_loss")
 #: Methods whose ``method.UN..SA`` switches mean something (the component study; ``unet`` is row A).
 SWITCHED_METHODS = ("two_stage", "unet")

@@ -80,3 +80,48 @@ def test_aggregate_weighs_scenes_equally_and_skips_missing_pairs():
     assert out["frames"] == {"a": 1, "b": 3}
     with pytest.raises(ValueError, match="empty"):
         metrics.aggregate([])
+
+
+def test_flip_is_zero_for_identical_images_and_grows_with_the_error():
+    rng = np.random.default_rng(0)
+    ref = from_display(rng.uniform(0.2, 0.8, (32, 32, 3)))
+    assert metrics.flip(ref, ref) == 0.0
+    small = from_display(np.clip(metrics.to_display(ref) + rng.normal(0, 0.02, ref.shape), 0, 0.99))
+    large = from_display(np.clip(metrics.to_display(ref) + rng.normal(0, 0.2, ref.shape), 0, 0.99))
+    assert 0 < metrics.flip(small, ref) < metrics.flip(large, ref) <= 1
+    err = metrics.flip_map(large, ref)
+    assert err.shape == (32, 32) and float(err.mean()) == pytest.approx(metrics.flip(large, ref), rel=1e-6)
+
+
+def test_flip_handles_hdr_and_black_frames():
+    black = np.zeros((16, 16, 3))
+    hdr = np.full((16, 16, 3), 1e5)
+    assert metrics.flip(black, black) == 0.0
+    assert 0.5 < metrics.flip(hdr, black) <= 1.0  # white against black: FLIP's largest errors
+
+
+def test_temporal_psnr_known_value_and_cap_for_matching_change():
+    ref0 = from_display(np.full((8, 8, 3), 0.3))
+    ref1 = from_display(np.full((8, 8, 3), 0.5))
+    assert metrics.temporal_psnr(ref1, ref0, ref1, ref0) == metrics.PSNR_CAP_DB
+    x1 = from_display(np.full((8, 8, 3), 0.6))  # its change is 0.1 larger than the reference's: 20 dB
+    assert metrics.temporal_psnr(x1, ref0, ref1, ref0) == pytest.approx(20.0, abs=1e-6)
+
+
+def test_border_gap_is_zero_for_uniform_error_and_negative_for_a_bad_frame():
+    ref = from_display(np.full((32, 32, 3), 0.5))
+    x = from_display(np.full((32, 32, 3), 0.55))
+    assert metrics.border_gap(x, ref) == pytest.approx(0.0, abs=1e-9)
+    framed = metrics.to_display(x).copy()
+    framed[:4] = framed[-4:] = framed[:, :4] = framed[:, -4:] = 0.7   # display error 0.2 on the frame
+    gap = metrics.border_gap(from_display(framed), ref)
+    assert gap == pytest.approx(20 * math.log10(0.05 / 0.2), abs=1e-6)  # 0.05 inside: -12.04 dB
+    assert math.isnan(metrics.border_gap(x[:11, :11], ref[:11, :11]))  # no interior
+
+
+def test_colour_shift_is_the_largest_channel_ratio_and_nan_for_a_black_channel():
+    ref = np.ones((8, 8, 3))
+    x = ref * np.array([1.0, 0.9, 1.02])
+    assert metrics.colour_shift(x, ref) == pytest.approx(0.1)
+    assert metrics.colour_shift(ref * 1e5, ref * 1e5) == pytest.approx(0.0)
+    assert math.isnan(metrics.colour_shift(x, ref * np.array([1.0, 0.0, 1.0])))

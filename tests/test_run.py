@@ -86,6 +86,27 @@ def test_resume_from_a_checkpoint_continues_training(f_run):
     assert m["data"]["rendered"] == {}  # everything reused
 
 
+def test_auto_resume_continues_an_interrupted_run_in_its_own_directory(f_run):
+    """ckpt_path=auto (the sweeps' setting): a run dir holding checkpoints/last.ckpt but no metrics.json (a
+    killed job) continues from it; a fresh dir starts from scratch."""
+    import shutil
+
+    root, _ = f_run
+    killed = root / "F_killed"
+    (killed / "checkpoints").mkdir(parents=True)
+    shutil.copy(root / "F" / "checkpoints" / "last.ckpt", killed / "checkpoints" / "last.ckpt")
+    proc = mcd_run("+experiment=F", *TINY, "train.epochs=2", "ckpt_path=auto",
+                   f"paths.data_dir={root / 'data'}", f"hydra.run.dir={killed}")
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert "resuming the interrupted run" in proc.stderr + proc.stdout
+    assert json.loads((killed / "metrics.json").read_text())["train_steps"] == 2  # 1 restored + 1 trained
+    fresh = root / "F_fresh"
+    proc = mcd_run("+experiment=F", *TINY, "train.epochs=1", "ckpt_path=auto",
+                   f"paths.data_dir={root / 'data'}", f"hydra.run.dir={fresh}")
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert json.loads((fresh / "metrics.json").read_text())["train_steps"] == 1
+
+
 def test_impossible_switches_fail_before_rendering_and_write_error_json(tmp_path):
     proc = mcd_run("+experiment=A", "method.KP=true", f"paths.data_dir={tmp_path / 'data'}",
                    f"hydra.run.dir={tmp_path / 'run'}")

@@ -8,9 +8,9 @@ docs/architecture.md "Batches"):
 
 - one row per frame of the metrics of ``mcd.metrics`` (docs/benchmark.md, "Metrics") for the output and for
   the noisy input (``input_*``); ``lt`` pairs each frame with the previous one of its sequence (NaN on a
-  sequence's first frame); with KP also the kernel map's identity share (``kp_identity``) and the standard
-  deviation of its kernel index ``h[0]`` over the frame's pixels (``kp_index_std``; 0 = one kernel
-  everywhere);
+  sequence's first frame), as do ``tpsnr`` and ``input_tpsnr``; with KP also the kernel map's identity
+  share (``kp_identity``) and the standard deviation of its kernel index ``h[0]`` over the frame's pixels
+  (``kp_index_std``; 0 = one kernel everywhere);
 - ``samples/<scene>/`` (``mcd.lit.samples``) of the frames at the sequence positions ``train.sample_frames``;
 - at the end of the test ``frames.csv`` (the rows) and :attr:`TestRecorder.averages`
   (``mcd.metrics.aggregate``: per scene, then over scenes) for the run record (``mcd.run_record``).
@@ -29,7 +29,7 @@ from lightning.pytorch.callbacks import Callback
 from torch import Tensor
 
 from mcd.lit.samples import save_samples
-from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate, frame_metrics, temporal_l1
+from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate, frame_metrics, temporal_l1, temporal_psnr
 from mcd.models.kernel_pool import identity_weight
 
 
@@ -55,7 +55,7 @@ class TestRecorder(Callback):
         self.rows: list[dict[str, object]] = []
         #: ``mcd.metrics.aggregate`` of :attr:`rows` over :attr:`metric_keys`, set at the end of a test.
         self.averages: dict[str, object] | None = None
-        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._prev: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # output, reference, input
         self._position = 0
 
     @property
@@ -80,12 +80,18 @@ class TestRecorder(Callback):
         scene, frame = str(step["scene"]), int(step["frame"])  # type: ignore[call-overload]
         row: dict[str, object] = {"scene": scene, "frame": frame, **frame_metrics(pred, ref),
                                   **frame_metrics(noisy, ref, prefix="input_")}
-        row["lt"] = math.nan if self._prev is None else temporal_l1(pred, self._prev[0], ref, self._prev[1])
+        if self._prev is None:
+            row.update(lt=math.nan, tpsnr=math.nan, input_tpsnr=math.nan)
+        else:
+            prev, prev_ref, prev_noisy = self._prev
+            row.update(lt=temporal_l1(pred, prev, ref, prev_ref),
+                       tpsnr=temporal_psnr(pred, prev, ref, prev_ref),
+                       input_tpsnr=temporal_psnr(noisy, prev_noisy, ref, prev_ref))
         if "kernel_map" in out:
             row["kp_identity"] = kernel_map_identity_share(out["kernel_map"])
             row["kp_index_std"] = float(out["kernel_map"][0, 0].float().std())
         self.rows.append(row)
-        self._prev = (pred, ref)
+        self._prev = (pred, ref, noisy)
         if self.run_dir is not None and self._position in self.sample_frames:
             images = {k: hwc(v[0]) for k, v in out.items() if isinstance(v, Tensor) and v.ndim == 4}
             images.update(noisy=noisy, reference=ref)

@@ -14,7 +14,9 @@
   SA: semantic alignment at ``F_d``'s deepest level (state across frames until :meth:`reset`).
 Colour is compressed inside (``method.colour``, default ``log1p``); inputs and outputs are linear HDR.
 ``method.mean_match`` rescales the output per channel to the frame mean of the render ``F_d`` denoised
-(``i`` with AS, ``c_s`` without; mcd.models.mean_match, docs/method.md "Output"; not in the paper).
+(``i`` with AS, ``c_s`` without; mcd.models.mean_match, docs/method.md "Output"; not in the paper), and
+``method.denoiser_output=residual`` adds ``F_d``'s prediction to its colour input (the paper's ``F_d``
+predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output").
 The stages run under ``torch.profiler.record_function`` labels (:data:`STAGES`), which
 ``python -m mcd.bench --profile`` reads (docs/inference.md).
 """
@@ -36,6 +38,9 @@ from mcd.models.switches import check_switches
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
 
 GBUFFERS = ("depth", "normal", "albedo")
+#: ``method.denoiser_output``: ``direct`` (the paper: ``F_d`` predicts the image) or ``residual`` (``F_d``
+#: predicts a correction added to its colour input, ``i_bar``, ``i`` or ``c_s``, in the compressed range).
+DENOISER_OUTPUTS = ("direct", "residual")
 #: Profiler labels of the stages of :meth:`TwoStage.forward` (nested ones: ``map normalisation`` in
 #: ``adaptive render``; ``PP`` and ``SA`` in ``F_d``).
 STAGES = ("F_s", "adaptive render", "kernel pool", "F_d")
@@ -47,11 +52,15 @@ class TwoStage(nn.Module):
     window = (0, 0)
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
-                 colour: str = "log1p", kp: dict | None = None, mean_match: bool = False) -> None:
+                 colour: str = "log1p", kp: dict | None = None, mean_match: bool = False,
+                 denoiser_output: str = "direct") -> None:
         super().__init__()
         self.sw = dict(switches)
         self.budget, self.levels, self.colour = float(budget), levels, colour
         self.mean_match = bool(mean_match)
+        if denoiser_output not in DENOISER_OUTPUTS:
+            raise ValueError(f"method.denoiser_output={denoiser_output!r}; use one of {DENOISER_OUTPUTS}")
+        self.residual = denoiser_output == "residual"
         compress(torch.zeros(1), colour)                                  # fail early on an unknown transform
         den = widths["denoiser"]
         if self.sw["AS"]:
@@ -131,6 +140,8 @@ class TwoStage(nn.Module):
             feats = [compress(render, self.colour), g]
         with record_function("F_d"):
             y = self.denoiser(torch.cat([f.float() for f in feats], 1))
+            if self.residual:
+                y = y + feats[0].float()
         out["output"] = expand(y, self.colour)
         if self.mean_match:
             out["output"] = match_frame_mean(out["output"], render)
@@ -151,4 +162,5 @@ def build_two_stage(cfg: DictConfig) -> TwoStage:
     return TwoStage(switches, cfg.budget, widths, levels=int(sampling.get("levels", 5)),
                     colour=cfg.method.get("colour", "log1p"),
                     kp=OmegaConf.to_container(kp, resolve=True) if kp is not None else None,
-                    mean_match=bool(cfg.method.get("mean_match", False)))
+                    mean_match=bool(cfg.method.get("mean_match", False)),
+                    denoiser_output=str(cfg.method.get("denoiser_output", "direct")))

@@ -1,5 +1,5 @@
-"""The spp figure (docs/benchmark.md "Reports"): PSNR, SSIM, rMSE and L_t against the budget, one line per
-method, as PNG and CSV."""
+"""The spp figure (docs/benchmark.md "Reports"): PSNR, SSIM, rMSE, L_t, FLIP and tPSNR against the budget,
+one line per method, as PNG and CSV."""
 
 from __future__ import annotations
 
@@ -21,6 +21,8 @@ PANELS = (
     ("ssim", 1e2, "SSIM x1e2"),
     ("rmse", 1e3, "rMSE x1e3"),
     ("lt", 1e2, "L_t x1e2"),
+    ("flip", 1e2, "FLIP x1e2"),
+    ("tpsnr", 1.0, "tPSNR (dB)"),
 )
 
 
@@ -56,7 +58,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = 
     """`spp.csv` and `spp.png` (x: average spp, log2 axis; one budget only: a point)."""
     df = spp_frame(runs, root)
     df.to_csv(out_dir / "spp.csv", index=False)
-    fig, axes = plt.subplots(1, 4, figsize=(16, 4.6))
+    fig, axes = plt.subplots(1, len(PANELS), figsize=(4 * len(PANELS), 4.6))
     # the figure shows Table 1's methods (the component rows other than F are single 4 spp points: spp.csv)
     ok = df[(df["status"] == "ok") & ~df["experiment"].isin([r for r in COMPONENT_ROWS if r != "F"])]
     colours = plt.get_cmap("tab10").colors
@@ -74,6 +76,6 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = 
         fig.suptitle("spp sweep: no finished runs")
     else:
         axes[-1].legend(fontsize=7)
-        fig.suptitle("Error against sample budget (lower rMSE / L_t is better)")
+        fig.suptitle("Error against sample budget (lower rMSE / L_t / FLIP is better)")
     prov.save(fig, out_dir / "spp.png", sweep_names=["spp"])
     return df

@@ -1,7 +1,7 @@
 """Qualitative strips per scene (docs/benchmark.md "Reports"): noisy input, sampling map, kernel map, initial
-denoise `ī`, output and reference of the full method, with zoomed crops; and a second strip comparing every
-method's output on the same crop. Read from the runs' `samples/<scene>/<frame:04d>_<name>.exr`
-(written by `mcd.lit.samples`, pictured by its `picture`)."""
+denoise `ī`, output, its FLIP error map and reference of the full method, with zoomed crops; and a second
+strip comparing every method's output on the same crop, with its FLIP error map below. Read from the runs'
+`samples/<scene>/<frame:04d>_<name>.exr` (written by `mcd.lit.samples`, pictured by its `picture`)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from matplotlib.patches import Rectangle  # noqa: E402
 
 from mcd.data.exr import read_exr  # noqa: E402
 from mcd.lit.samples import picture  # noqa: E402
-from mcd.metrics import to_display  # noqa: E402
+from mcd.metrics import flip_map, to_display  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run, display_name  # noqa: E402
 from mcd.reporting.select import pick  # noqa: E402
@@ -31,6 +31,7 @@ COLUMNS = (
     ("identity_weight", "identity weight (h[1]+1)/2"),
     ("initial", "initial denoise ī"),
     ("output", "output"),
+    ("flip", "FLIP error of the output"),
     ("reference", "reference"),
 )
 _NAME = re.compile(r"^(?P<frame>\d+)_(?P<name>[a-z_]+?)(?:_\d+spp)?$")
@@ -72,6 +73,13 @@ def _strip_run(runs: list[Run]) -> Run | None:
     return None
 
 
+def flip_picture(image: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, float]:
+    """The FLIP error map of ``image`` against ``ref`` in the magma colours (0 black .. 1 white, as FLIP's own
+    pictures) and its mean."""
+    err = flip_map(image, ref)
+    return plt.get_cmap("magma")(err)[..., :3], float(err.mean())
+
+
 def _show(ax: plt.Axes, image: np.ndarray, title: str | None = None) -> None:
     ax.imshow(image, interpolation="nearest")
     ax.set_xticks([])
@@ -109,12 +117,15 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         if "kernel_map" in imgs:  # its two channels as two colour maps (paper Sec. 4.1)
             imgs["kernel_index"] = imgs["identity_weight"] = imgs["kernel_map"]
         ref = imgs["reference"]
+        flip_pic, flip_mean = flip_picture(imgs["output"], ref)
         size = max(8, min(ref.shape[:2]) // 4)
         y, x = crop_box(imgs.get("noisy", imgs["output"]), ref, size)
-        cols = [(n, t) for n, t in COLUMNS if n in imgs]
+        cols = [(n, t) for n, t in COLUMNS if n in imgs or n == "flip"]  # FLIP is computed, not saved
         fig, axes = plt.subplots(2, len(cols), figsize=(2.4 * len(cols), 5.4), squeeze=False)
         for j, (name, title) in enumerate(cols):
-            pic = picture(name, imgs[name])
+            pic = flip_pic if name == "flip" else picture(name, imgs[name])
+            if name == "flip":
+                title = f"{title} (mean {flip_mean:.3f})"
             if name == "sampling_map":
                 m = imgs[name][..., 0]
                 title = f"{title} ({m.min():.0f}..{m.max():.0f}, mean {m.mean():.2f})"
@@ -137,17 +148,20 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
                   f"(largest tap {imgs['kernel_pool'].max():.3f}; a uniform 5x5 box is 0.04)")
             written.append(prov.save(fig, folder / f"{scene}_pool.png"))
 
-        crops = [("noisy input", picture("noisy", imgs["noisy"]))] if "noisy" in imgs else []
+        crops = [("noisy input", imgs["noisy"])] if "noisy" in imgs else []
         for title, smp in others:
             exr = smp.get(scene, {}).get(frame, {}).get("output")
             if exr is not None:
-                crops.append((title, picture("output", read_exr(exr))))
-        crops.append(("reference", picture("reference", ref)))
-        fig, axes = plt.subplots(1, len(crops), figsize=(2.2 * len(crops), 3.2), squeeze=False)
-        for j, (title, pic) in enumerate(crops):
-            _show(axes[0, j], pic[y : y + size, x : x + size], title)
+                crops.append((title, read_exr(exr)))
+        crops.append(("reference", ref))
+        fig, axes = plt.subplots(2, len(crops), figsize=(2.2 * len(crops), 5.6), squeeze=False)
+        for j, (title, image) in enumerate(crops):
+            _show(axes[0, j], picture("output", image)[y : y + size, x : x + size], title)
+            err, mean = flip_picture(image, ref)
+            _show(axes[1, j], err[y : y + size, x : x + size], f"FLIP, frame mean {mean:.3f}")
         fig.suptitle(
-            f"Outputs at 4 spp, {scene}, test frame {frame}, crop at (x={x}, y={y}), {size}px", fontsize=9
+            f"Outputs at 4 spp and their FLIP error maps, {scene}, test frame {frame}, "
+            f"crop at (x={x}, y={y}), {size}px", fontsize=9
         )
         path = prov.save(fig, folder / f"{scene}_methods.png")
         written.append(path)

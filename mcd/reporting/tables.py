@@ -41,6 +41,27 @@ def stacked(runs: list[Run], experiments: Iterable[str],
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
 
 
+#: The columns of the metrics this project adds (mcd.metrics.ADDED_METRICS; docs/benchmark.md "Metrics"),
+#: the same in every table: ``(column, metrics.json key, scale)``.
+ADDED_COLUMNS = (
+    ("FLIP", "flip", 1e2),
+    ("tPSNR", "tpsnr", 1.0),
+    ("border gap", "border_gap", 1.0),
+    ("input border gap", "input_border_gap", 1.0),
+    ("colour shift %", "colour_shift", 1e2),
+)
+ADDED_NOTE = ("FLIP x1e2 (LDR-FLIP of the display images, lower is better), tPSNR in dB (PSNR of frame "
+              "differences), border gap in dB (PSNR of the outer 4-pixel frame minus the interior's; the "
+              "input's beside it shows the content's share), colour shift % (largest per-channel difference "
+              "of the frame mean from the reference's): metrics this project adds (docs/benchmark.md "
+              "\"Metrics\"); empty for runs from before them.")
+
+
+def added_columns(run: Run | None) -> dict[str, float]:
+    """The :data:`ADDED_COLUMNS` of a run (NaN where it has no such metric)."""
+    return {col: metric(run, key, scale) for col, key, scale in ADDED_COLUMNS}
+
+
 def _status(run: Run | None) -> str:
     if run is None:
         return "not run"
@@ -73,6 +94,7 @@ def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
                 "GMACs paper": ref["macs_g"],
                 "Params M": metric(run, "params_m"),
                 "Params M paper": ref["params_m"],
+                **added_columns(run),
                 "input PSNR": metric(run, "input_psnr"),
                 "status": _status(run),
                 "run": run_label(run, root),
@@ -102,6 +124,7 @@ def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
         ):
             row[col] = metric(run, key, scale)
             row[f"{col} paper"] = ref[pkey]
+        row.update(added_columns(run))
         row["KP identity"] = metric(run, "kp_identity")
         row["KP index std"] = metric(run, "kp_index_std")
         row["status"] = _status(run)
@@ -173,7 +196,9 @@ def transfer(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
                 "SSIM": metric(run, "ssim", 1e2),
                 "rMSE": metric(run, "rmse", 1e3),
                 "L_t": metric(run, "lt", 1e2),
+                **added_columns(run),
                 "input PSNR": metric(run, "input_psnr"),
+                "input FLIP": metric(run, "input_flip", 1e2),
                 "run": run_label(run, root),
             }
         )
@@ -197,6 +222,7 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
             "MACs/params, "
             "not absolute PSNR, with the paper.",
             "OIDN and the noisy input are references the paper does not list.",
+            ADDED_NOTE,
         ],
     )
     comp = components(runs, root)
@@ -208,6 +234,7 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
         [
             "SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs per 1920x1080 frame, params in millions; "
             "`paper` columns: the paper's component table.",
+            ADDED_NOTE,
             *component_checks(comp),
         ],
     )
@@ -223,6 +250,7 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
                 "SSIM x1e2, rMSE x1e3, L_t x1e2. Models trained on the training scenes; `fine-tuned` runs "
                 "were "
                 "fine-tuned briefly on one clip of the held-out scene before testing on its test frames.",
+                ADDED_NOTE,
             ],
         )
         frames["transfer"] = tr

@@ -1,0 +1,84 @@
+"""The output options of the two-stage model (docs/method.md "Output"): method.mean_match
+(mcd/models/mean_match.py) and method.denoiser_output."""
+
+import torch
+
+from mcd.models.mean_match import GAIN_MAX, match_frame_mean
+
+
+def test_output_takes_the_renders_frame_mean_per_channel():
+    g = torch.Generator().manual_seed(0)
+    render = torch.rand(2, 3, 17, 23, generator=g) * torch.tensor([1.0, 1e5, 0.3]).view(1, 3, 1, 1)
+    out = torch.rand(2, 3, 17, 23, generator=g) * torch.tensor([0.7, 9e4, 0.4]).view(1, 3, 1, 1)
+    matched = match_frame_mean(out, render)
+    torch.testing.assert_close(matched.mean((-2, -1)), render.mean((-2, -1)), rtol=1e-5, atol=1e-6)
+    # the gain scales, so the image's structure is kept
+    torch.testing.assert_close(matched / matched.mean((-2, -1), keepdim=True),
+                               out / out.mean((-2, -1), keepdim=True), rtol=1e-5, atol=1e-6)
+
+
+def test_black_frames_stay_black_and_the_gain_is_clamped():
+    black = torch.zeros(1, 3, 8, 8)
+    assert torch.equal(match_frame_mean(black, black), black)
+    out = torch.full((1, 3, 8, 8), 1e-3)
+    render = torch.ones(1, 3, 8, 8)
+    torch.testing.assert_close(match_frame_mean(out, render), out * GAIN_MAX)
+
+
+def test_gradients_are_finite_for_an_all_zero_output_channel():
+    y = torch.zeros(1, 3, 8, 8, requires_grad=True)
+    out = y * torch.tensor([1.0, 0.0, 1.0]).view(1, 3, 1, 1) + 0.5
+    match_frame_mean(out, torch.rand(1, 3, 8, 8)).sum().backward()
+    assert torch.isfinite(y.grad).all()
+
+
+def test_two_stage_output_takes_the_frame_mean_of_what_f_d_denoised():
+    """Row F: the adaptive image ``i``; row A: the uniform render ``c_4``; off by default."""
+    from mcd.models import build
+    from tests.models.helpers import frame, row_cfg
+
+    x = frame(h=24, w=40, scale=3.0)
+    for row, render in (("F", None), ("A", "c4")):
+        cfg = row_cfg(row)
+        torch.manual_seed(0)
+        plain = build(cfg).eval()
+        last = [m for m in plain.denoiser.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+        with torch.no_grad():  # an untrained F_d's output is black (clamped at 0): give it a colour
+            last.bias += torch.tensor([0.6, 1.0, 0.8])  # expm1: 0.8-1.7, within a gain of 8 of the render
+        cfg.method.mean_match = True
+        matched = build(cfg).eval()
+        matched.load_state_dict(plain.state_dict())
+        with torch.no_grad():
+            out = matched(x)
+            base = plain(x)["output"]
+        want = out["adaptive"] if render is None else x[render]
+        torch.testing.assert_close(out["output"].mean((-2, -1)), want.mean((-2, -1)), rtol=1e-4, atol=1e-5)
+        assert not torch.allclose(base.mean((-2, -1)), want.mean((-2, -1)), rtol=1e-2)
+
+
+def test_residual_denoiser_output_starts_from_its_colour_input():
+    """With F_d's last convolution zeroed, ``residual`` returns F_d's colour input (row F: i_bar; row A: c_4)
+    and ``direct`` returns black; an unknown value is named."""
+    import pytest
+
+    from mcd.models import build
+    from tests.models.helpers import frame, row_cfg
+
+    x = frame(h=24, w=40, scale=3.0)
+    for row in ("F", "A"):
+        cfg = row_cfg(row)
+        outputs = {}
+        for mode in ("direct", "residual"):
+            cfg.method.denoiser_output = mode
+            model = build(cfg).eval()
+            last = [m for m in model.denoiser.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+            with torch.no_grad():
+                last.weight.zero_()
+                last.bias.zero_()
+                outputs[mode] = model(x)
+        want = outputs["residual"]["initial"] if row == "F" else x["c4"]
+        torch.testing.assert_close(outputs["residual"]["output"], want, rtol=1e-4, atol=1e-4)
+        assert float(outputs["direct"]["output"].abs().max()) == 0.0
+    cfg.method.denoiser_output = "skip"
+    with pytest.raises(ValueError, match="method.denoiser_output='skip'"):
+        build(cfg)
