@@ -27,11 +27,11 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from mcd.data.buffers import GBUFFERS
 from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import auto_exposure, depth_scale, normalise
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
-from mcd.data.store import GBUFFERS
 from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.weights import Loaded
 from mcd.metrics import psnr

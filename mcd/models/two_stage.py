@@ -24,6 +24,7 @@ from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
 from torch.profiler import record_function
 
+from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
@@ -32,7 +33,6 @@ from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
 
-GBUFFERS = ("depth", "normal", "albedo")
 #: Profiler labels of the stages of :meth:`TwoStage.forward` (nested ones: ``map normalisation`` in
 #: ``adaptive render``; ``PP`` and ``SA`` in ``F_d``).
 STAGES = ("F_s", "adaptive render", "kernel pool", "F_d")
@@ -65,7 +65,7 @@ class TwoStage(nn.Module):
             cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
         else:
             self.sampler = None
-            uniform = f"c{int(self.budget)}"
+            uniform = uniform_buffer(self.budget)
             if self.budget != int(self.budget) or uniform not in stack_names(levels):
                 raise ValueError(f"budget={budget}: without AS the denoiser reads the uniform render c_s, "
                                  f"which exists for s in {stack_names(levels)} only")
@@ -85,7 +85,7 @@ class TwoStage(nn.Module):
     def required_buffers(self) -> set[str]:
         if self.sw["AS"]:
             return {"c1_in", *stack_names(self.levels), *GBUFFERS}
-        return {f"c{int(self.budget)}", *GBUFFERS}
+        return {uniform_buffer(self.budget), *GBUFFERS}
 
     def reset(self) -> None:
         self.denoiser.reset()
@@ -122,7 +122,7 @@ class TwoStage(nn.Module):
             out["sampling_map"] = m
             out["adaptive"] = image
         else:
-            feats = [compress(need(x, f"c{int(self.budget)}", who), self.colour), g]
+            feats = [compress(need(x, uniform_buffer(self.budget), who), self.colour), g]
         with record_function("F_d"):
             y = self.denoiser(torch.cat([f.float() for f in feats], 1))
         out["output"] = expand(y, self.colour)
