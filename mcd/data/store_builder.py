@@ -42,7 +42,8 @@ from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneSpec
 from mcd.data.store import CorruptManifestError, StoreReader
 
-log = logging.getLogger(__name__)
+#: the reader's logger: every log line of the store, read or render, comes from ``mcd.data.store``
+log = logging.getLogger("mcd.data.store")
 
 MANIFEST_VERSION = 1
 
