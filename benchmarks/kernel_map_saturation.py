@@ -34,7 +34,8 @@ import numpy as np
 import torch
 from hydra import compose, initialize_config_dir
 
-from mcd.data import MCDDataModule, Store
+from mcd.data import MCDDataModule, StoreBuilder
+from mcd.data.buffers import run_buffers
 from mcd.lit import build_loss
 from mcd.lit.module import DenoiseModule, clip_buffers, cosine_factor
 from mcd.metrics import psnr
@@ -103,8 +104,8 @@ def train_variant(experiment: str, overrides: list[str], steps: int, every: int,
         raise SystemExit(f"+experiment={experiment} has no kernel pool (method.KP=false): pick C-J")
     torch.manual_seed(seed)
     model = build(cfg)
-    buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
-    store = Store.from_cfg(cfg)
+    buffers = run_buffers(model.required_buffers(), cfg.budget)
+    store = StoreBuilder.from_cfg(cfg)
     store.ensure(buffers)
     dm = MCDDataModule(cfg, store, buffers, model.window)
     dm.setup("fit")

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 from hydra import compose, initialize_config_dir
 
-from mcd.data import BUFFERS, Store
-from mcd.data import store as store_mod
+from mcd.data import BUFFERS, StoreBuilder
+from mcd.data import store_builder as store_mod
 from mcd.data.camera import interpolate_path
 from mcd.data.mitsuba_env import select_variant
 from mcd.data.procedural import build_room
@@ -63,7 +63,7 @@ def main() -> None:
     # the bare side: the same scene, sensor, cameras, spp and seeds through mi.render only
     import mitsuba as mi
 
-    spec = Store.from_cfg(base).specs[args.scene]
+    spec = StoreBuilder.from_cfg(base).specs[args.scene]
     loaded = spec.load(args.size, args.size, data.max_depth, 1)
     r = SceneRenderer(loaded.scene, args.size, args.size, loaded.fov)
     mats = interpolate_path(loaded.nodes, args.frames)
@@ -104,8 +104,8 @@ def main() -> None:
 
         return wrapper
 
-    Store._write = timed(Store._write)  # EXR write + SHA-256 + manifest entry
-    Store._save = timed(Store._save)  # manifest rewrite after every frame
+    StoreBuilder._write = timed(StoreBuilder._write)  # EXR write + SHA-256 + manifest entry
+    StoreBuilder._save = timed(StoreBuilder._save)  # manifest rewrite after every frame
     store_mod.backward_motion = timed(store_mod.backward_motion)
     store_mod.read_exr = timed(store_mod.read_exr)  # depth read back for motion
 
@@ -114,7 +114,7 @@ def main() -> None:
             with initialize_config_dir(config_dir=CONF, version_base=None):
                 cfg = compose("config", overrides=[*overrides, f"paths.data_dir={tmp}"])
             t0 = time.perf_counter()
-            summary = Store.from_cfg(cfg).ensure(set(buffers), progress=False)
+            summary = StoreBuilder.from_cfg(cfg).ensure(set(buffers), progress=False)
             return time.perf_counter() - t0, summary["msamples"]
 
     store_run()  # warm-up: JIT kernels of both sides (same kernels)

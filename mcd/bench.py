@@ -22,11 +22,12 @@ threads, one per core), and on CPU the process's peak resident memory during tha
 ``/proc/self/status``, reset before the path after handing freed heap back to the OS; it includes the Python
 process, the model and the inputs).
 
-Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.Store.load`: exposure
-applied, depth scaled, sanitised, as the models see it; ``--data <profile>``, ``--scene``; default the
-config's data profile and its first test scene), tiled to the target size; or, with ``--synthetic``, seeded
-synthetic HDR buffers. The ``inputs`` column says which. Unavailable paths (no pyoidn, no bf16 on this CPU)
-get a row whose ``status`` says why and no time; failures get ``status`` ``failed: <error>``.
+Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.StoreReader.load`:
+exposure applied, depth scaled, sanitised, as the models see it; ``--data <profile>``, ``--scene``; default
+the config's data profile and its first test scene), tiled to the target size; or, with ``--synthetic``,
+seeded synthetic buffers (:func:`mcd.data.synthetic.synthetic_frame`). The ``inputs`` column says which.
+Unavailable paths (no pyoidn, no bf16 on this CPU) get a row whose ``status`` says why and no time; failures
+get ``status`` ``failed: <error>``.
 
 ``--profile``: the time of each stage of one method (mcd/inference_profile.py, docs/inference.md).
 """
@@ -53,7 +54,8 @@ from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
-from mcd.data.store import Store
+from mcd.data.store import StoreReader
+from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import cpu_bf16_supported
 
 log = logging.getLogger("mcd.bench")
@@ -62,7 +64,6 @@ REPO = Path(__file__).resolve().parent.parent
 #: Every registered method, as the experiment that selects it (A-M are rows of `two_stage`; F stands for it).
 METHODS = ("F", "unet", "rae", "fastdvdnet", "dasr", "ntasad", "oidn", "noisy")
 SIZES = {"1080p": (1080, 1920), "256": (256, 256)}  # or any "<W>x<H>"
-CHANNELS = {"depth": 1, "motion": 2}
 COLUMNS = (
     "method",
     "device",
@@ -115,7 +116,7 @@ class Row:
 class StoreFrame:
     """One stored frame the bench reads its inputs from."""
 
-    store: Store
+    store: StoreReader
     scene: str
     frame: int = 0
 
@@ -165,7 +166,7 @@ def store_frame(data: str | None, scene: str | None, frame: int = 0) -> StoreFra
     ``data`` (default: the config's), at ``paths.data_dir``."""
     overrides = [f"data={data}"] if data else []
     cfg = compose_config(overrides)
-    store = Store.from_cfg(cfg, overrides=overrides)
+    store = StoreReader.from_cfg(cfg, overrides=overrides)
     scene = scene or str(list(cfg.data.test_scenes)[0])
     if scene not in store.specs:
         raise ValueError(f"--scene {scene!r} is not a scene of data profile {store.profile!r} "
@@ -203,27 +204,15 @@ def _tile(image: np.ndarray, height: int, width: int) -> np.ndarray:
 def frame_buffers(
     names: set[str], height: int, width: int, source: StoreFrame | None
 ) -> tuple[dict[str, np.ndarray], str]:
-    """`H x W x C` float32 buffers by name: a store frame (``Store.load``) tiled to size, else seeded
-    synthetic ones."""
+    """`H x W x C` float32 buffers by name: a store frame (``StoreReader.load``) tiled to size, else seeded
+    synthetic ones (:func:`mcd.data.synthetic.synthetic_frame`, motion of 2 pixels' spread)."""
     if source is not None:
         loaded = {n: source.store.load(source.scene, source.frame, n) for n in sorted(names)}
         h, w = next(iter(loaded.values())).shape[:2] if loaded else (0, 0)
         where = f"store {source.store.profile}/{source.scene} frame {source.frame:04d} ({w}x{h}, tiled)"
         return {n: _tile(b, height, width) for n, b in loaded.items()}, where
-    rng = np.random.default_rng(0)
-    out = {}
-    for n in sorted(names):
-        c = CHANNELS.get(n, 3)
-        if n == "normal":
-            v = rng.normal(size=(height, width, 3)).astype(np.float32)
-            out[n] = v / np.linalg.norm(v, axis=-1, keepdims=True)
-        elif n == "motion":
-            out[n] = rng.normal(scale=2.0, size=(height, width, 2)).astype(np.float32)
-        elif n == "albedo":
-            out[n] = rng.uniform(0.05, 0.95, size=(height, width, 3)).astype(np.float32)
-        else:  # colour and depth: heavy-tailed positive HDR values
-            out[n] = rng.gamma(0.5, 1.0, size=(height, width, c)).astype(np.float32)
-    return out, "synthetic (seeded)"
+    fake = synthetic_frame(names, height, width, lead=(), motion_px=2.0)
+    return {n: t.permute(1, 2, 0).numpy() for n, t in fake.items()}, "synthetic (seeded)"
 
 
 def model_inputs(

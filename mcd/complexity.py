@@ -22,11 +22,10 @@ import torch
 from torch import nn
 from torch.utils import flop_counter
 
+from mcd.data.synthetic import synthetic_frame
 from mcd.paper_numbers import paper_complexity
 
 CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
-#: Channels of each buffer (docs/architecture.md, "The store").
-BUFFER_CHANNELS = {"depth": 1, "motion": 2}
 
 
 def _cpu_flash_attention_flop(query, key, value, *args, out_shape=None, **kwargs) -> int:
@@ -42,16 +41,12 @@ def flop_counter_mode() -> flop_counter.FlopCounterMode:
 
 def dummy_batch(model: nn.Module, height: int, width: int, device: torch.device | str,
                 batch: int = 1) -> dict[str, torch.Tensor | None]:
-    """Random inputs for ``model.required_buffers()`` (``ref`` None, as at test time)."""
+    """Synthetic inputs for ``model.required_buffers()`` (:func:`mcd.data.synthetic.synthetic_frame`; ``ref``
+    None, as at test time)."""
     past, future = getattr(model, "window", (0, 0))
     frames = past + 1 + future
-    x: dict[str, torch.Tensor | None] = {"ref": None}
-    for name in sorted(model.required_buffers()):
-        shape = (batch, BUFFER_CHANNELS.get(name, 3), height, width)
-        if frames > 1:
-            shape = (batch, frames, *shape[1:])
-        x[name] = torch.rand(shape, device=device)
-    return x
+    lead = (batch,) if frames == 1 else (batch, frames)
+    return {"ref": None, **synthetic_frame(model.required_buffers(), height, width, lead, device=device)}
 
 
 def count_params(model: nn.Module) -> int:

@@ -2,7 +2,7 @@
 (docs/inference.md).
 
 The method (``--method``, default row F; capacity ``model=paper`` unless an override says otherwise) reads one
-frame of the store (as ``python -m mcd.bench`` does: ``Store.load``, tiled to ``--size``), runs ``--warmup``
+frame of the store (as ``python -m mcd.bench`` does: a store read, tiled to ``--size``), runs ``--warmup``
 calls and then one call under ``torch.profiler`` on the CPU, under ``torch.inference_mode``, along the path
 ``--dtype`` (default ``bf16`` with channels-last where the CPU computes bf16 natively, else ``fp32``
 channels-last). Each stage is a ``torch.profiler.record_function`` label in the model

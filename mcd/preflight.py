@@ -2,15 +2,15 @@
 
 :func:`check_run` refuses a budget that is not a number or has no stored uniform render, and images smaller
 than the SSIM window; the store checks every scene file before its first render
-(:meth:`mcd.data.store.Store.ensure`), and the model its own budget rule when it is built (row F's adaptive
-sampling needs ``1 < s``; a method without it reads ``c_s``).
+(:meth:`mcd.data.store_builder.StoreBuilder.ensure`), and the model its own budget rule when it is built (row
+F's adaptive sampling needs ``1 < s``; a method without it reads ``c_s``).
 """
 
 from __future__ import annotations
 
 from omegaconf import DictConfig
 
-from mcd.data.store import SPP_BUFFERS
+from mcd.data.buffers import UNIFORM_BUDGETS
 from mcd.metrics import SSIM_WINDOW
 
 
@@ -21,13 +21,13 @@ def check_budget(cfg: DictConfig) -> float:
     store renders for s in 1, 2, 4, 8, 16, 32 only.
     """
     raw = cfg.get("budget")
-    choices = ", ".join(str(s) for s in SPP_BUFFERS.values())
+    choices = ", ".join(str(s) for s in UNIFORM_BUDGETS)
     try:
         budget = float(raw)
     except (TypeError, ValueError):
         raise ValueError(f"budget={raw!r}: not a number; give the average samples per pixel, one of "
                          f"{choices} (e.g. budget=4)") from None
-    if budget not in SPP_BUFFERS.values():
+    if budget not in UNIFORM_BUDGETS:
         raise ValueError(f"budget={raw}: every run is compared with the noisy uniform render at the budget "
                          f"(c_s), which the store holds for s in {choices} only; give one of them")
     return budget

@@ -8,7 +8,8 @@ given by path (``data.test_scenes=[path/to/scene.xml]``, docs/scenes.md).
 ``--force`` (or ``render.force=true``) re-renders them; ``render.verify=true`` checks every checksum and re-
 renders damaged files; ``render.variant`` picks the Mitsuba variant (default ``auto``: CUDA, else LLVM, else
 scalar; logged). The store lives in ``paths.data_dir`` (env ``MCD_DATA_DIR``); Hydra's ``hydra.run.dir`` holds
-the log. Rendering resumes where an interrupted run stopped. See docs/architecture.md and mcd/data/store.py.
+the log. Rendering resumes where an interrupted run stopped. See docs/architecture.md ("The store") and
+mcd/data/store_builder.py.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ import sys
 import hydra
 from omegaconf import DictConfig, ListConfig
 
-from mcd.data.store import BUFFERS, Store
+from mcd.data.buffers import BUFFERS, run_buffers
+from mcd.data.store_builder import StoreBuilder
 
 log = logging.getLogger("mcd.render")
 
@@ -34,7 +36,7 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
     if spec == "method":
         from mcd.models import build
 
-        return set(build(cfg).required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
+        return run_buffers(build(cfg).required_buffers(), cfg.budget)
     raise ValueError(
         f"render.buffers={spec!r}: expected 'method', 'all' or a list of buffers {list(BUFFERS)}"
     )
@@ -45,7 +47,7 @@ def main(cfg: DictConfig) -> dict:
     from mcd.lit.transfer import prepare
 
     cfg, _ = prepare(cfg)  # a transfer run reads its held-out scenes only
-    store = Store.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg)
     buffers = requested_buffers(cfg)
     log.info("rendering profile %s into %s: buffers %s", store.profile, store.root, ",".join(sorted(buffers)))
     return store.ensure(buffers)

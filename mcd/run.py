@@ -147,7 +147,8 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
     Everything that can fail on the config alone fails before anything is rendered: impossible switches, the
     budget and image size (mcd.preflight), a missing or unfitting ``ckpt_path``.
     """
-    from mcd.data import Store
+    from mcd.data import StoreBuilder
+    from mcd.data.buffers import run_buffers
     from mcd.lit import checkpoint, transfer
     from mcd.models import build as build_model
 
@@ -169,8 +170,8 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
         checkpoint.check_fits(model, weights, "ckpt_path", resume)
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
-    buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
-    store = Store.from_cfg(cfg)
+    buffers = run_buffers(model.required_buffers(), cfg.budget)
+    store = StoreBuilder.from_cfg(cfg)
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     data_s = time.perf_counter() - t0

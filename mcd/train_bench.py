@@ -80,7 +80,8 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
     import lightning as L
 
     from mcd.bench import compose_cfg, device_name
-    from mcd.data import MCDDataModule, Store
+    from mcd.data import MCDDataModule, StoreBuilder
+    from mcd.data.buffers import run_buffers
     from mcd.lit import DenoiseModule, budget, build_loss
 
     torch.set_num_threads(threads)
@@ -90,8 +91,8 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
     from mcd.models import build
 
     model = build(cfg)
-    buffers = set(model.required_buffers()) | {"ref", f"c{int(cfg.budget)}"}
-    store = Store.from_cfg(cfg)
+    buffers = run_buffers(model.required_buffers(), cfg.budget)
+    store = StoreBuilder.from_cfg(cfg)
     store.ensure(buffers)
     dm = MCDDataModule(cfg, store, buffers, model.window)
     loss = build_loss(cfg)

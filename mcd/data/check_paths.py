@@ -68,10 +68,10 @@ def check_scene(
 @hydra.main(config_path="../../conf", config_name="config", version_base=None)
 def main(cfg: DictConfig) -> None:
     from mcd.data.mitsuba_env import select_variant
-    from mcd.data.store import Store
+    from mcd.data.store import StoreReader
 
     select_variant(str(cfg.render.get("variant", "auto")))
-    store = Store.from_cfg(cfg)
+    store = StoreReader.from_cfg(cfg)
     problems = []
     for name in store.scene_names:
         found = check_scene(store.specs[name], int(cfg.data.segments), int(cfg.data.frames_per_segment))

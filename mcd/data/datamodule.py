@@ -34,7 +34,8 @@ import torch
 from omegaconf import DictConfig
 from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, Subset
 
-from mcd.data.store import BUFFERS, Store, validate_buffers
+from mcd.data.buffers import BUFFERS, validate_buffers
+from mcd.data.store import StoreReader
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +57,7 @@ def split_frames(n: int, test_fraction: float, val_clips: int, clip_len: int) ->
 class _Frames:
     """Loads ``(scene, frame, buffer)`` as CHW float32 tensors from the store, optionally kept in memory."""
 
-    def __init__(self, store: Store, buffers: list[str], cache: bool):
+    def __init__(self, store: StoreReader, buffers: list[str], cache: bool):
         self.store, self.buffers, self.cache = store, buffers, cache
         self._mem: dict[tuple[str, int, str], torch.Tensor] = {}
 
@@ -139,7 +140,7 @@ class MCDDataModule(L.LightningDataModule):
     def __init__(
         self,
         cfg: DictConfig,
-        store: Store,
+        store: StoreReader,
         buffers: Iterable[str],
         window: tuple[int, int] = (0, 0),
         train_scenes: list[str] | None = None,

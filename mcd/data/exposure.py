@@ -1,21 +1,20 @@
 """Exposure, depth scale and sanitising of colour and G-buffers: what every image goes through before a
 network sees it (docs/architecture.md, "The store"; docs/denoise.md, "Frames from disk").
 
-The store (:meth:`mcd.data.store.Store.load`) applies these to the benchmark's renders and ``mcd.denoise`` to a
-user's frames, so that a trained network sees its inputs in the range it was trained on: colour multiplied by
-the scene's exposure scale (``auto``: the mean of frame 0's colour brought to ``data.exposure_target``), depth
-divided by the median first-hit distance of frame 0, then NaN/Inf (and negative values where they are not
-meaningful) replaced by 0, counting them.
+The store reader (:meth:`mcd.data.store.StoreReader.load`) applies these to the benchmark's renders and
+``mcd.denoise`` to a user's frames, so that a trained network sees its inputs in the range it was trained on:
+colour multiplied by the scene's exposure scale (``auto``: the mean of frame 0's colour brought to
+``data.exposure_target``), depth divided by the median first-hit distance of frame 0, then NaN/Inf (and
+negative values where they are not meaningful, :data:`mcd.data.buffers.NEGATIVE_OK`) replaced by 0, counting
+them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from mcd.data.buffers import NEGATIVE_OK
 from mcd.data.exr import sanitise
-
-#: G-buffers whose negative values are meaningful (normals in [-1, 1], motion in pixels).
-NEGATIVE_OK = frozenset({"normal", "motion"})
 
 
 def auto_exposure(frame0: np.ndarray, target: float) -> float | None:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from mcd.data.buffers import GBUFFERS
 from mcd.data.renderer import derive_seed
 from mcd.denoise.frames import write_layers
 
@@ -42,7 +43,7 @@ def render_frames(scene_file: Path, out_dir: Path, frames: int = 4, spp: int = 4
         path = out_dir / f"{loaded.spec.name}_{f:04d}.exr"
         if siblings:
             write_layers(path, colour)
-            for name in ("albedo", "normal", "depth"):
+            for name in GBUFFERS:
                 sibling = path.with_name(f"{path.stem}.{name}.exr")
                 write_layers(sibling, np.zeros_like(colour), {name: gb[name]})
         else:

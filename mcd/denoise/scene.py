@@ -27,11 +27,11 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import auto_exposure, depth_scale, normalise
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
-from mcd.data.store import GBUFFERS
 from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.weights import Loaded
 from mcd.metrics import psnr
@@ -124,7 +124,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         if loaded_model.adaptive:
             raw["c1_in"] = r.color(1, derive_seed(seed, "c1_in", f))
             spent["c1"] = n
-        uniform = f"c{budget}"
+        uniform = uniform_buffer(budget)
         if uniform in reads and (not loaded_model.adaptive or f == 0):
             raw[uniform] = r.color(budget, derive_seed(seed, uniform, f))
             spent["uniform" if not loaded_model.adaptive else "extra"] = n * budget

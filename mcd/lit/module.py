@@ -34,6 +34,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
 
+from mcd.data.buffers import uniform_buffer
 from mcd.lit.test_recorder import hwc
 from mcd.metrics import frame_metrics
 
@@ -188,5 +189,6 @@ class DenoiseModule(L.LightningModule):
             self.model.reset()
         past = self.model.window[0]
         out = self.model(self._frame_input(buffers, past, with_ref=False))
+        noisy = buffers[uniform_buffer(self.budget)][0, past]
         return {"scene": str(batch["scene"][0]), "frame": int(batch["frame"][0, past]), "reset": reset,
-                "outputs": out, "ref": buffers["ref"][0, past], "noisy": buffers[f"c{self.budget}"][0, past]}
+                "outputs": out, "ref": buffers["ref"][0, past], "noisy": noisy}

@@ -28,6 +28,7 @@ from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
 from torch.profiler import record_function
 
+from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
@@ -37,7 +38,6 @@ from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
 
-GBUFFERS = ("depth", "normal", "albedo")
 #: ``method.denoiser_output``: ``direct`` (the paper: ``F_d`` predicts the image) or ``residual`` (``F_d``
 #: predicts a correction added to its colour input, ``i_bar``, ``i`` or ``c_s``, in the compressed range).
 DENOISER_OUTPUTS = ("direct", "residual")
@@ -78,7 +78,7 @@ class TwoStage(nn.Module):
             cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
         else:
             self.sampler = None
-            uniform = f"c{int(self.budget)}"
+            uniform = uniform_buffer(self.budget)
             if self.budget != int(self.budget) or uniform not in stack_names(levels):
                 raise ValueError(f"budget={budget}: without AS the denoiser reads the uniform render c_s, "
                                  f"which exists for s in {stack_names(levels)} only")
@@ -98,7 +98,7 @@ class TwoStage(nn.Module):
     def required_buffers(self) -> set[str]:
         if self.sw["AS"]:
             return {"c1_in", *stack_names(self.levels), *GBUFFERS}
-        return {f"c{int(self.budget)}", *GBUFFERS}
+        return {uniform_buffer(self.budget), *GBUFFERS}
 
     def reset(self) -> None:
         self.denoiser.reset()
@@ -136,7 +136,7 @@ class TwoStage(nn.Module):
             out["adaptive"] = image
             render = image
         else:
-            render = need(x, f"c{int(self.budget)}", who)
+            render = need(x, uniform_buffer(self.budget), who)
             feats = [compress(render, self.colour), g]
         with record_function("F_d"):
             y = self.denoiser(torch.cat([f.float() for f in feats], 1))

@@ -7,6 +7,8 @@ from pathlib import Path
 import torch
 from omegaconf import OmegaConf
 
+from mcd.data.buffers import BUFFERS
+from mcd.data.synthetic import synthetic_frame
 from mcd.models.switches import SWITCHES
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
@@ -28,13 +30,6 @@ def switch_cfg(bits: str, profile: str = "cpu", budget: float = 4):
 
 
 def frame(h: int = 32, w: int = 32, b: int = 1, scale: float = 1.0, seed: int = 0) -> dict[str, torch.Tensor]:
-    """One random frame of every buffer (linear HDR colour, G-buffers in their ranges) with a reference."""
-    g = torch.Generator().manual_seed(seed)
-    x = {f"c{2 ** k}": torch.rand(b, 3, h, w, generator=g) * scale for k in range(6)}
-    x["c1_in"] = torch.rand(b, 3, h, w, generator=g) * scale
-    x["ref"] = torch.rand(b, 3, h, w, generator=g) * scale
-    x["depth"] = torch.rand(b, 1, h, w, generator=g) * 20
-    n = torch.randn(b, 3, h, w, generator=g)
-    x["normal"] = n / n.norm(dim=1, keepdim=True)
-    x["albedo"] = torch.rand(b, 3, h, w, generator=g)
-    return x
+    """One synthetic frame of every buffer (:func:`mcd.data.synthetic.synthetic_frame`: linear HDR colour up
+    to ``scale``, G-buffers in their ranges) with a reference."""
+    return synthetic_frame(BUFFERS, h, w, (b,), seed, colour_scale=scale, depth_scale=20.0)

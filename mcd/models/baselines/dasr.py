@@ -20,6 +20,7 @@ import torch
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.rae import RAEUNet
 from mcd.models.inputs import compress, crop, expand, gbuffers, grey, need, pad_to_multiple
 from mcd.models.registry import register
@@ -42,7 +43,7 @@ class DASR(nn.Module):
         self.denoiser = RAEUNet(10, 3, encoder, bottleneck, last, recurrent=False)
 
     def required_buffers(self) -> set[str]:
-        return {"c1_in", *stack_names(self.levels), "depth", "normal", "albedo"}
+        return {"c1_in", *stack_names(self.levels), *GBUFFERS}
 
     def reset(self) -> None:
         """Stateless (single frame)."""

@@ -15,6 +15,7 @@ import torch
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
 from mcd.models.registry import register
@@ -72,7 +73,7 @@ class FastDVDnet(nn.Module):
         self.stage2 = DenBlock(10, widths, int(interm))
 
     def required_buffers(self) -> set[str]:
-        return {self.key, "depth", "normal", "albedo"}
+        return {self.key, *GBUFFERS}
 
     def reset(self) -> None:
         """Stateless: every output depends only on its 5-frame window."""

@@ -27,6 +27,7 @@ import torch.nn.functional as F
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.baselines.warp import warp
 from mcd.models.inputs import compress, crop, gbuffers, grey, need, pad_to_multiple
@@ -113,7 +114,7 @@ class NTASAD(nn.Module):
         self.prev: Tensor | None = None
 
     def required_buffers(self) -> set[str]:
-        return {"c1_in", *stack_names(self.levels), self.first_key, "depth", "normal", "albedo", "motion"}
+        return {"c1_in", *stack_names(self.levels), self.first_key, *GBUFFERS, "motion"}
 
     def reset(self) -> None:
         self.prev = None

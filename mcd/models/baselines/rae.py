@@ -16,6 +16,7 @@ import torch.nn.functional as F
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
 from mcd.models.registry import register
@@ -131,7 +132,7 @@ class RAE(nn.Module):
         self.net = RAEUNet(10, 3, encoder, bottleneck, last, recurrent=True)
 
     def required_buffers(self) -> set[str]:
-        return {self.key, "depth", "normal", "albedo"}
+        return {self.key, *GBUFFERS}
 
     def reset(self) -> None:
         self.net.reset()

@@ -1,0 +1,406 @@
+"""Rendering the on-disk benchmark store (docs/architecture.md, "The store"; docs/benchmark.md, "Data
+protocol"; docs/data.md, "Buffers, seeds, store").
+
+:class:`StoreBuilder` is a :class:`mcd.data.store.StoreReader` that also renders:
+:meth:`StoreBuilder.ensure` renders whatever of the asked buffers (those a model reads, plus ``ref``; ``motion`` also needs ``depth``) is
+missing or stale. The manifest records the render settings, the Mitsuba version, the scene's source (file +
+checksum, or generator seed), the per-frame cameras, the exposure scale, and per file: spp, seed, variant,
+byte size, SHA-256 and the counts of NaN / Inf / negative values the renderer produced. A file is *done* when
+its manifest entry exists, its key (everything that determines its content: camera, spp, seed, scene, size,
+depth limit) matches the current config, and its size on disk matches; otherwise it is (re-)rendered. Files
+and the manifest are written atomically (temp file + rename) and the manifest after every frame, so an
+interrupted render resumes where it stopped; a per-scene lock (``<scene>/.lock``) keeps one writer per scene.
+``render.force=true`` re-renders the requested buffers; ``render.verify=true`` also checks every checksum and
+re-renders damaged files.
+
+``Store`` is this class under the name most callers use (``mcd.data.Store``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+import logging
+import os
+import tempfile
+import time
+from collections import Counter
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import Any, Self
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+
+from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS, GBUFFERS, NEGATIVE_OK, buffer_spp, validate_buffers
+from mcd.data.camera import Camera, backward_motion, interpolate_path
+from mcd.data.exposure import auto_exposure, depth_scale
+from mcd.data.exr import count_bad, read_exr, sha256, umask_mode, write_exr
+from mcd.data.renderer import derive_seed
+from mcd.data.scenes import SceneSpec
+from mcd.data.store import CorruptManifestError, StoreReader
+
+#: the reader's logger: every log line of the store, read or render, comes from ``mcd.data.store``
+log = logging.getLogger("mcd.data.store")
+
+MANIFEST_VERSION = 1
+
+
+def _hash(obj: Any) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def _write_json_atomic(path: Path, obj: Any) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(obj, f, indent=1)
+        os.chmod(tmp, umask_mode())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+class StoreBuilder(StoreReader):
+    """Renders (on demand) and reads one data profile's scenes. See the module docstring."""
+
+    def __init__(
+        self,
+        data_dir: str | Path,
+        data_cfg: DictConfig,
+        render_cfg: DictConfig | None = None,
+        scenes_dir: str | Path | None = None,
+        overrides: Iterable[str] | None = None,
+    ):
+        """As :class:`mcd.data.store.StoreReader`, with the ``render.*`` settings (variant, force, verify,
+        ``max_samples_per_pass``)."""
+        super().__init__(data_dir, data_cfg, scenes_dir, overrides)
+        self.render_cfg = render_cfg if render_cfg is not None else OmegaConf.create({})
+
+    @classmethod
+    def _of_cfg(cls, cfg: DictConfig, overrides: Iterable[str] | None) -> Self:
+        return cls(cfg.paths.data_dir, cfg.data, cfg.get("render"), cfg.paths.get("scenes_dir"), overrides)
+
+    # --------------------------------------------------------------------------------------------- manifest
+    def _settings(self) -> dict[str, Any]:
+        d = self.data_cfg
+        return {
+            "width": int(d.width),
+            "height": int(d.height),
+            "segments": int(d.segments),
+            "frames_per_segment": int(d.frames_per_segment),
+            "frames": self.n_frames,
+            "max_depth": None if d.get("max_depth") is None else int(d.max_depth),
+            "ref_spp": int(d.ref_spp),
+            "gbuffer_spp": int(d.gbuffer_spp),
+            "rfilter": "box",
+            "seed": int(d.get("seed", 0)),
+            "max_samples_per_pass": int(self.render_cfg.get("max_samples_per_pass", 1 << 24)),
+        }
+
+    def _camera_key(self, spec: SceneSpec, source: dict) -> str:
+        s = self._settings()
+        return _hash(
+            [source["sha256"], spec.path, s["width"], s["height"], s["segments"], s["frames_per_segment"]]
+        )
+
+    def _file_key(self, man: dict, frame: int, buffer: str) -> str:
+        s = self._settings()
+        base = [
+            man["source"]["sha256"],
+            man["cameras"][frame],
+            s["width"],
+            s["height"],
+            s["max_depth"],
+            s["seed"],
+        ]
+        if buffer in COLOUR_BUFFERS:
+            return _hash([*base, buffer, buffer_spp(buffer, self.data_cfg)])
+        if buffer in GBUFFERS:
+            return _hash([*base, buffer, s["gbuffer_spp"]])
+        prev = man["cameras"][max(frame - 1, 0)]
+        return _hash([*base, "motion", prev, self._file_key(man, frame, "depth")])
+
+    def _is_done(self, man: dict, scene: str, frame: int, buffer: str, verify: bool) -> bool:
+        rel = f"{frame:04d}/{buffer}.exr"
+        rec = man["files"].get(rel)
+        p = self.path(scene, frame, buffer)
+        if rec is None or rec.get("key") != self._file_key(man, frame, buffer) or not p.is_file():
+            return False
+        if p.stat().st_size != rec["bytes"]:
+            log.warning(
+                "%s: size %d differs from the manifest's %d (truncated?): re-rendering",
+                p,
+                p.stat().st_size,
+                rec["bytes"],
+            )
+            return False
+        if verify and sha256(p) != rec["sha256"]:
+            log.warning("%s: checksum differs from the manifest (corrupt): re-rendering", p)
+            return False
+        return True
+
+    # ------------------------------------------------------------------------------------------- rendering
+    def _open_manifest(self, spec: SceneSpec, loader: Any) -> dict:
+        """Existing manifest if its cameras still fit the config, else a new one (cameras from `loader()`)."""
+        source = spec.source()
+        cam_key = self._camera_key(spec, source)
+        p = self.manifest_path(spec.name)
+        man = None
+        if p.is_file():
+            try:
+                man = self._read_manifest(p)
+            except CorruptManifestError:
+                if not (self.render_cfg.get("force", False) or self.render_cfg.get("verify", False)):
+                    raise
+                log.warning("%s: unreadable manifest replaced; every file of the scene is rendered again", p)
+        if man is not None and man.get("camera_key") == cam_key and man.get("version") == MANIFEST_VERSION:
+            man["source"] = source
+            man["settings"] = self._settings()
+            return man
+        loaded = loader()
+        s = self._settings()
+        mats = interpolate_path(loaded.nodes, s["frames_per_segment"])
+        cams = [Camera(m, loaded.fov, s["width"], s["height"]).to_dict() for m in mats]
+        import mitsuba as mi
+
+        new = {
+            "version": MANIFEST_VERSION,
+            "scene": spec.name,
+            "profile": self.profile,
+            "source": source,
+            "settings": s,
+            "camera_key": cam_key,
+            "cameras": cams,
+            "mitsuba": mi.__version__,
+            "exposure": None,
+            "depth_scale": None,
+            "files": {},
+        }
+        if (
+            man is not None
+        ):  # keep the old file entries: their keys decide which files are still valid
+            new["files"] = man.get("files", {})
+            new["exposure"] = man.get("exposure")
+            new["depth_scale"] = man.get("depth_scale")
+        return new
+
+    def ensure(
+        self, buffers: Iterable[str], scenes: Iterable[str] | None = None, progress: bool = True
+    ) -> dict:
+        """Render whatever of `buffers` (+ ``ref``) is missing or stale for the profile's scenes.
+
+        Returns ``{"rendered": {buffer: n}, "reused": {buffer: n}, "variant", "seconds", "msamples"}``
+        and logs one line saying what was rendered and what was reused.
+        """
+        want = validate_buffers(buffers) | {"ref"}
+        todo_buffers = want | ({"depth"} if "motion" in want else set())
+        scene_list = list(scenes) if scenes is not None else self.scene_names
+        force = bool(self.render_cfg.get("force", False))
+        verify = bool(self.render_cfg.get("verify", False))
+        rendered: Counter[str] = Counter()
+        reused: Counter[str] = Counter()
+        t0 = time.perf_counter()
+        msamples = 0.0
+        variant = None
+        for name in scene_list:  # every scene file before the first render, not after the earlier scenes
+            if name not in self.specs:
+                raise ValueError(f"scene {name!r} is not registered in data.scenes of profile {self.profile}")
+            self.specs[name].check_exists()
+        for name in scene_list:
+            with self._scene_lock(name):  # one writer per scene; the manifest is read again under the lock
+                spec = self.specs[name]
+                state: dict[str, Any] = {}
+
+                def loader(spec: SceneSpec = spec, state: dict[str, Any] = state) -> Any:
+                    if "loaded" not in state:
+                        nonlocal variant
+                        variant = variant or self._variant()
+                        state["loaded"] = spec.load(
+                            int(self.data_cfg.width),
+                            int(self.data_cfg.height),
+                            self._settings()["max_depth"],
+                            int(self.data_cfg.segments),
+                        )
+                    return state["loaded"]
+
+                man = self._open_manifest(spec, loader)
+                order = sorted(todo_buffers, key=BUFFERS.index)
+                # ref first so that auto exposure is known early; motion after depth
+                order = ["ref", *[b for b in order if b != "ref"]]
+                todo = {
+                    f: [b for b in order if force or not self._is_done(man, name, f, b, verify)]
+                    for f in range(self.n_frames)
+                }
+                for f in range(self.n_frames):
+                    for b in order:
+                        if b not in todo[f] and (b in want):
+                            reused[b] += 1
+                if any(todo.values()):
+                    variant = variant or self._variant()
+                    msamples += self._render_scene(spec, man, todo, loader(), progress, rendered) / 1e6
+                self._fill_scales(spec, man)
+                self._manifests[name] = man
+                self._save(name, man)
+        seconds = time.perf_counter() - t0
+        summary = {
+            "rendered": dict(rendered),
+            "reused": dict(reused),
+            "variant": variant,
+            "seconds": round(seconds, 3),
+            "msamples": round(msamples, 3),
+            "scenes": scene_list,
+        }
+        log.info(
+            "store %s (%s): scenes %s; rendered %s; reused %s; %.1f Msamples in %.1f s (variant %s)",
+            self.profile,
+            self.root,
+            ",".join(scene_list),
+            _fmt(rendered),
+            _fmt(reused),
+            msamples,
+            seconds,
+            variant or "none needed",
+        )
+        return summary
+
+    @contextlib.contextmanager
+    def _scene_lock(self, scene: str) -> Iterator[None]:
+        """Hold ``<scene>/.lock`` (``fcntl.flock``) while this process renders the scene.
+
+        A second render of the same scene (another process) waits here, then reads the manifest the first one
+        left, so neither loses the other's entries. Under the lock no other process is writing the scene, so
+        temp files left by a killed run (``.*.tmp*`` beside the manifest and in frame folders) are removed.
+        """
+        folder = self.root / scene
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(folder / ".lock", "a") as f:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                log.info("%s: another process is rendering this scene; waiting for it to finish", folder)
+                fcntl.flock(f, fcntl.LOCK_EX)
+            try:
+                for stale in [*folder.glob(".*.tmp*"), *folder.glob("*/.*.tmp*")]:  # of a killed run
+                    stale.unlink(missing_ok=True)
+                yield
+            finally:
+                fcntl.flock(f, fcntl.LOCK_UN)
+
+    def _variant(self) -> str:
+        from mcd.data.mitsuba_env import select_variant
+
+        return select_variant(str(self.render_cfg.get("variant", "auto")))
+
+    def _render_scene(
+        self,
+        spec: SceneSpec,
+        man: dict,
+        todo: dict[int, list[str]],
+        loaded: Any,
+        progress: bool,
+        rendered: Counter[str],
+    ) -> float:
+        import mitsuba as mi
+        from tqdm import tqdm
+
+        from mcd.data.renderer import SceneRenderer
+
+        s = self._settings()
+        r = SceneRenderer(loaded.scene, s["width"], s["height"], loaded.fov, s["max_samples_per_pass"])
+        man["variant"] = mi.variant()
+        frames = [f for f in range(self.n_frames) if todo[f]]
+        t0 = time.perf_counter()
+        bar = tqdm(frames, desc=f"{self.profile}/{spec.name}", unit="frame", disable=not progress, leave=True)
+        for f in bar:
+            cam = man["cameras"][f]
+            r.set_camera(np.asarray(cam["to_world"], dtype=np.float64))
+            gb: dict[str, np.ndarray] | None = None
+            for b in todo[f]:
+                seed = derive_seed(s["seed"], spec.name, f, b)
+                if b in COLOUR_BUFFERS:
+                    spp = buffer_spp(b, self.data_cfg)
+                    img = r.color(spp, seed)
+                elif b in GBUFFERS:
+                    spp = s["gbuffer_spp"]
+                    if gb is None:
+                        gb = r.gbuffer(spp, derive_seed(s["seed"], spec.name, f, "gbuffer"))
+                    img = gb[b]
+                else:
+                    spp, seed = 0, 0
+                    depth = read_exr(self.path(spec.name, f, "depth"), self.fix_command("depth"))
+                    cams = man["cameras"]
+                    img = (
+                        np.zeros((s["height"], s["width"], 2), np.float32)
+                        if f == 0
+                        else backward_motion(depth, Camera.from_dict(cams[f]), Camera.from_dict(cams[f - 1]))
+                    )
+                self._write(spec.name, man, f, b, img, spp, seed, mi.variant())
+                rendered[b] += 1
+                if f == 0 and b == "ref":
+                    self._set_exposure(spec, man, img)
+                if f == 0 and b == "depth":
+                    man["depth_scale"] = depth_scale(img)
+            self._save(spec.name, man)
+            dt = time.perf_counter() - t0
+            bar.set_postfix_str(f"{r.samples_rendered / 1e6 / max(dt, 1e-9):.2f} Msamples/s")
+        bar.close()
+        self._manifests[spec.name] = man
+        return float(r.samples_rendered)
+
+    def _fill_scales(self, spec: SceneSpec, man: dict) -> None:
+        """Exposure and depth scale from frame 0 when unknown (e.g. files kept from an older manifest)."""
+        if spec.exposure != "auto":
+            man["exposure"] = float(spec.exposure)
+        elif man.get("exposure") is None and "0000/ref.exr" in man["files"]:
+            self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command("ref")))
+        if man.get("depth_scale") is None and "0000/depth.exr" in man["files"]:
+            man["depth_scale"] = depth_scale(read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth")))
+
+    def _set_exposure(self, spec: SceneSpec, man: dict, ref0: np.ndarray) -> None:
+        if spec.exposure != "auto":
+            man["exposure"] = float(spec.exposure)
+            return
+        exposure = auto_exposure(ref0, float(self.data_cfg.get("exposure_target", 0.5)))
+        man["exposure"] = exposure or 1.0
+        if exposure is None:
+            log.warning("scene %s: frame 0's reference is black; exposure left at 1", spec.name)
+
+    def _write(
+        self,
+        scene: str,
+        man: dict,
+        frame: int,
+        buffer: str,
+        img: np.ndarray,
+        spp: int,
+        seed: int,
+        variant: str,
+    ) -> None:
+        p = self.path(scene, frame, buffer)
+        write_exr(p, img, compress=buffer not in COLOUR_BUFFERS)
+        man["files"][f"{frame:04d}/{buffer}.exr"] = {
+            "key": self._file_key(man, frame, buffer),
+            "spp": spp,
+            "seed": seed,
+            "variant": variant,
+            "bytes": p.stat().st_size,
+            "sha256": sha256(p),
+            **count_bad(img, buffer in NEGATIVE_OK),
+        }
+
+    def _save(self, scene: str, man: dict) -> None:
+        _write_json_atomic(self.manifest_path(scene), man)
+
+
+def _fmt(c: Counter[str]) -> str:
+    if not c:
+        return "nothing"
+    return ", ".join(f"{b} x{c[b]}" for b in BUFFERS if c.get(b))
+
+
+Store = StoreBuilder
