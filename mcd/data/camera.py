@@ -1,4 +1,5 @@
-"""Cameras, camera paths and motion vectors (docs/benchmark.md, "Camera"; docs/architecture.md, buffer `motion`).
+"""Cameras, camera paths and motion vectors (docs/benchmark.md, "Camera"; docs/architecture.md, buffer
+`motion`).
 
 A camera is Mitsuba's perspective sensor: a 4x4 ``to_world`` whose columns are (left, up, forward, origin)
 (Mitsuba's ``look_at`` convention) and a horizontal field of view ``fov`` in degrees (``fov_axis = "x"``).

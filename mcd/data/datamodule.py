@@ -1,7 +1,8 @@
-"""The LightningDataModule over the store (docs/architecture.md, "Batches"; docs/benchmark.md, "Data protocol").
+"""The LightningDataModule over the store (docs/architecture.md, "Batches"; docs/benchmark.md, "Data
+protocol").
 
-Splits per scene sequence (docs/benchmark.md: first 20% test, the rest train, 5-frame non-overlapping clips): the
-first ``round(data.test_fraction * n)`` frames are the test sequence, the next ``data.val_clips`` clips of
+Splits per scene sequence (docs/benchmark.md: first 20% test, the rest train, 5-frame non-overlapping clips):
+the first ``round(data.test_fraction * n)`` frames are the test sequence, the next ``data.val_clips`` clips of
 ``data.clip_len`` frames validate, the remaining frames give non-overlapping training clips. Training and
 validation use ``data.train_scenes``; testing runs ``data.test_scenes`` (held-out transfer scenes among them)
 on their whole test sequences.

@@ -1,7 +1,9 @@
-"""Float EXR files via the OpenEXR package (docs/benchmark.md, "Data protocol": everything HDR, linear, float).
+"""Float EXR files via the OpenEXR package (docs/benchmark.md, "Data protocol": everything HDR, linear,
+float).
 
 Writes are atomic (a temporary file in the same folder, then ``os.replace``), so an interrupted render never
-leaves a half-written file under a final name; the file gets the mode the umask gives a new file. A file that OpenEXR cannot read, or whose size or checksum
+leaves a half-written file under a final name; the file gets the mode the umask gives a new file. A file that
+OpenEXR cannot read, or whose size or checksum
 differs from the manifest, raises :class:`CorruptEXRError`, whose message names the file and the command that
 re-renders it.
 """

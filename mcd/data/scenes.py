@@ -8,11 +8,12 @@ A scene config (``data.scenes.<name>``, composed from ``conf/scene/<file>.yaml``
   those ``<default>``s takes them; docs/scenes.md, "Your own scene"); or
 - ``kind: procedural``: a room from :mod:`mcd.data.procedural` with its ``seed``.
 
-The camera path (docs/benchmark.md, "Camera"): explicit key nodes ``path.nodes`` (``origin``/``target``/``up``), or
-derived from the scene's own camera (XML scenes): the first node is that camera; the others dolly forward by a
-fraction ``path.dolly`` of the free distance ahead, truck sideways by ``path.truck`` of the free distance to
-the side, and pan by alternating ``path.pan_deg``. Every segment is checked against the scene's geometry (a
-ray from node to node must not hit anything), so that no frame is rendered from inside a wall.
+The camera path (docs/benchmark.md, "Camera"): explicit key nodes ``path.nodes``
+(``origin``/``target``/``up``), or derived from the scene's own camera (XML scenes): the first node is that
+camera; the others dolly forward by a fraction ``path.dolly`` of the free distance ahead, truck sideways by
+``path.truck`` of the free distance to the side, and pan by alternating ``path.pan_deg``. Every segment is
+checked against the scene's geometry (a ray from node to node must not hit anything), so that no frame is
+rendered from inside a wall.
 
 Scenes by path (docs/scenes.md): an entry of ``data.train_scenes`` / ``transfer_scenes`` / ``test_scenes``
 that names an ``.xml`` file is registered by :func:`register_paths` as an XML scene (its name: the file's
@@ -72,8 +73,10 @@ class SceneSpec:
                 file = Path(rel).expanduser()
                 hint = f"check the path data.scenes.{name}.file={rel}"
             else:
-                hint = (f"set paths.scenes_dir=<dir> or the environment variable MCD_SCENES_DIR to the folder "
-                        f"that holds {rel} (now {scenes_dir!r}); docs/scenes.md says where to get each scene")
+                hint = (
+                    f"set paths.scenes_dir=<dir> or the environment variable MCD_SCENES_DIR to the folder "
+                    f"that holds {rel} (now {scenes_dir!r}); docs/scenes.md says where to get each scene"
+                )
                 if scenes_dir is None:
                     file = None
                 else:
@@ -103,8 +106,8 @@ class SceneSpec:
     def check_exists(self) -> None:
         """Raise SceneNotFoundError naming the path and how to fix it."""
         if self.kind == "xml" and self.file is None:
-            raise SceneNotFoundError(f"scene {self.name!r} is not vendored in the repository and no scenes folder "
-                                     f"is set: {self.missing_hint}")
+            raise SceneNotFoundError(f"scene {self.name!r} is not vendored in the repository and no scenes "
+                                     f"folder is set: {self.missing_hint}")
         if self.kind == "xml" and not self.file.is_file():
             raise SceneNotFoundError(f"scene {self.name!r}: file {self.file} not found; {self.missing_hint}")
 
@@ -137,8 +140,8 @@ class SceneSpec:
                 kwargs["max_depth"] = max_depth
             declared = declared_defaults(self.file)
             if "max_depth" in kwargs and "max_depth" not in declared:
-                log.info("scene %s declares no <default name=\"max_depth\">: its integrator's own depth is used",
-                         self.name)
+                log.info("scene %s declares no <default name=\"max_depth\">: its integrator's own depth is "
+                         "used", self.name)
             scene = mi.load_file(str(self.file), **{k: v for k, v in kwargs.items() if k in declared})
             sensor = scene.sensors()[0]
             params = mi.traverse(sensor)
@@ -243,13 +246,15 @@ SCENE_LISTS = ("train_scenes", "transfer_scenes", "test_scenes")
 
 
 def path_scene_name(file: str | Path) -> str:
-    """The name a scene given by path is registered under: its folder's name for ``scene.xml``, else its stem."""
+    """The name a scene given by path is registered under: its folder's name for ``scene.xml``, else its
+    stem."""
     p = Path(file)
     return p.parent.resolve().name if p.stem == "scene" else p.stem
 
 
 def register_paths(cfg: DictConfig) -> DictConfig:
-    """Register every ``.xml`` entry of ``cfg.data``'s scene lists as a scene and name it in the lists, in place.
+    """Register every ``.xml`` entry of ``cfg.data``'s scene lists as a scene and name it in the lists, in
+    place.
 
     ``data.test_scenes=[~/scenes/kitchen/scene.xml]`` becomes ``data.scenes.kitchen = {kind: xml, file:
     <absolute path>, exposure: auto}`` and ``data.test_scenes=[kitchen]`` (relative paths are taken from the
@@ -273,9 +278,10 @@ def register_paths(cfg: DictConfig) -> DictConfig:
                 name = path_scene_name(file)
                 known = data.scenes.get(name) if data.get("scenes") is not None else None
                 if known is not None and str(known.get("file")) != str(file):
-                    raise ValueError(f"data.{key}: {entry} would be registered as scene {name!r}, which already "
-                                     f"names {known.get('file')}; register it under another name with "
-                                     f"'+data.scenes.<name>={{kind: xml, file: {file}}}' (docs/scenes.md)")
+                    raise ValueError(f"data.{key}: {entry} would be registered as scene {name!r}, which "
+                                     f"already names {known.get('file')}; register it under another name "
+                                     f"with '+data.scenes.<name>={{kind: xml, file: {file}}}' "
+                                     "(docs/scenes.md)")
                 if known is None:
                     if data.get("scenes") is None:
                         data.scenes = {}

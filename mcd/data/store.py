@@ -35,14 +35,17 @@ from mcd.data.scenes import SceneSpec
 
 log = logging.getLogger(__name__)
 
-#: A profile or scene name is one folder name of the store: letters, digits, ``_``, ``-``, ``.`` (not leading).
+#: A profile or scene name is one folder name of the store: letters, digits, ``_``, ``-``, ``.`` (not
+#: leading).
 SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
-#: Command-line overrides that shape the store (``data=..``, ``data.*``, ``+scene@data.scenes.*``, ``paths.*``).
+#: Command-line overrides that shape the store (``data=..``, ``data.*``, ``+scene@data.scenes.*``,
+#: ``paths.*``).
 STORE_OVERRIDE = re.compile(r"[+~]*(data[.=]|scene@data\.|paths\.)")
 
 
 class CorruptManifestError(RuntimeError):
-    """A scene's ``manifest.json`` is not readable JSON; the message names it and the command that fixes it."""
+    """A scene's ``manifest.json`` is not readable JSON; the message names it and the command that fixes
+    it."""
 
 
 def check_name(name: str, key: str) -> str:
@@ -101,7 +104,8 @@ class StoreReader:
         """The store of the full Hydra config (``cfg.data``, ``cfg.paths``; the builder also ``cfg.render``).
 
         Scenes given by path in ``cfg.data``'s scene lists are registered first, in ``cfg`` itself
-        (:func:`mcd.data.scenes.register_paths`), so that the datamodule built from the same ``cfg`` reads them.
+        (:func:`mcd.data.scenes.register_paths`), so that the datamodule built from the same ``cfg`` reads
+        them.
 
         ``overrides`` default to those of the running Hydra app (``python -m mcd.run``/``mcd.render``).
         """
@@ -150,11 +154,23 @@ class StoreReader:
         return f"{self.render_command(*only, 'render.verify=true')} (re-renders damaged files)"
 
     def _settings_overrides(self) -> list[str]:
-        """``data.*`` overrides that reproduce this store's settings and scenes (when no command line is known)."""
+        """``data.*`` overrides that reproduce this store's settings and scenes (when no command line is
+        known)."""
         d = self.data_cfg
-        keys = ("width", "height", "segments", "frames_per_segment", "ref_spp", "gbuffer_spp", "max_depth", "seed")
-        scenes = [f"data.{k}=[{','.join(d.get(k) or [])}]" for k in ("train_scenes", "transfer_scenes", "test_scenes")]
-        return [f"data.name={self.profile}", *(f"data.{k}={'null' if d[k] is None else d[k]}" for k in keys if k in d), *scenes]
+        keys = (
+            "width",
+            "height",
+            "segments",
+            "frames_per_segment",
+            "ref_spp",
+            "gbuffer_spp",
+            "max_depth",
+            "seed",
+        )
+        lists = ("train_scenes", "transfer_scenes", "test_scenes")
+        scenes = [f"data.{k}=[{','.join(d.get(k) or [])}]" for k in lists]
+        values = [f"data.{k}={'null' if d[k] is None else d[k]}" for k in keys if k in d]
+        return [f"data.name={self.profile}", *values, *scenes]
 
     # --------------------------------------------------------------------------------------------- manifest
     def manifest(self, scene: str) -> dict:
@@ -200,7 +216,8 @@ class StoreReader:
             )
         size = p.stat().st_size
         if size != rec["bytes"]:
-            raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}", self.fix_command(buffer))
+            raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}",
+                                  self.fix_command(buffer))
         verify = bool(self.data_cfg.get("verify_checksums", False)) if verify is None else verify
         if verify and sha256(p) != rec["sha256"]:
             raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command(buffer))

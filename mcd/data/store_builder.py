@@ -1,8 +1,8 @@
 """Rendering the on-disk benchmark store (docs/architecture.md, "The store"; docs/benchmark.md, "Data
 protocol"; docs/data.md, "Buffers, seeds, store").
 
-:class:`StoreBuilder` is a :class:`mcd.data.store.StoreReader` that also renders:
-:meth:`StoreBuilder.ensure` renders whatever of the asked buffers (those a model reads, plus ``ref``; ``motion`` also needs ``depth``) is
+:class:`StoreBuilder` is a :class:`mcd.data.store.StoreReader` that also renders: :meth:`StoreBuilder.ensure`
+renders whatever of the asked buffers (those a model reads, plus ``ref``; ``motion`` also needs ``depth``) is
 missing or stale. The manifest records the render settings, the Mitsuba version, the scene's source (file +
 checksum, or generator seed), the per-frame cameras, the exposure scale, and per file: spp, seed, variant,
 byte size, SHA-256 and the counts of NaN / Inf / negative values the renderer produced. A file is *done* when
@@ -359,7 +359,9 @@ class StoreBuilder(StoreReader):
         elif man.get("exposure") is None and "0000/ref.exr" in man["files"]:
             self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command("ref")))
         if man.get("depth_scale") is None and "0000/depth.exr" in man["files"]:
-            man["depth_scale"] = depth_scale(read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth")))
+            man["depth_scale"] = depth_scale(
+                read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth"))
+            )
 
     def _set_exposure(self, spec: SceneSpec, man: dict, ref0: np.ndarray) -> None:
         if spec.exposure != "auto":

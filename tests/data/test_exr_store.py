@@ -119,7 +119,9 @@ def test_truncated_store_file_is_named_and_repaired(tmp_path):
     p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
     with pytest.raises(CorruptEXRError) as err:
         _store(tmp_path).load("cbox", 1, "c4")
-    assert str(p) in str(err.value) and "python -m mcd.render data.name=test32 data.width=32" in str(err.value)
+    assert str(p) in str(err.value) and "python -m mcd.render data.name=test32 data.width=32" in str(
+        err.value
+    )
     fixed = _store(tmp_path).ensure({"c4"}, progress=False)
     assert fixed["rendered"] == {"c4": 1}
     assert _store(tmp_path).load("cbox", 1, "c4").shape == (32, 32, 3)

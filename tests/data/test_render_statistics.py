@@ -9,8 +9,9 @@ two sample variances of R values each follows F(R-1, R-1), whose median is exact
 standard deviation of about ``2 / sqrt(R - 1)`` = 0.3 for R = 48; the median over ~1000 pixels then has a
 standard deviation near 0.012, so ``|median ratio - 1| < 0.05`` (about 4 of them) is safe, yet fails for a
 render with one sample too many or too few at 12 spp (variance scales with 1/spp: 13 or 11 samples move the
-ratio by 8-9%; ``test_variance_check_detects_a_wrong_sample_count`` shows it on the same realisations). Medians and z-scores are used because path-traced noise
-is heavy-tailed (a plain mean of variances over 40 realisations differed by 20% in a trial run).
+ratio by 8-9%; ``test_variance_check_detects_a_wrong_sample_count`` shows it on the same realisations).
+Medians and z-scores are used because path-traced noise is heavy-tailed (a plain mean of variances over 40
+realisations differed by 20% in a trial run).
 """
 
 from __future__ import annotations

@@ -32,7 +32,9 @@ def test_ddp_trainer_composes_and_lightning_accepts_it():
     kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
     kwargs.update(accelerator="cpu", devices=2, enable_progress_bar=False)
     kwargs["precision"] = precision.resolve(kwargs["precision"], "cpu")
-    trainer = L.Trainer(**kwargs, **budget.trainer_limits(cfg.train), logger=False, enable_checkpointing=False)
+    trainer = L.Trainer(
+        **kwargs, **budget.trainer_limits(cfg.train), logger=False, enable_checkpointing=False
+    )
     assert type(trainer.strategy).__name__ == "DDPStrategy"
     assert trainer.num_devices == 2
 

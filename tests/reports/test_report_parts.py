@@ -18,7 +18,9 @@ from mcd.reporting.tables import component_checks
 def _job(root, name, metrics=None, error=None, metrics_text=None, experiment="F", budget=4, sweep="ablation"):
     d = root / name
     (d / ".hydra").mkdir(parents=True)
-    (d / ".hydra" / "config.yaml").write_text(f"experiment: {experiment}\nbudget: {budget}\nsweep_name: {sweep}\n")
+    (d / ".hydra" / "config.yaml").write_text(
+        f"experiment: {experiment}\nbudget: {budget}\nsweep_name: {sweep}\n"
+    )
     (d / ".hydra" / "overrides.yaml").write_text(f"- +experiment={experiment}\n")
     if metrics is not None:
         (d / "metrics.json").write_text(json.dumps(metrics))
@@ -62,8 +64,8 @@ def test_pick_prefers_finished_runs_of_the_preferred_sweep(tmp_path):
 def test_spp_rows_fill_the_unet_gaps_with_row_a(tmp_path):
     from mcd.reporting.spp import spp_frame
 
-    _job(tmp_path, "u8", metrics={"psnr": 20.0, "experiment": "unet", "budget": 8}, experiment="unet", budget=8,
-         sweep="spp")
+    _job(tmp_path, "u8", metrics={"psnr": 20.0, "experiment": "unet", "budget": 8}, experiment="unet",
+         budget=8, sweep="spp")
     _job(tmp_path, "a4", metrics={"psnr": 18.0, "experiment": "A", "budget": 4}, experiment="A")
     df = spp_frame(find_runs([tmp_path])).set_index(["experiment", "budget"])
     assert df.loc[("unet", 4.0), "psnr"] == 18.0 and df.loc[("unet", 4.0), "source"] == "A"
@@ -119,11 +121,13 @@ def _seed_job(root, exp, seed, psnr):
 def test_seeds_table_gives_spread_and_differences_with_standard_errors(tmp_path):
     from mcd.reporting import seeds
 
-    for s, (a, b, c, f) in enumerate([(20.0, 20.5, 21.5, 22.0), (21.0, 20.5, 22.5, 21.0), (20.0, 21.5, 21.5, 23.0)]):
+    psnrs = [(20.0, 20.5, 21.5, 22.0), (21.0, 20.5, 22.5, 21.0), (20.0, 21.5, 21.5, 23.0)]
+    for s, (a, b, c, f) in enumerate(psnrs):
         for exp, v in zip("ABCF", (a, b, c, f), strict=True):
             _seed_job(tmp_path, exp, s, v)
     _job(tmp_path, "A_spp4_failed", error={"error": "x"}, experiment="A", sweep="seeds")  # not counted
-    _job(tmp_path, "F_abl", metrics={"psnr": 99.0, "experiment": "F", "budget": 4}, sweep="ablation")  # other sweep
+    # a job of another sweep
+    _job(tmp_path, "F_abl", metrics={"psnr": 99.0, "experiment": "F", "budget": 4}, sweep="ablation")
     out = seeds.write(find_runs([tmp_path]), tmp_path)
     table = out["seeds"].set_index("row")
     assert list(table.index) == ["A", "B", "C", "F"] and (table["n"] == 3).all()
@@ -182,7 +186,8 @@ def test_a_difference_under_two_standard_errors_is_called_unresolved():
 def test_seeds_run_without_ssim_shows_a_gap_not_a_crash(tmp_path):
     from mcd.reporting import seeds
 
-    _job(tmp_path, "F_spp4_seed0", metrics={"psnr": 21.0, "experiment": "F", "budget": 4, "seed": 0}, sweep="seeds")
+    _job(tmp_path, "F_spp4_seed0", metrics={"psnr": 21.0, "experiment": "F", "budget": 4, "seed": 0},
+         sweep="seeds")
     _seed_job(tmp_path, "F", 1, 22.0)
     row = seeds.spread(find_runs([tmp_path])).iloc[0]
     assert row["n"] == 2 and row["PSNR mean"] == 21.5 and math.isnan(row["SSIM mean"])
