@@ -50,7 +50,14 @@ def main(cfg: DictConfig) -> dict:
     store = StoreBuilder.from_cfg(cfg)
     buffers = requested_buffers(cfg)
     log.info("rendering profile %s into %s: buffers %s", store.profile, store.root, ",".join(sorted(buffers)))
-    return store.ensure(buffers)
+    report = store.ensure(buffers)
+    for scene, q in report["reference"].items():
+        if q["test_psnr_db"] is not None:
+            log.info("reference quality %s: test frames %d spp, estimated %.2f dB (lowest frame %.2f; "
+                     "target %g, pilot at %d spp %.2f dB); training frames %d spp", scene, q["test_spp"],
+                     q["test_psnr_db"], q["test_psnr_min_db"], q["target_db"], q["train_spp"], q["pilot_db"],
+                     q["train_spp"])
+    return report
 
 
 def _argv_flags() -> None:

@@ -101,6 +101,8 @@ def write_readme(
             for s in sweeps
         ],
         f"- Data profile(s): {prov.data_profiles}",
+        f"- Reference quality of the test frames (estimated PSNR of each reference, docs/data.md): "
+        f"{prov.reference_quality}",
         f"- Config: {prov.config_groups}; each job's full config is in `<run>/.hydra/config.yaml` "
         "(and `resolved_config.yaml`)",
         f"- Training: {prov.training}",

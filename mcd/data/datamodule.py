@@ -36,23 +36,10 @@ from omegaconf import DictConfig
 from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, Subset
 
 from mcd.data.buffers import BUFFERS, validate_buffers
+from mcd.data.splits import split_frames
 from mcd.data.store import StoreReader
 
 log = logging.getLogger(__name__)
-
-
-def split_frames(n: int, test_fraction: float, val_clips: int, clip_len: int) -> dict[str, list[list[int]]]:
-    """Frame indices of a sequence: ``test`` (one whole sequence), ``val`` and ``train`` (clips)."""
-    n_test = max(1, int(round(test_fraction * n)))
-    rest = list(range(n_test, n))
-    clips = [rest[i : i + clip_len] for i in range(0, len(rest) - clip_len + 1, clip_len)]
-    if len(clips) < val_clips + 1:
-        raise ValueError(
-            f"a {n}-frame sequence leaves {len(rest)} frames after the {n_test} test frames: not enough for "
-            f"{val_clips} validation clip(s) and one training clip of {clip_len} frames; raise "
-            "data.frames_per_segment or data.segments, or lower data.val_clips / data.clip_len"
-        )
-    return {"test": [list(range(n_test))], "val": clips[:val_clips], "train": clips[val_clips:]}
 
 
 class _Frames:

@@ -33,7 +33,9 @@ def estimate_psnr(half_a: np.ndarray, half_b: np.ndarray, exposure: float = 1.0)
     metrics see exposed images)."""
     if half_a.shape != half_b.shape:
         raise ValueError(f"two renders of one shape expected, got {half_a.shape} and {half_b.shape}")
-    diff = to_display(half_a * exposure) - to_display(half_b * exposure)
+    # non-finite values become 0, as the store sanitises them at load
+    a, b = (np.nan_to_num(h, nan=0.0, posinf=0.0, neginf=0.0) for h in (half_a, half_b))
+    diff = to_display(a * exposure) - to_display(b * exposure)
     mse = float(np.mean(diff.astype(np.float64) ** 2))
     if mse <= 0:
         return PSNR_CAP_DB
@@ -47,6 +49,8 @@ def spp_for_target(pilot_spp: int, pilot_db: float, target_db: float, max_spp: i
     if pilot_spp < 2 or max_spp < pilot_spp:
         raise ValueError(f"need 2 <= pilot spp ({pilot_spp}) <= max spp ({max_spp})")
     need = pilot_spp * 10.0 ** ((target_db - pilot_db) / 10.0)
+    if need <= pilot_spp:
+        return int(pilot_spp)
     step = max(2, step + step % 2)
     spp = int(math.ceil(need / step) * step)
     return int(min(max(spp, pilot_spp), max_spp))

@@ -13,6 +13,12 @@ interrupted render resumes where it stopped; a per-scene lock (``<scene>/.lock``
 ``render.force=true`` re-renders the requested buffers; ``render.verify=true`` also checks every checksum and
 re-renders damaged files.
 
+Reference quality (docs/data.md, "Reference quality"): with ``data.ref_quality.target_db`` set, a pilot of
+each scene (frame 0 as two independent halves of ``data.ref_spp``) estimates its reference PSNR
+(:mod:`mcd.data.reference_quality`), and the references of the scene's test frames are rendered at the spp
+that reaches the target (at most ``data.ref_quality.max_spp``), as two halves whose difference gives each
+one's achieved PSNR (``psnr_estimate`` in the manifest). Training and validation frames keep ``data.ref_spp``.
+
 ``Store`` is this class under the name most callers use (``mcd.data.Store``).
 """
 
@@ -38,8 +44,10 @@ from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS, GBUFFERS, NEGATIVE_OK, buf
 from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import auto_exposure, depth_scale
 from mcd.data.exr import count_bad, read_exr, sha256, umask_mode, write_exr
+from mcd.data.reference_quality import estimate_psnr, spp_for_target
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneSpec
+from mcd.data.splits import test_frame_count
 from mcd.data.store import CorruptManifestError, StoreReader
 
 #: the reader's logger: every log line of the store, read or render, comes from ``mcd.data.store``
@@ -102,6 +110,71 @@ class StoreBuilder(StoreReader):
             "max_samples_per_pass": int(self.render_cfg.get("max_samples_per_pass", 1 << 24)),
         }
 
+    # ------------------------------------------------------------------------------------ reference quality
+    def _quality_cfg(self) -> dict[str, Any] | None:
+        """``data.ref_quality`` as ``{"target_db", "max_spp"}``, or None where it is off (no target)."""
+        q = self.data_cfg.get("ref_quality")
+        if q is None or q.get("target_db") is None:
+            return None
+        target, cap = float(q.target_db), int(q.get("max_spp", self.data_cfg.ref_spp))
+        if cap < int(self.data_cfg.ref_spp):
+            raise ValueError(f"data.ref_quality.max_spp={cap} is below data.ref_spp={self.data_cfg.ref_spp}: "
+                             "raise it (or set data.ref_quality.target_db=null)")
+        return {"target_db": target, "max_spp": cap}
+
+    def _quality_frame(self, man: dict, frame: int) -> bool:
+        """Whether ``frame``'s reference is rendered to the scene's reference quality (a test frame, with
+        ``data.ref_quality`` on and the scene's pilot done)."""
+        return man.get("ref_quality") is not None and frame < test_frame_count(
+            self.n_frames, float(self.data_cfg.get("test_fraction", 0.2)))
+
+    def _ref_spp(self, man: dict, frame: int) -> int:
+        """The reference spp of ``frame``: the scene's quality spp for a test frame, else ``data.ref_spp``."""
+        if self._quality_frame(man, frame):
+            return int(man["ref_quality"]["spp"])
+        return int(self.data_cfg.ref_spp)
+
+    def _pilot(self, spec: SceneSpec, man: dict, loaded: Any, quality: dict[str, Any]) -> dict[str, Any]:
+        """Estimate the scene's reference PSNR from frame 0 rendered as two halves of ``data.ref_spp`` and
+        choose the spp that reaches ``quality["target_db"]`` (docs/data.md, "Reference quality")."""
+        from mcd.data.renderer import SceneRenderer
+
+        s = self._settings()
+        pilot = int(self.data_cfg.ref_spp)
+        r = SceneRenderer(loaded.scene, s["width"], s["height"], loaded.fov, s["max_samples_per_pass"])
+        r.set_camera(np.asarray(man["cameras"][0]["to_world"], dtype=np.float64))
+        halves = [r.color(pilot // 2, derive_seed(s["seed"], spec.name, 0, "ref_pilot", k)) for k in (0, 1)]
+        target = float(self.data_cfg.get("exposure_target", 0.5))
+        exposure = (float(spec.exposure) if spec.exposure != "auto"
+                    else auto_exposure((halves[0] + halves[1]) / 2, target) or 1.0)
+        db = estimate_psnr(halves[0], halves[1], exposure)
+        spp = spp_for_target(pilot, db, quality["target_db"], quality["max_spp"])
+        log.info("scene %s: reference of frame 0 at %d spp estimated at %.1f dB; test-frame references at %d "
+                 "spp for a target of %.0f dB%s", spec.name, pilot, db, spp, quality["target_db"],
+                 " (capped by data.ref_quality.max_spp)" if spp == quality["max_spp"] else "")
+        return {**quality, "pilot_spp": pilot, "pilot_db": round(db, 3), "spp": spp,
+                "samples": r.samples_rendered}
+
+    def _pilot_key(self, man: dict, quality: dict[str, Any]) -> str:
+        s = self._settings()
+        return _hash([man["source"]["sha256"], man["cameras"][0], s["width"], s["height"], s["max_depth"],
+                      s["seed"], s["ref_spp"], quality])
+
+    def reference_quality(self, scene: str) -> dict[str, Any]:
+        """What the scene's references reached (docs/data.md, "Reference quality"): the test frames' spp and
+        the mean and lowest ``psnr_estimate`` of their references (None without ``data.ref_quality``), the
+        target, and the training frames' spp."""
+        man = self.manifest(scene)
+        rq = man.get("ref_quality")
+        n_test = test_frame_count(self.n_frames, float(self.data_cfg.get("test_fraction", 0.2)))
+        est = [man["files"].get(f"{f:04d}/ref.exr", {}).get("psnr_estimate") for f in range(n_test)]
+        est = [e for e in est if e is not None]
+        return {"test_spp": None if rq is None else rq["spp"],
+                "target_db": None if rq is None else rq["target_db"],
+                "test_psnr_db": round(float(np.mean(est)), 2) if est else None,
+                "test_psnr_min_db": round(float(np.min(est)), 2) if est else None,
+                "pilot_db": None if rq is None else rq["pilot_db"], "train_spp": int(self.data_cfg.ref_spp)}
+
     def _camera_key(self, spec: SceneSpec, source: dict) -> str:
         s = self._settings()
         return _hash(
@@ -118,6 +191,8 @@ class StoreBuilder(StoreReader):
             s["max_depth"],
             s["seed"],
         ]
+        if buffer == "ref" and self._quality_frame(man, frame):
+            return _hash([*base, buffer, self._ref_spp(man, frame), "halves"])
         if buffer in COLOUR_BUFFERS:
             return _hash([*base, buffer, buffer_spp(buffer, self.data_cfg)])
         if buffer in GBUFFERS:
@@ -229,6 +304,14 @@ class StoreBuilder(StoreReader):
                     return state["loaded"]
 
                 man = self._open_manifest(spec, loader)
+                quality = self._quality_cfg()
+                if quality is None:
+                    man.pop("ref_quality", None)
+                elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
+                    variant = variant or self._variant()
+                    man["ref_quality"] = {"key": self._pilot_key(man, quality),
+                                          **self._pilot(spec, man, loader(), quality)}
+                    msamples += man["ref_quality"]["samples"] / 1e6
                 order = sorted(todo_buffers, key=BUFFERS.index)
                 # ref first so that auto exposure is known early; motion after depth
                 order = ["ref", *[b for b in order if b != "ref"]]
@@ -254,6 +337,7 @@ class StoreBuilder(StoreReader):
             "seconds": round(seconds, 3),
             "msamples": round(msamples, 3),
             "scenes": scene_list,
+            "reference": {name: self.reference_quality(name) for name in scene_list},
         }
         log.info(
             "store %s (%s): scenes %s; rendered %s; reused %s; %.1f Msamples in %.1f s (variant %s)",
@@ -322,7 +406,15 @@ class StoreBuilder(StoreReader):
             gb: dict[str, np.ndarray] | None = None
             for b in todo[f]:
                 seed = derive_seed(s["seed"], spec.name, f, b)
-                if b in COLOUR_BUFFERS:
+                extra: dict[str, Any] = {}
+                if b == "ref" and self._quality_frame(man, f):
+                    spp = self._ref_spp(man, f)
+                    halves = [r.color(spp // 2, derive_seed(seed, "half", k)) for k in (0, 1)]
+                    img = (halves[0] + halves[1]) / 2
+                    if f == 0:
+                        self._set_exposure(spec, man, img)
+                    extra["psnr_estimate"] = round(estimate_psnr(*halves, float(man["exposure"] or 1.0)), 3)
+                elif b in COLOUR_BUFFERS:
                     spp = buffer_spp(b, self.data_cfg)
                     img = r.color(spp, seed)
                 elif b in GBUFFERS:
@@ -339,7 +431,7 @@ class StoreBuilder(StoreReader):
                         if f == 0
                         else backward_motion(depth, Camera.from_dict(cams[f]), Camera.from_dict(cams[f - 1]))
                     )
-                self._write(spec.name, man, f, b, img, spp, seed, mi.variant())
+                self._write(spec.name, man, f, b, img, spp, seed, mi.variant(), extra)
                 rendered[b] += 1
                 if f == 0 and b == "ref":
                     self._set_exposure(spec, man, img)
@@ -382,6 +474,7 @@ class StoreBuilder(StoreReader):
         spp: int,
         seed: int,
         variant: str,
+        extra: dict[str, Any] | None = None,
     ) -> None:
         p = self.path(scene, frame, buffer)
         write_exr(p, img, compress=buffer not in COLOUR_BUFFERS)
@@ -393,6 +486,7 @@ class StoreBuilder(StoreReader):
             "bytes": p.stat().st_size,
             "sha256": sha256(p),
             **count_bad(img, buffer in NEGATIVE_OK),
+            **(extra or {}),
         }
 
     def _save(self, scene: str, man: dict) -> None:

@@ -120,6 +120,26 @@ class Provenance:
             f"perceptual loss: {perceptual}"
         )
 
+    @property
+    def reference_quality(self) -> str:
+        """Per scene, the test frames' reference spp and estimated PSNR (docs/data.md, "Reference quality")
+        as the runs' stores reported them; runs from before that record say nothing."""
+        seen: dict[str, dict] = {}
+        for r in self._ok():
+            for scene, q in ((r.metrics.get("data") or {}).get("reference") or {}).items():
+                seen.setdefault(scene, q)
+        if not seen:
+            return "not recorded by these runs (stores from before docs/data.md \"Reference quality\")"
+
+        def one(scene: str, q: dict) -> str:
+            if q.get("test_psnr_db") is None:
+                return f"{scene} {q.get('train_spp')} spp (no estimate)"
+            low = q.get("test_psnr_min_db")
+            return (f"{scene} {q['test_spp']} spp, {q['test_psnr_db']:.1f} dB (lowest frame {low:.1f})")
+
+        target = _distinct([q.get("target_db") for q in seen.values()])
+        return f"target {target} dB; " + "; ".join(one(s, q) for s, q in sorted(seen.items()))
+
     def commands(self) -> list[str]:
         return [s.command for s in self.sweeps]
 

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from mcd.data import MCDDataModule
-from mcd.data.datamodule import split_frames
+from mcd.data.splits import split_frames
 
 
 def test_split_first_frames_test_then_val_then_train():

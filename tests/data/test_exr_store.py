@@ -17,7 +17,10 @@ FAST = ["data.ref_spp=8", "data.gbuffer_spp=2"]
 
 
 def _store(tmp_path, *extra: str) -> Store:
-    return Store.from_cfg(compose_cfg(*store32_overrides(tmp_path), *FAST, *extra))
+    """The 32x32 test store with every reference at ``data.ref_spp``: these tests count renders and files;
+    reference quality has its own (tests/data/test_reference_quality.py)."""
+    return Store.from_cfg(compose_cfg(*store32_overrides(tmp_path), *FAST, "data.ref_quality.target_db=null",
+                                      *extra))
 
 
 @pytest.mark.parametrize("channels", [1, 2, 3])
