@@ -60,7 +60,7 @@ def cosine_factor(progress: float, lr: float, lr_min: float) -> float:
 
 
 class DenoiseModule(L.LightningModule):
-    """Trains ``model`` with ``loss`` (``mcd.lit.losses``) and tests it on whole sequences."""
+    """Trains ``model`` with ``loss`` (``mcd.losses``) and tests it on whole sequences."""
 
     def __init__(self, cfg: DictConfig, model: nn.Module, loss: nn.Module) -> None:
         super().__init__()
