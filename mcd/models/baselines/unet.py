@@ -20,6 +20,6 @@ def build_unet(method: DictConfig, model: DictConfig, budget: float) -> nn.Modul
     on = [s for s in SWITCHES if s != "UN" and bool(method.get(s, False))]
     if on:
         raise ValueError(f"method.name=unet is component row A (only UN); it cannot take "
-                         f"method.{on[0]}=true. Use method.name=two_stage for other switch rows, or "
-                         "+experiment=unet")
+                         f"method.{on[0]}=true. Use method=two_stage (conf/method/) for other switch rows, "
+                         "or +experiment=unet")
     return build_two_stage(OmegaConf.merge(method, ROW_A), model, budget)
