@@ -75,8 +75,9 @@ def trainer_kwargs(cfg: DictConfig) -> dict[str, object]:
     kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
     owned = sorted(k for k in kwargs if k in FROM_TRAIN)
     if owned:
-        raise ValueError(f"trainer.{owned[0]} is set by train.{FROM_TRAIN[owned[0]]} (one key per setting, "
-                         f"docs/training.md): set train.{FROM_TRAIN[owned[0]]} and remove trainer.{owned[0]}")
+        key, train_key = owned[0], FROM_TRAIN[owned[0]]
+        raise ValueError(f"trainer.{key} is set by train.{train_key} (one key per setting, "
+                         f"docs/architecture.md \"Config\"): set train.{train_key} and remove trainer.{key}")
     if kwargs.get("use_distributed_sampler"):
         raise ValueError("trainer.use_distributed_sampler=true: the datamodule distributes the data itself "
                          "(training and validation sharded, the test on rank 0: mcd/data/datamodule.py); "
