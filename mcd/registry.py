@@ -11,7 +11,7 @@ registry).
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Generic, TypeVar
 
 T = TypeVar("T", bound=Callable[..., object])
@@ -69,10 +69,3 @@ class Registry(Generic[T]):
         """Every registered name, built-ins included, sorted."""
         self.load_builtin()
         return sorted(self._entries)
-
-    def __contains__(self, name: object) -> bool:
-        self.load_builtin(until=str(name))
-        return name in self._entries
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.names())

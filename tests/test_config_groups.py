@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from omegaconf import OmegaConf
+from omegaconf import OmegaConf, open_dict
 
 from mcd.lit import budget
 from mcd.losses import LOSSES, build_loss
@@ -68,3 +68,30 @@ def test_every_group_file_names_a_registered_entry() -> None:
     assert losses == LOSSES.names()
     for name in losses:
         assert build_loss(compose_cfg(f"loss={name}", "paths.vgg16_weights=null")) is not None
+
+
+def test_one_registry_type_for_methods_and_losses() -> None:
+    """Both registries are :class:`mcd.registry.Registry`: the same plug-in rule and the same errors."""
+    from torch import nn
+
+    from mcd.models import build, register
+    from mcd.registry import Registry, UnknownName
+
+    assert isinstance(METHODS, Registry) and isinstance(LOSSES, Registry)
+    cfg = compose_cfg("+experiment=A")
+    with open_dict(cfg):
+        cfg.method.name = "test_only_identity"
+    with pytest.raises(UnknownName, match="unknown method.name='test_only_identity'.*two_stage"):
+        build(cfg)
+
+    @register("test_only_identity")
+    def identity(method, model, budget):  # the constructor gets its own settings, nothing else
+        assert method.name == "test_only_identity" and "two_stage" in model and budget == cfg.budget
+        return nn.Identity()
+
+    try:
+        assert isinstance(build(cfg), nn.Identity)
+        with pytest.raises(ValueError, match="method 'test_only_identity' is registered twice"):
+            register("test_only_identity")(lambda method, model, budget: None)
+    finally:
+        METHODS.unregister("test_only_identity")
