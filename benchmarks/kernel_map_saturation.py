@@ -36,8 +36,8 @@ from hydra import compose, initialize_config_dir
 
 from mcd.data import MCDDataModule, StoreBuilder
 from mcd.data.buffers import run_buffers
-from mcd.lit import build_loss
 from mcd.lit.module import DenoiseModule, clip_buffers, cosine_factor
+from mcd.losses import build_loss
 from mcd.metrics import psnr
 from mcd.models import build
 from mcd.models.kernel_pool import identity_weight

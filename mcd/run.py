@@ -42,8 +42,9 @@ from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
 from mcd.data import MCDDataModule
-from mcd.lit import DenoiseModule, budget, build_loss
+from mcd.lit import DenoiseModule, budget
 from mcd.lit.test_recorder import TestRecorder
+from mcd.losses import build_loss
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, is_complete

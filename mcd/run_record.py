@@ -49,7 +49,7 @@ class RunRecord:
     per_scene: dict[str, dict[str, float | None]]  # per-scene averages of every score
     scenes_test: list[str]
     test_frames: dict[str, int]  # frames tested per scene
-    perceptual_loss: dict[str, Any]  # whether L_p was on, and why not (mcd.lit.vgg.PerceptualStatus)
+    perceptual_loss: dict[str, Any]  # whether L_p was on, and why not (mcd.losses.vgg.PerceptualStatus)
     commit: str  # the code's commit, "unknown" outside git (mcd.run.git_commit)
     dirty: bool | None  # whether the working tree differed from it
     device: str  # GPU name, or CPU model and threads (mcd.run.device_name)

@@ -82,7 +82,8 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
     from mcd.bench import compose_cfg, device_name
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
-    from mcd.lit import DenoiseModule, budget, build_loss
+    from mcd.lit import DenoiseModule, budget
+    from mcd.losses import build_loss
 
     torch.set_num_threads(threads)
     cfg = compose_cfg(method, [f"data={profile}", *path_overrides(path), *extra,

@@ -5,7 +5,7 @@ Per frame (the scene's own camera; with ``frames > 1`` a path derived from it as
 :func:`mcd.data.scenes.derive_nodes`): render ``c_1`` (1 spp, ``N`` samples) and the G-buffers (their own
 samples, not part of the colour budget, as in the benchmark), run the sampling network ``F_s``, normalise its
 map to exactly ``N * (s - 1)`` samples, render those per-pixel counts with Mitsuba
-(:func:`mcd.data.adaptive_render.render_adaptive`, injected through :func:`mcd.sampling.real_renderer`), then
+(:func:`mcd.data.spp_map_render.render_spp_map`, injected through :func:`mcd.sampling.real_renderer`), then
 the second stage. Colour samples per frame: ``N + N * (s - 1) = N * s`` exactly (checked). A uniform method
 renders ``c_s`` (``N * s``) instead. NTASAD's first frame also reads ``c_s`` (its stand-in for a previous
 output), rendered on top and reported apart.
@@ -77,10 +77,10 @@ class AdaptiveRender:
         self.samples = 0
 
     def __call__(self, m: torch.Tensor) -> torch.Tensor:
-        from mcd.data.adaptive_render import render_adaptive
+        from mcd.data.spp_map_render import render_spp_map
 
         counts = m[0, 0].round().long().cpu().numpy()
-        img = render_adaptive(self.scene, counts, self.seed, sensor=self.sensor)
+        img = render_spp_map(self.scene, counts, self.seed, sensor=self.sensor)
         self.samples += int(counts.sum())
         img = normalise(img, "adaptive", self.exposure, 1.0, colour=True)[0]
         return _tensor(img * counts[..., None].astype(np.float32), m.device)

@@ -1,6 +1,5 @@
-"""Training: the LightningModule and the loss registry (docs/method.md, "Losses")."""
+"""Training: the LightningModule, budgets, checkpoints, the test recorder (docs/training.md)."""
 
-from mcd.lit.losses import LOSSES, build_loss, register_loss
 from mcd.lit.module import DenoiseModule
 
-__all__ = ["LOSSES", "DenoiseModule", "build_loss", "register_loss"]
+__all__ = ["DenoiseModule"]

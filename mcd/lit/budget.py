@@ -40,14 +40,23 @@ def _limit(train: DictConfig, key: str) -> float | None:
     return number
 
 
+#: Lightning Trainer arguments that ``train.*`` keys set (:func:`trainer_limits`); ``trainer.*`` must not.
+FROM_TRAIN = {"max_epochs": "epochs", "max_time": "max_minutes", "val_check_interval": "val_every_steps",
+              "check_val_every_n_epoch": "val_every", "limit_train_batches": "limit_train_batches",
+              "gradient_clip_val": "grad_clip", "max_steps": "max_steps"}
+
+
 def trainer_limits(train: DictConfig) -> dict[str, object]:
-    """Lightning Trainer arguments for the epoch and time budget and the validation cadence of ``train.*``
-    (the step budget is :class:`StepLimit`, in :func:`callbacks`)."""
+    """Lightning Trainer arguments for the epoch and time budget, the validation cadence, the batches per
+    epoch and the gradient clipping of ``train.*`` (the step budget is :class:`StepLimit`, in
+    :func:`callbacks`)."""
     epochs, steps, minutes = (_limit(train, k) for k in ("epochs", "max_steps", "max_minutes"))
     if epochs is None and steps is None and minutes is None:
         raise ValueError("no training budget: set train.max_steps, train.max_minutes or train.epochs")
     every = train.get("val_every_steps")
-    kwargs: dict[str, object] = {"max_epochs": int(epochs) if epochs is not None else -1}
+    kwargs: dict[str, object] = {"max_epochs": int(epochs) if epochs is not None else -1,
+                                 "limit_train_batches": train.get("limit_train_batches", 1.0),
+                                 "gradient_clip_val": train.get("grad_clip")}
     if minutes is not None:
         kwargs["max_time"] = {"seconds": minutes * 60}
     if every:
@@ -64,6 +73,11 @@ def trainer_kwargs(cfg: DictConfig) -> dict[str, object]:
     always off: under DDP the datamodule shards training and validation itself and tests every frame on
     rank 0 (mcd/data/datamodule.py), which Lightning's sampler would split between the ranks."""
     kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
+    owned = sorted(k for k in kwargs if k in FROM_TRAIN)
+    if owned:
+        key, train_key = owned[0], FROM_TRAIN[owned[0]]
+        raise ValueError(f"trainer.{key} is set by train.{train_key} (one key per setting, "
+                         f"docs/architecture.md \"Config\"): set train.{train_key} and remove trainer.{key}")
     if kwargs.get("use_distributed_sampler"):
         raise ValueError("trainer.use_distributed_sampler=true: the datamodule distributes the data itself "
                          "(training and validation sharded, the test on rank 0: mcd/data/datamodule.py); "

@@ -13,7 +13,10 @@
   faster on this project's CPU, docs/training.md "Throughput").
 - Validation logs ``val/loss`` and ``val/psnr``, ``val/ssim`` of the last frame of each clip (the test
   metrics of ``mcd.metrics``), each averaged over the validation clips of all processes (``sync_dist``), so
-  that under DDP every rank picks the same best checkpoint: the one with the highest ``val/psnr``.
+  that under DDP every rank picks the same best checkpoint: the one with the highest ``val/psnr``. The
+  training loss and its terms are logged as their mean over the processes too (:func:`mean_over_processes`,
+  one all-reduce of the detached terms per step), so ``logs/metrics.csv`` and ``curve.csv`` show the loss of
+  the whole effective batch, not rank 0's share.
 - The learning rate follows a cosine from ``train.lr`` to ``train.lr_min`` over the training budget
   (:func:`cosine_factor`; the budget's progress is ``DenoiseModule.progress``).
 - Test: whole frames, one current frame per batch, in sequence order; ``reset()`` where ``batch["reset"]``
@@ -31,6 +34,7 @@ import time
 
 import lightning as L
 import torch
+import torch.distributed as dist
 from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
 
@@ -52,6 +56,16 @@ def check_finite(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
                              f"{batch.get('frame')}: the datamodule must sanitise NaN/Inf at load")
 
 
+def mean_over_processes(values: Tensor) -> Tensor:
+    """``values`` averaged over the processes of the default process group (one all-reduce); as they are
+    outside distributed training. Every process must call it the same number of times."""
+    if not (dist.is_available() and dist.is_initialized()) or dist.get_world_size() < 2:
+        return values
+    total = values.detach().clone()
+    dist.all_reduce(total, op=dist.ReduceOp.SUM)
+    return total / dist.get_world_size()
+
+
 def cosine_factor(progress: float, lr: float, lr_min: float) -> float:
     """Multiplier of ``lr`` at ``progress`` (0..1) of the budget: a cosine from ``lr`` down to ``lr_min``."""
     p = min(max(progress, 0.0), 1.0)
@@ -60,7 +74,7 @@ def cosine_factor(progress: float, lr: float, lr_min: float) -> float:
 
 
 class DenoiseModule(L.LightningModule):
-    """Trains ``model`` with ``loss`` (``mcd.lit.losses``) and tests it on whole sequences."""
+    """Trains ``model`` with ``loss`` (``mcd.losses``) and tests it on whole sequences."""
 
     def __init__(self, cfg: DictConfig, model: nn.Module, loss: nn.Module) -> None:
         super().__init__()
@@ -128,7 +142,12 @@ class DenoiseModule(L.LightningModule):
         pred = self.run_clip(batch, with_ref)
         terms = self.loss_fn(pred, clip_buffers(batch)["ref"][:, -pred.shape[1]:])
         size = pred.shape[0]
-        for name, value in terms.items():
+        logged = dict(terms)
+        if stage == "train":  # mean over the ranks (validation averages with sync_dist at epoch end)
+            names = list(terms)
+            mean = mean_over_processes(torch.stack([terms[k].detach().float() for k in names]))
+            logged = dict(zip(names, mean.unbind(0), strict=True))
+        for name, value in logged.items():
             self.log(f"{stage}/{name}", value, prog_bar=name == "loss", on_step=stage == "train",
                      on_epoch=True, batch_size=size, sync_dist=stage == "val")
         return terms["loss"], pred

@@ -76,7 +76,6 @@ def prepare(cfg: DictConfig) -> tuple[DictConfig, dict[str, Any] | None]:
         if epochs > 0:
             cfg.train.batch_size = 1
             cfg.train.limit_train_batches = int(t.get("finetune_clips", 1))
-            cfg.trainer.limit_train_batches = int(t.get("finetune_clips", 1))
     info = {"scene": ", ".join(scenes), "scenes": scenes, "finetune": epochs > 0, "finetune_epochs": epochs,
             "finetune_clips": int(t.get("finetune_clips", 1)) if epochs > 0 else 0, "init_from": str(ckpt)}
     return cfg, info

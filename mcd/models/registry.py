@@ -1,48 +1,37 @@
-"""Method registry: ``@register(name)`` on a factory ``cfg -> nn.Module``; :func:`build` picks one by name.
+"""The methods by name (``method.name``): :data:`METHODS`, a :class:`mcd.registry.Registry`.
 
-Factories read ``cfg.method`` (name and switches), ``cfg.budget`` and their widths from ``cfg.model.<name>``.
+A method registers ``@METHODS.register(name)`` (``mcd.models.register``) on a constructor
+``(method, model, budget) -> nn.Module`` that takes its own settings: ``method`` the method's config
+(the ``conf/method/`` group), ``model`` the capacity profile (``conf/model/``; the constructor reads its
+own entry, ``model.<name>``) and ``budget`` the average samples per pixel. :func:`build` is the one place
+that hands a run's config to it.
 """
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 from collections.abc import Callable
 
+from omegaconf import DictConfig
 from torch import nn
 
-Factory = Callable[..., nn.Module]
-REGISTRY: dict[str, Factory] = {}
+from mcd.registry import Registry
 
-#: Modules whose import registers the built-in methods.
-BUILTIN_MODULES = ("mcd.models.two_stage", "mcd.models.baselines")
+Factory = Callable[[DictConfig, DictConfig, float], nn.Module]
 
-
-def register(name: str) -> Callable[[Factory], Factory]:
-    """Decorator: register ``factory(cfg) -> nn.Module`` under ``name`` (a name may be registered once)."""
-
-    def deco(factory: Factory) -> Factory:
-        if name in REGISTRY and REGISTRY[name] is not factory:
-            raise ValueError(f"method {name!r} is registered twice ({REGISTRY[name]} and {factory})")
-        REGISTRY[name] = factory
-        return factory
-
-    return deco
+#: Every method; importing ``mcd.models.two_stage`` and ``mcd.models.baselines`` registers the built-in ones.
+METHODS: Registry[Factory] = Registry("method", ("mcd.models.two_stage", "mcd.models.baselines"))
+register = METHODS.register
 
 
-def load_builtin(until: str | None = None) -> None:
-    """Import the modules that register the built-in methods, stopping once ``until`` is registered."""
-    for module in BUILTIN_MODULES:
-        if until is not None and until in REGISTRY:
-            return
-        if importlib.util.find_spec(module) is not None:
-            importlib.import_module(module)
+def widths_of(model: DictConfig, key: str) -> DictConfig:
+    """The capacity profile's entry ``model.<key>``; ``KeyError`` naming the key and the profiles."""
+    entry = model.get(key) if model is not None else None
+    if entry is None:
+        raise KeyError(f"model.{key} (the widths of {key}) is missing; pick a capacity profile that has it, "
+                       "e.g. model=cpu or model=paper (conf/model/)")
+    return entry
 
 
-def build(cfg) -> nn.Module:
-    """The model named by ``cfg.method.name``, built from ``cfg`` (raises ``KeyError`` naming the choices)."""
-    name = cfg.method.name
-    load_builtin(until=name)
-    if name not in REGISTRY:
-        raise KeyError(f"unknown method.name {name!r}; registered methods: {sorted(REGISTRY)}")
-    return REGISTRY[name](cfg)
+def build(cfg: DictConfig) -> nn.Module:
+    """The model named by ``cfg.method.name``, from ``cfg.method``, ``cfg.model`` and ``cfg.budget``."""
+    return METHODS.get(str(cfg.method.name))(cfg.method, cfg.get("model"), float(cfg.budget))

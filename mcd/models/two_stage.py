@@ -33,7 +33,7 @@ from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
 from mcd.models.mean_match import match_frame_mean
-from mcd.models.registry import register
+from mcd.models.registry import register, widths_of
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
@@ -149,18 +149,16 @@ class TwoStage(nn.Module):
 
 
 @register("two_stage")
-def build_two_stage(cfg: DictConfig) -> TwoStage:
-    """``TwoStage`` from ``cfg.method`` (switches, ``sampling.levels``, ``colour``, ``kp``), ``cfg.budget``
-    and ``cfg.model.two_stage`` (widths)."""
-    switches = check_switches(cfg.method, complete=True)
-    if "model" not in cfg or "two_stage" not in cfg.model:
-        raise KeyError("cfg.model.two_stage (the widths of the two-stage networks) is missing; pick a "
-                       "capacity profile, e.g. model=cpu or model=paper")
-    widths = OmegaConf.to_container(cfg.model.two_stage, resolve=True)
-    sampling = cfg.method.get("sampling", None) or {}
-    kp = cfg.method.get("kp", None)
-    return TwoStage(switches, cfg.budget, widths, levels=int(sampling.get("levels", 5)),
-                    colour=cfg.method.get("colour", "log1p"),
+def build_two_stage(method: DictConfig, model: DictConfig, budget: float) -> TwoStage:
+    """``TwoStage`` from its method settings (switches, ``sampling.levels``, ``colour``, ``kp``,
+    ``mean_match``, ``denoiser_output``: conf/method/two_stage.yaml), the widths ``model.two_stage`` and the
+    budget."""
+    switches = check_switches(method, complete=True)
+    sizes = OmegaConf.to_container(widths_of(model, "two_stage"), resolve=True)
+    sampling = method.get("sampling", None) or {}
+    kp = method.get("kp", None)
+    return TwoStage(switches, budget, sizes, levels=int(sampling.get("levels", 5)),
+                    colour=method.get("colour", "log1p"),
                     kp=OmegaConf.to_container(kp, resolve=True) if kp is not None else None,
-                    mean_match=bool(cfg.method.get("mean_match", False)),
-                    denoiser_output=str(cfg.method.get("denoiser_output", "direct")))
+                    mean_match=bool(method.get("mean_match", False)),
+                    denoiser_output=str(method.get("denoiser_output", "direct")))

@@ -1,6 +1,6 @@
 """Adaptive sampling (docs/method.md "Adaptive sampling"): map normalisation, simulated render, DASR gradient.
 
-The true adaptive Mitsuba render of a sampling map lives in :mod:`mcd.data.adaptive_render`.
+The true adaptive Mitsuba render of a sampling map lives in :mod:`mcd.data.spp_map_render`.
 """
 
 from mcd.sampling.dasr_grad import AdaptiveRender, adaptive_render

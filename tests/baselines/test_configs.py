@@ -11,7 +11,7 @@ import torch
 from omegaconf import OmegaConf
 
 from mcd.complexity import complexity, compose, dummy_batch
-from mcd.lit.losses import build_loss
+from mcd.losses import build_loss
 from mcd.models import build
 from mcd.paper_numbers import TABLE1
 

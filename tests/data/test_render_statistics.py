@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import torch
 
-from mcd.data.adaptive_render import render_adaptive
+from mcd.data.spp_map_render import render_spp_map
 
 R = 48
 
@@ -104,7 +104,7 @@ def realisations(cbox32):
     )  # [R, 6, H, W, 3]
     direct = {k: np.stack([r.color(k, seed=50_000 + 100 * k + s) for s in range(R)]) for k in (3, 12)}
     adaptive3 = np.stack(
-        [render_adaptive(scene, np.full((32, 32), 3), seed=90_000 + s, sensor=r.sensor) for s in range(R)]
+        [render_spp_map(scene, np.full((32, 32), 3), seed=90_000 + s, sensor=r.sensor) for s in range(R)]
     )
     return stacks, direct, adaptive3
 
@@ -169,7 +169,7 @@ def test_true_adaptive_render_follows_a_varying_map(cbox32, realisations):
     m = np.zeros((32, 32), np.int64)
     m[:, 16:] = 12  # right half gets 12 samples, left half none
     m[:8, 16:] = 1
-    ad = np.stack([render_adaptive(scene, m, seed=70_000 + s, sensor=r.sensor) for s in range(R)])
+    ad = np.stack([render_spp_map(scene, m, seed=70_000 + s, sensor=r.sensor) for s in range(R)])
     assert not ad[:, :, :16].any()  # zero samples: zero, not NaN
     sim = _simulate(stacks, m)
     mz, mz2 = _z(ad[:, :, 16:], sim[:, :, 16:])
@@ -180,9 +180,9 @@ def test_true_adaptive_render_follows_a_varying_map(cbox32, realisations):
     assert abs(_var_ratio(ad[:, rows_1, 16:], sim[:, rows_1, 16:]) - 1) < 0.15
 
 
-def test_render_adaptive_rejects_bad_maps(cbox32):
+def test_render_spp_map_rejects_bad_maps(cbox32):
     scene, r = cbox32
     with pytest.raises(ValueError, match="does not match"):
-        render_adaptive(scene, np.ones((8, 8)), seed=0, sensor=r.sensor)
+        render_spp_map(scene, np.ones((8, 8)), seed=0, sensor=r.sensor)
     with pytest.raises(ValueError, match="non-negative integer"):
-        render_adaptive(scene, np.full((32, 32), 1.5), seed=0, sensor=r.sensor)
+        render_spp_map(scene, np.full((32, 32), 1.5), seed=0, sensor=r.sensor)

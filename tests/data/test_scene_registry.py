@@ -117,13 +117,13 @@ def test_variant_selection():
 
 def test_auto_variant_is_a_jit_one_or_the_gap_is_reported():
     """On scalar_rgb the true adaptive render takes its per-level path, so the JIT scatter-add path of
-    ``mcd.data.adaptive_render`` goes untested: say so with a skip instead of passing quietly."""
+    ``mcd.data.spp_map_render`` goes untested: say so with a skip instead of passing quietly."""
     from mcd.data.mitsuba_env import select_variant
 
     variant = select_variant("auto")
     if variant == "scalar_rgb":
         pytest.skip("auto picked scalar_rgb (no working LLVM or CUDA backend): the JIT scatter-add path of "
-                    "render_adaptive is untested here; install LLVM (scripts/setup.sh) to test it")
+                    "render_spp_map is untested here; install LLVM (scripts/setup.sh) to test it")
     assert variant in ("llvm_ad_rgb", "cuda_ad_rgb")
 
 

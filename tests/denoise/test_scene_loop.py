@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-import mcd.data.adaptive_render as adaptive_render
+import mcd.data.spp_map_render as spp_map_render
 from mcd.data.exr import read_exr
 from mcd.data.scenes import VENDORED_DIR
 from mcd.denoise.cli import run
@@ -15,13 +15,13 @@ from tests.denoise.helpers import untrained_bundle
 
 def test_cbox_real_adaptive_render_spends_exactly_n_times_s(tmp_path, monkeypatch):
     maps: list[np.ndarray] = []
-    real = adaptive_render.render_adaptive
+    real = spp_map_render.render_spp_map
 
     def recording(scene, spp_map, seed, sensor=None):
         maps.append(np.array(spp_map))
         return real(scene, spp_map, seed, sensor=sensor)
 
-    monkeypatch.setattr(adaptive_render, "render_adaptive", recording)
+    monkeypatch.setattr(spp_map_render, "render_spp_map", recording)
     f = untrained_bundle(tmp_path, "f", "+experiment=F", "model=cpu")
     out = tmp_path / "out"
     scene = VENDORED_DIR / "cbox" / "scene.xml"

@@ -12,8 +12,9 @@ import torch
 
 from mcd.data import MCDDataModule, Store
 from mcd.data.exr import sha256, write_exr
-from mcd.lit import DenoiseModule, build_loss
+from mcd.lit import DenoiseModule
 from mcd.lit.test_recorder import TestRecorder
+from mcd.losses import build_loss
 from mcd.models import build
 
 from .conftest import compose_cfg

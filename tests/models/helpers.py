@@ -17,10 +17,12 @@ ROWS = dict(A="100000", B="110000", C="111000", D="111100", E="111110", F="11111
 
 
 def row_cfg(row: str, profile: str = "cpu", budget: float = 4):
-    """The run config of a component row with a capacity profile (the experiment file + the profile)."""
+    """The run config of a component row with a capacity profile (conf/method/two_stage.yaml with the
+    experiment file's switches + the profile)."""
     exp = OmegaConf.load(CONF / "experiment" / f"{row}.yaml")
+    method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), exp.method)
     model = OmegaConf.load(CONF / "model" / f"{profile}.yaml")
-    return OmegaConf.create({"method": exp.method, "budget": budget, "model": model})
+    return OmegaConf.create({"method": method, "budget": budget, "model": model})
 
 
 def switch_cfg(bits: str, profile: str = "cpu", budget: float = 4):

@@ -1,6 +1,6 @@
 """``trainer=ddp`` with two CPU processes (gloo): every test frame is tested once, by rank 0; both ranks agree
 on one best checkpoint (validation metrics averaged over them); one ``metrics.json`` whose metrics equal a
-single-process test of that checkpoint (issue 15)."""
+single-process test of that checkpoint; the logged training loss is the mean over the ranks (issue 15)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,11 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+import torch
+import torch.distributed as dist
+import torch.multiprocessing as mp
 
+from mcd.lit.module import mean_over_processes
 from mcd.metrics import FRAME_METRICS
 from mcd.run import build, run_test
 from mcd.run_record import RunRecord
@@ -69,3 +73,23 @@ def test_two_process_ddp_tests_every_frame_once_on_one_best_checkpoint(cbox_stor
     assert {k: metrics[k] for k in known} == pytest.approx(known, rel=1e-6)
     assert metrics["per_scene"]["cbox"] == pytest.approx(job.recorder.averages["per_scene"]["cbox"],
                                                          rel=1e-6)
+
+
+def _rank_mean(rank: int, world: int, store: str, out: str) -> None:
+    dist.init_process_group("gloo", init_method=f"file://{store}", rank=rank, world_size=world)
+    try:
+        terms = torch.tensor([1.0 + rank, 10.0 * rank, -rank])  # each rank's own loss terms
+        torch.save(mean_over_processes(terms), f"{out}.{rank}")
+    finally:
+        dist.destroy_process_group()
+
+
+def test_training_loss_is_logged_as_the_mean_over_ranks(tmp_path):
+    """``DenoiseModule`` logs ``train/*`` through :func:`mean_over_processes`: two gloo processes with
+    different terms both get their mean; outside a process group the terms come back as they are."""
+    out = str(tmp_path / "mean")
+    mp.start_processes(_rank_mean, args=(2, str(tmp_path / "store"), out), nprocs=2, start_method="fork")
+    for rank in range(2):
+        assert torch.equal(torch.load(f"{out}.{rank}", weights_only=True), torch.tensor([1.5, 5.0, -0.5]))
+    one = torch.tensor([0.25, 3.0])
+    assert mean_over_processes(one) is one

@@ -26,8 +26,11 @@ def test_ddp_trainer_composes_and_lightning_accepts_it():
     cfg = _compose(["+sweep=ablation", "trainer=ddp"])
     assert cfg.trainer.strategy == "ddp"
     assert cfg.trainer.accelerator == "gpu" and cfg.trainer.devices == -1 and cfg.trainer.num_nodes == 1
-    # the default trainer's keys come along (ddp extends it)
-    assert cfg.trainer.limit_train_batches == cfg.train.limit_train_batches
+    # the default trainer's keys come along (ddp extends it); train.* owns the budget keys (one key each)
+    assert cfg.trainer.log_every_n_steps == 10 and "limit_train_batches" not in cfg.trainer
+    limits = budget.trainer_limits(cfg.train)
+    assert (limits["limit_train_batches"], limits["gradient_clip_val"]) == (cfg.train.limit_train_batches,
+                                                                           cfg.train.grad_clip)
     # Lightning takes every key; on this GPU-less machine, DDP over 2 CPU processes (nothing is launched here)
     kwargs = OmegaConf.to_container(cfg.trainer, resolve=True)
     kwargs.update(accelerator="cpu", devices=2, enable_progress_bar=False)
@@ -76,3 +79,11 @@ def test_seeds_sweep_names_each_job_by_its_seed():
     raw = OmegaConf.to_container(cfg.hydra, resolve=False)
     assert raw["sweep"]["subdir"] == "${experiment}_spp${budget}_seed${seed}"
     assert cfg.hydra.sweeper.params["seed"] == "0,1,2,3,4" and cfg.seed == 3 and cfg.sweep_name == "seeds"
+
+
+def test_a_trainer_key_that_train_owns_is_refused():
+    """``train.limit_train_batches`` / ``train.grad_clip`` are the settings; the same key under ``trainer.*``
+    would be a second place for it (mcd.lit.budget.trainer_kwargs)."""
+    cfg = _compose(["+experiment=F", "+trainer.gradient_clip_val=1.0"])
+    with pytest.raises(ValueError, match="trainer.gradient_clip_val is set by train.grad_clip"):
+        budget.trainer_kwargs(cfg)

@@ -20,7 +20,7 @@ def _cfg(tmp_path, **t):
                 "transfer_scenes": ["cornell-box-picture"],
             },
             "train": {"epochs": 30, "batch_size": 4, "limit_train_batches": 1.0},
-            "trainer": {"limit_train_batches": "${train.limit_train_batches}"},
+            "trainer": {"accelerator": "cpu"},
             "transfer": {"init_from": None, "finetune_epochs": 0, "finetune_clips": 1, **t},
         }
     )
@@ -44,9 +44,10 @@ def test_transfer_trains_and_tests_on_held_out_scenes_only(tmp_path):
     run = _ckpt(tmp_path, nn.Linear(2, 2))
     cfg, info = transfer.prepare(_cfg(tmp_path, init_from=str(run), finetune_epochs=30, finetune_clips=1))
     assert list(cfg.data.train_scenes) == list(cfg.data.test_scenes) == ["cornell-box-picture"]
-    assert cfg.trainer.limit_train_batches == 1 and cfg.train.batch_size == 1
+    assert cfg.train.limit_train_batches == 1 and cfg.train.batch_size == 1
     # the fine-tuning budget is its epochs alone, whatever step or time budget the profile had
     limits = budget.trainer_limits(cfg.train)
+    assert limits["limit_train_batches"] == 1 and budget.trainer_kwargs(cfg)["limit_train_batches"] == 1
     assert limits["max_epochs"] == 30 and "max_time" not in limits and budget.callbacks(cfg.train) == []
     assert info["finetune"] and info["init_from"].endswith("best-epoch004.ckpt")
     cfg0, info0 = transfer.prepare(_cfg(tmp_path, init_from=str(run)))

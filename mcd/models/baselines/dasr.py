@@ -23,7 +23,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.rae import RAEUNet
 from mcd.models.inputs import compress, crop, expand, gbuffers, grey, need, pad_to_multiple
-from mcd.models.registry import register
+from mcd.models.registry import register, widths_of
 from mcd.sampling import adaptive_render, stack_buffers, stack_names
 
 
@@ -61,8 +61,8 @@ class DASR(nn.Module):
 
 
 @register("dasr")
-def build_dasr(cfg: DictConfig) -> DASR:
-    """DASR from ``cfg.budget``, ``cfg.method.sampling.levels`` and ``cfg.model.dasr``."""
-    m = cfg.model.dasr
-    levels = (cfg.method.get("sampling", None) or {}).get("levels", 5)
-    return DASR(float(cfg.budget), m.encoder, m.bottleneck, m.last, int(levels))
+def build_dasr(method: DictConfig, model: DictConfig, budget: float) -> DASR:
+    """DASR from ``method.sampling.levels``, the widths ``model.dasr`` and the budget."""
+    m = widths_of(model, "dasr")
+    levels = (method.get("sampling", None) or {}).get("levels", 5)
+    return DASR(float(budget), m.encoder, m.bottleneck, m.last, int(levels))

@@ -18,7 +18,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
-from mcd.models.registry import register
+from mcd.models.registry import register, widths_of
 
 FRAMES = 3  # frames per block
 
@@ -96,7 +96,7 @@ class FastDVDnet(nn.Module):
 
 
 @register("fastdvdnet")
-def build_fastdvdnet(cfg: DictConfig) -> FastDVDnet:
-    """FastDVDnet from ``cfg.budget`` and ``cfg.model.fastdvdnet`` (``widths``, ``interm``)."""
-    m = cfg.model.fastdvdnet
-    return FastDVDnet(cfg.budget, tuple(m.widths), m.interm)
+def build_fastdvdnet(method: DictConfig, model: DictConfig, budget: float) -> FastDVDnet:
+    """FastDVDnet from the budget and the widths ``model.fastdvdnet`` (``widths``, ``interm``)."""
+    m = widths_of(model, "fastdvdnet")
+    return FastDVDnet(budget, tuple(m.widths), m.interm)

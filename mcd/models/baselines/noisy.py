@@ -33,6 +33,6 @@ class Noisy(nn.Module):
 
 
 @register("noisy")
-def build_noisy(cfg: DictConfig) -> Noisy:
-    """The noisy input at ``cfg.budget``."""
-    return Noisy(cfg.budget)
+def build_noisy(method: DictConfig, model: DictConfig, budget: float) -> Noisy:
+    """The noisy input at the budget."""
+    return Noisy(budget)

@@ -32,7 +32,7 @@ from mcd.models.baselines.uniform import uniform_key
 from mcd.models.baselines.warp import warp
 from mcd.models.inputs import compress, crop, gbuffers, grey, need, pad_to_multiple
 from mcd.models.kernel_pool import apply_pixel_kernels
-from mcd.models.registry import register
+from mcd.models.registry import register, widths_of
 from mcd.sampling import adaptive_render, stack_buffers, stack_names
 
 #: Per-pixel kernel size at every level.
@@ -155,8 +155,8 @@ class NTASAD(nn.Module):
 
 
 @register("ntasad")
-def build_ntasad(cfg: DictConfig) -> NTASAD:
-    """NTASAD from ``cfg.budget``, ``cfg.method.sampling.levels`` and ``cfg.model.ntasad``."""
-    m = cfg.model.ntasad
-    levels = (cfg.method.get("sampling", None) or {}).get("levels", 5)
-    return NTASAD(cfg.budget, int(m.enc), int(m.dec), int(m.full), int(levels))
+def build_ntasad(method: DictConfig, model: DictConfig, budget: float) -> NTASAD:
+    """NTASAD from ``method.sampling.levels``, the widths ``model.ntasad`` and the budget."""
+    m = widths_of(model, "ntasad")
+    levels = (method.get("sampling", None) or {}).get("levels", 5)
+    return NTASAD(budget, int(m.enc), int(m.dec), int(m.full), int(levels))

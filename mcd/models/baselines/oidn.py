@@ -71,6 +71,6 @@ class OIDN(nn.Module):
 
 
 @register("oidn")
-def build_oidn(cfg: DictConfig) -> OIDN:
+def build_oidn(method: DictConfig, model: DictConfig, budget: float) -> OIDN:
     """OIDN on ``c{budget}``; ``method.quality`` (high/balanced/fast, default high)."""
-    return OIDN(cfg.budget, str(cfg.method.get("quality", "high")))
+    return OIDN(budget, str(method.get("quality", "high")))

@@ -19,7 +19,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
-from mcd.models.registry import register
+from mcd.models.registry import register, widths_of
 
 #: Albedo offset of the demodulation ``c / (albedo + eps)`` (black albedo stays finite).
 DEMOD_EPS = 1e-2
@@ -147,7 +147,7 @@ class RAE(nn.Module):
 
 
 @register("rae")
-def build_rae(cfg: DictConfig) -> RAE:
-    """RAE from ``cfg.budget`` and ``cfg.model.rae`` (``encoder``, ``bottleneck``, ``last``)."""
-    m = cfg.model.rae
-    return RAE(cfg.budget, m.encoder, m.bottleneck, m.last)
+def build_rae(method: DictConfig, model: DictConfig, budget: float) -> RAE:
+    """RAE from the budget and the widths ``model.rae`` (``encoder``, ``bottleneck``, ``last``)."""
+    m = widths_of(model, "rae")
+    return RAE(budget, m.encoder, m.bottleneck, m.last)

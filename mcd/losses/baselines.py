@@ -1,6 +1,6 @@
-"""The baselines' own training losses (docs/baselines.md), registered in :mod:`mcd.lit.losses` by name.
+"""The baselines' own training losses (docs/baselines.md), registered in :data:`mcd.losses.LOSSES` by name.
 
-Select one with ``loss=<name>`` (configs ``conf/loss/<name>.yaml`` set ``loss.module`` to this module); the
+Select one with ``loss=<name>`` (``conf/loss/<name>.yaml``, whose keys are the constructor's arguments); the
 paper's loss (``loss=paper``) is the alternative the paper itself used for every method. Like the paper's
 loss, each is called as ``loss(pred, ref) -> dict`` on ``[B, T, 3, H, W]`` linear HDR clips and computes its
 terms in ``loss.space`` (default ``log1p``). None has a perceptual term.
@@ -15,14 +15,15 @@ terms in ``loss.space`` (default ``log1p``). None has a perceptual term.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import torch
 import torch.nn.functional as F
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
-from mcd.lit.losses import compress, register_loss
-from mcd.lit.vgg import PerceptualStatus
+from mcd.losses import register_loss
+from mcd.losses.paper import compress
+from mcd.losses.vgg import PerceptualStatus
 
 
 def check_clip(pred: Tensor, ref: Tensor, name: str, min_frames: int = 1) -> None:
@@ -62,9 +63,9 @@ class BaselineLoss(nn.Module):
 
     name = ""
 
-    def __init__(self, cfg: DictConfig) -> None:
+    def __init__(self, space: str) -> None:
         super().__init__()
-        self.space = str(cfg.loss.get("space", "log1p"))
+        self.space = str(space)
         compress(torch.zeros(1), self.space)  # validate early
         self.perceptual_status = PerceptualStatus(False, f"loss {self.name!r} (the method's own loss) has no "
                                                          "perceptual term; loss=paper has it")
@@ -87,12 +88,12 @@ class RAELoss(BaselineLoss):
 
     name = "rae"
 
-    def __init__(self, cfg: DictConfig) -> None:
-        super().__init__(cfg)
-        c = cfg.loss
-        self.w_s, self.w_g, self.w_t = float(c.w_s), float(c.w_g), float(c.w_t)
-        self.frame_weights = [float(w) for w in c.frame_weights]
-        self.log = LoG(float(c.sigma))
+    def __init__(self, space: str, w_s: float, w_g: float, w_t: float, sigma: float,
+                 frame_weights: Sequence[float]) -> None:
+        super().__init__(space)
+        self.w_s, self.w_g, self.w_t = float(w_s), float(w_g), float(w_t)
+        self.frame_weights = [float(w) for w in frame_weights]
+        self.log = LoG(float(sigma))
 
     def forward(self, pred: Tensor, ref: Tensor) -> dict[str, Tensor]:
         p, r = self.prepare(pred, ref, 2 if self.w_t > 0 else 1)
@@ -119,11 +120,10 @@ class DASRLoss(BaselineLoss):
 
     name = "dasr"
 
-    def __init__(self, cfg: DictConfig) -> None:
-        super().__init__(cfg)
-        c = cfg.loss
-        self.eps, self.w_g = float(c.eps), float(c.w_g)
-        self.log = LoG(float(c.sigma))
+    def __init__(self, space: str, eps: float, w_g: float, sigma: float) -> None:
+        super().__init__(space)
+        self.eps, self.w_g = float(eps), float(w_g)
+        self.log = LoG(float(sigma))
 
     def rel_l1(self, p: Tensor, r: Tensor) -> Tensor:
         return ((p - r).abs() / (r.abs() + self.eps)).mean()
@@ -142,9 +142,9 @@ class NTASADLoss(BaselineLoss):
 
     name = "ntasad"
 
-    def __init__(self, cfg: DictConfig) -> None:
-        super().__init__(cfg)
-        self.w_s, self.w_t = float(cfg.loss.w_s), float(cfg.loss.w_t)
+    def __init__(self, space: str, w_s: float, w_t: float) -> None:
+        super().__init__(space)
+        self.w_s, self.w_t = float(w_s), float(w_t)
 
     def forward(self, pred: Tensor, ref: Tensor) -> dict[str, Tensor]:
         p, r = self.prepare(pred, ref, 2 if self.w_t > 0 else 1)

@@ -3,7 +3,7 @@
 import pytest
 import torch
 
-from mcd.lit.vgg import VGGPerceptual, load_perceptual, load_vgg16_features, vgg16_features
+from mcd.losses.vgg import VGGPerceptual, load_perceptual, load_vgg16_features, vgg16_features
 
 
 def torchvision_state(seed=0):

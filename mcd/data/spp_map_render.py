@@ -28,7 +28,7 @@ def _check_map(spp_map: np.ndarray, width: int, height: int) -> np.ndarray:
     return m.astype(np.int64)
 
 
-def render_adaptive(scene: Any, spp_map: np.ndarray, seed: int, sensor: Any = None) -> np.ndarray:
+def render_spp_map(scene: Any, spp_map: np.ndarray, seed: int, sensor: Any = None) -> np.ndarray:
     """Render `scene` with ``spp_map[y, x]`` samples in pixel (x, y): ``(H, W, 3)`` float32, 0 at count 0.
 
     `sensor` defaults to the scene's first sensor (its film size must match the map; its pixel filter is not

@@ -6,8 +6,8 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
-from mcd.lit.baseline_losses import LoG, log_kernel
-from mcd.lit.losses import build_loss
+from mcd.losses import build_loss
+from mcd.losses.baselines import LoG, log_kernel
 
 CONFS = {
     "rae": dict(w_s=0.8, w_g=0.1, w_t=0.1, sigma=1.5, frame_weights=[0.135, 0.325, 0.607, 0.882, 1.0]),
@@ -18,7 +18,7 @@ CONFS = {
 
 
 def build(name: str, **over):
-    loss = dict(name=name, module="mcd.lit.baseline_losses", space="log1p", **CONFS[name])
+    loss = dict(name=name, space="log1p", **CONFS[name])
     loss.update(over)
     return build_loss(OmegaConf.create({"loss": loss, "paths": {"vgg16_weights": None}}))
 
@@ -46,7 +46,7 @@ def test_matches_the_config_files() -> None:
     conf = Path(__file__).resolve().parents[2] / "conf" / "loss"
     for name, values in CONFS.items():
         cfg = OmegaConf.load(conf / f"{name}.yaml")
-        assert cfg.name == name and cfg.module == "mcd.lit.baseline_losses"
+        assert cfg.name == name and "module" not in cfg
         assert {k: cfg[k] for k in values} == values
 
 

@@ -1,0 +1,47 @@
+"""Configs written before the config groups mirrored the code (issue 15, docs/architecture.md "Config") still
+load: the bundled checkpoints' JSON configs (no ``method.colour`` / ``method.sampling``) and a run
+checkpoint whose config names ``loss.module`` and ``trainer.limit_train_batches``."""
+
+from __future__ import annotations
+
+import json
+
+import torch
+from omegaconf import OmegaConf
+
+from mcd.denoise.weights import BUNDLED_DIR, bundled_names, load
+from mcd.losses import build_loss
+from mcd.models import build
+from tests.conftest import compose_cfg
+
+
+def test_every_bundled_checkpoint_builds_and_loads_through_the_registry():
+    assert bundled_names()
+    for name in bundled_names():
+        loaded = load(name)
+        cfg = json.loads((BUNDLED_DIR / f"{name}.json").read_text())["config"]
+        # the model built today from the old config is the one built from today's experiment config
+        today = build(compose_cfg(f"+experiment={cfg['experiment']}", "model=cpu", f"budget={cfg['budget']}"))
+        shapes = [tuple(p.shape) for p in today.parameters()]
+        assert [tuple(p.shape) for p in loaded.model.parameters()] == shapes
+
+
+def test_a_run_checkpoint_with_retired_keys_loads(tmp_path):
+    """A ``mcd.run`` checkpoint carries the resolved config; the keys this refactor retired stay harmless."""
+    cfg = compose_cfg("+experiment=A")
+    old = OmegaConf.to_container(cfg, resolve=True)
+    old["loss"]["module"] = None                                   # retired: loss modules are built-in
+    old["loss"].pop("vgg16_weights")                               # not written before mcd/losses/
+    old["trainer"]["limit_train_batches"] = old["train"]["limit_train_batches"]  # retired: train.* owns it
+    for key in ("colour", "sampling"):                              # not written before conf/method/
+        old["method"].pop(key)
+    model = build(cfg)
+    state = {"state_dict": {f"model.{k}": v for k, v in model.state_dict().items()},
+             "hyper_parameters": {"cfg": old}, "global_step": 1}
+    (tmp_path / "checkpoints").mkdir()
+    torch.save(state, tmp_path / "checkpoints" / "last.ckpt")
+    loaded = load(str(tmp_path))
+    assert loaded.experiment == "A"
+    for k, v in model.state_dict().items():
+        assert torch.equal(loaded.model.state_dict()[k], v)
+    assert build_loss(OmegaConf.create(old)) is not None

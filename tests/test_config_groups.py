@@ -1,0 +1,97 @@
+"""The config groups mirror the code (docs/architecture.md "Layout"): every ``+experiment=<X>`` composes to
+its method's ``conf/method/`` file (with the row's switches for A-M), its loss's ``conf/loss/`` file, and a
+trainer without the keys ``train.*`` owns; every group file builds through its registry."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf, open_dict
+
+from mcd.lit import budget
+from mcd.losses import LOSSES, build_loss
+from mcd.models import METHODS
+from mcd.models.switches import SWITCHES
+from mcd.paper_numbers import COMPONENTS
+from tests.conftest import compose_cfg
+
+CONF = Path(__file__).resolve().parents[1] / "conf"
+EXPERIMENTS = sorted(p.stem for p in (CONF / "experiment").glob("*.yaml"))
+#: The baselines' own losses (docs/baselines.md); every other experiment trains with the paper's.
+OWN_LOSS = {"rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad"}
+
+
+def group_file(group: str, name: str) -> dict:
+    """``conf/<group>/<name>.yaml`` as composed on its own (its defaults list applied)."""
+    cfg = compose_cfg(f"{group}={name}")
+    return OmegaConf.to_container(cfg[group], resolve=False)  # type: ignore[return-value]
+
+
+@pytest.mark.parametrize("experiment", EXPERIMENTS)
+def test_experiment_composes_to_its_method_and_loss_files(experiment: str) -> None:
+    cfg = compose_cfg(f"+experiment={experiment}")
+    method = OmegaConf.to_container(cfg.method, resolve=False)
+    assert cfg.experiment == experiment
+    if experiment in COMPONENTS:  # rows A-M: the two-stage file with the row's switches
+        expected = {**group_file("method", "two_stage"), **COMPONENTS[experiment]["switches"]}
+    else:
+        expected = group_file("method", experiment)
+        assert expected["name"] == experiment
+    assert method == expected
+    assert cfg.loss.name == OWN_LOSS.get(experiment, "paper")
+    assert OmegaConf.to_container(cfg.loss) == group_file("loss", cfg.loss.name)
+    assert not set(cfg.trainer) & set(budget.FROM_TRAIN)
+    kwargs = budget.trainer_kwargs(cfg)
+    assert kwargs["limit_train_batches"] == cfg.train.limit_train_batches
+    assert kwargs["gradient_clip_val"] == cfg.train.grad_clip
+
+
+def test_two_stage_keys_keep_their_defaults() -> None:
+    """Row F's settings, including the later keys (mean_match, denoiser_output, colour, sampling, kp)."""
+    m = group_file("method", "two_stage")
+    assert m["name"] == "two_stage" and all(m[s] for s in SWITCHES)
+    assert (m["mean_match"], m["denoiser_output"], m["colour"], m["sampling"]) == (
+        False, "direct", "log1p", {"levels": 5})
+    assert m["kp"] == {"denoiser_reads_adaptive": False, "head_output": "rms_centred", "temperature": 1.0,
+                       "pool_init_scale": 1.0}
+    unet = group_file("method", "unet")
+    assert {k: v for k, v in unet.items() if k not in ("name", *SWITCHES)} == {
+        k: v for k, v in m.items() if k not in ("name", *SWITCHES)}
+
+
+def test_every_group_file_names_a_registered_entry() -> None:
+    methods = sorted(p.stem for p in (CONF / "method").glob("*.yaml"))
+    assert methods == METHODS.names()
+    assert all(group_file("method", n)["name"] == n for n in methods)
+    losses = sorted(p.stem for p in (CONF / "loss").glob("*.yaml"))
+    assert losses == LOSSES.names()
+    for name in losses:
+        assert build_loss(compose_cfg(f"loss={name}", "paths.vgg16_weights=null")) is not None
+
+
+def test_one_registry_type_for_methods_and_losses() -> None:
+    """Both registries are :class:`mcd.registry.Registry`: the same plug-in rule and the same errors."""
+    from torch import nn
+
+    from mcd.models import build, register
+    from mcd.registry import Registry, UnknownName
+
+    assert isinstance(METHODS, Registry) and isinstance(LOSSES, Registry)
+    cfg = compose_cfg("+experiment=A")
+    with open_dict(cfg):
+        cfg.method.name = "test_only_identity"
+    with pytest.raises(UnknownName, match="unknown method.name='test_only_identity'.*two_stage"):
+        build(cfg)
+
+    @register("test_only_identity")
+    def identity(method, model, budget):  # the constructor gets its own settings, nothing else
+        assert method.name == "test_only_identity" and "two_stage" in model and budget == cfg.budget
+        return nn.Identity()
+
+    try:
+        assert isinstance(build(cfg), nn.Identity)
+        with pytest.raises(ValueError, match="method 'test_only_identity' is registered twice"):
+            register("test_only_identity")(lambda method, model, budget: None)
+    finally:
+        METHODS.unregister("test_only_identity")
