@@ -15,10 +15,12 @@ blocks of :data:`LANES`, so a group of 2 or 5 outputs leaves most of every block
 the blocks with ``S`` horizontally adjacent outputs: a stride-``(1, S)`` convolution whose ``S * cout_g``
 outputs per group hold the same kernel shifted by ``0 .. S - 1`` columns (width ``k + S - 1``), then one
 copy interleaves the ``S`` phases back into columns. Same function (the zero taps add nothing), chosen per
-layer by :func:`lane_stride`'s cost model. Blocks whose groups have at most :data:`SPLIT_MAX_OUT` outputs and
-whose input has at most :data:`SPLIT_MAX_IN` channels instead run :func:`split_depthwise_point`: one
+layer by :func:`lane_stride`'s cost model. Inputs (or parts of an input) of at most :data:`SPLIT_MAX_IN`
+channels whose groups have at most :data:`SPLIT_MAX_OUT` outputs instead run :func:`split_depthwise`: one
 depth-wise convolution per output of a group (oneDNN vectorises those over the input channels) with the
-point-wise convolution folded in, which sums over each group's inputs.
+point-wise convolution folded in, which sums over each group's inputs. A block given its input in parts
+(:meth:`FastGhostConv.forward_parts`: a U-Net decoder block's upsampled features and skip) runs each part's
+groups on the part itself, without the concatenation (:func:`group_then_point`).
 
 The group convolution's output width is not given by the paper; it is ``mid_ratio * cout`` (default 0.5),
 which makes the block cheaper than the 3x3 block it replaces, as the paper's component table requires (rows
@@ -29,6 +31,7 @@ E, G, H, L lose params and MACs against D, C, J, B). Groups fall back to ``gcd(g
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import torch
 import torch.nn.functional as F
@@ -54,10 +57,17 @@ class FastGhostConv(nn.Module):
         self.act = nn.ReLU(inplace=True)
 
     def forward(self, x: Tensor) -> Tensor:
-        if split_depthwise_applies(self.group, x):
-            primary = split_depthwise_point(self.group, self.point, x)
+        return self.forward_parts([x])
+
+    def forward_parts(self, parts: Sequence[Tensor]) -> Tensor:
+        """The block on ``torch.cat(parts, 1)``. CPU inference (:func:`fast_path_applies`) runs
+        :func:`group_then_point`, which concatenates the parts only where the group conv's groups straddle
+        them (docs/inference.md; a U-Net decoder block is handed its upsampled features and skip)."""
+        if fast_path_applies(self.group, parts):
+            primary = group_then_point(self.group, self.point, parts)
         else:
-            primary = self.point(grouped_conv(self.group, x))
+            primary = self.point(grouped_conv(self.group, torch.cat(list(parts), 1) if len(parts) > 1
+                                              else parts[0]))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
 
 
@@ -81,85 +91,129 @@ def lane_stride(cin_g: int, cout_g: int, kernel: int) -> int:
 
 
 def lane_filled_conv(conv: nn.Conv2d, x: Tensor, stride: int) -> Tensor:
-    """``conv(x)`` for a stride-1, zero-padded group ``conv``, computed as a stride-``(1, stride)`` conv with
-    ``stride`` column phases per output channel (see the module docstring). ``stride = 1`` is ``conv(x)``."""
+    """``conv(x)`` for a stride-1, zero-padded group ``conv``, computed by :func:`lane_filled`."""
+    return lane_filled(x, conv.weight, conv.bias, conv.groups, conv.padding, stride)
+
+
+def lane_filled(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int, padding: tuple[int, ...],
+                stride: int) -> Tensor:
+    """``F.conv2d(x, weight, bias, padding=padding, groups=groups)`` (stride 1, zero padding) as a
+    stride-``(1, stride)`` conv with ``stride`` column phases per output channel (see the module docstring).
+    ``stride = 1`` is the conv itself."""
     if stride == 1:
-        return conv(x)
-    g, s = conv.groups, stride
-    cout, cin_g, kh, kw = conv.weight.shape
+        return F.conv2d(x, weight, bias, padding=padding, groups=groups)
+    g, s = groups, stride
+    cout, cin_g, kh, kw = weight.shape
     cout_g = cout // g
-    weight = conv.weight.new_zeros(g, s, cout_g, cin_g, kh, kw + s - 1)
+    filled = weight.new_zeros(g, s, cout_g, cin_g, kh, kw + s - 1)
     for phase in range(s):
-        weight[:, phase, ..., phase : phase + kw] = conv.weight.view(g, cout_g, cin_g, kh, kw)
-    bias = None if conv.bias is None else conv.bias.view(g, 1, cout_g).expand(g, s, cout_g).reshape(-1)
+        filled[:, phase, ..., phase : phase + kw] = weight.reshape(g, cout_g, cin_g, kh, kw)
+    bias = None if bias is None else bias.view(g, 1, cout_g).expand(g, s, cout_g).reshape(-1)
     b, _, h, w = x.shape
     wo = -(-w // s)
     if wo * s != w:                              # zero columns on the right; their outputs are cropped
         x = F.pad(x, (0, wo * s - w))
-    y = F.conv2d(x, weight.view(g * s * cout_g, cin_g, kh, kw + s - 1), bias, stride=(1, s),
-                 padding=conv.padding, groups=g)                              # [B, (g, phase, o), H, wo]
+    y = F.conv2d(x, filled.view(g * s * cout_g, cin_g, kh, kw + s - 1), bias, stride=(1, s),
+                 padding=padding, groups=g)                                   # [B, (g, phase, o), H, wo]
     y = y.permute(0, 2, 3, 1).reshape(b, h, wo, g, s, cout_g).transpose(3, 4).reshape(b, h, wo * s, cout)
     return y[:, :, :w].permute(0, 3, 1, 2).contiguous(memory_format=torch.channels_last)
 
 
-#: :func:`split_depthwise_point` runs where a group has at most this many outputs and the block's input at
-#: most :data:`SPLIT_MAX_IN` channels: the widths where it measured faster than :func:`lane_filled_conv`
-#: (docs/inference.md, "Measured: the group convolutions"; oneDNN's depth-wise rate falls for wider inputs).
+#: :func:`group_then_point` splits a part into depth-wise convs where a group has at most this many outputs
+#: and the part at most :data:`SPLIT_MAX_IN` channels: the widths where that measured faster than
+#: :func:`lane_filled` (docs/inference.md, "Measured: the group convolutions"; oneDNN's depth-wise rate
+#: falls for wider inputs).
 SPLIT_MAX_OUT = 2
 SPLIT_MAX_IN = 16
 
 
-def split_depthwise_applies(conv: nn.Conv2d, x: Tensor) -> bool:
-    """Whether a Fast GhostConv block's group ``conv`` runs :func:`split_depthwise_point` on ``x``: CPU
-    inference mode, a plain stride-1 zero-padded group conv (not depth-wise) of thin groups on a narrow
-    input."""
+def fast_path_applies(conv: nn.Conv2d, parts: Sequence[Tensor]) -> bool:
+    """Whether a Fast GhostConv block's group ``conv`` runs :func:`group_then_point` on ``parts``: CPU
+    inference mode and a plain stride-1 zero-padded group conv (not dense, not depth-wise). Plain
+    ``no_grad`` keeps the grouped conv, so ``FlopCounterMode`` counts the true MACs."""
     g = conv.groups
     plain = (*conv.stride, *conv.dilation) == (1,) * 4 and conv.padding_mode == "zeros"
-    thin = 1 < g < conv.in_channels and conv.out_channels // g <= SPLIT_MAX_OUT
-    return (x.device.type == "cpu" and torch.is_inference_mode_enabled() and plain and thin
-            and conv.in_channels <= SPLIT_MAX_IN)
+    return (all(p.device.type == "cpu" for p in parts) and torch.is_inference_mode_enabled() and plain
+            and 1 < g < conv.in_channels)
+
+
+def splits(cin: int, cout_g: int) -> bool:
+    """Whether :func:`group_then_point` runs a part of ``cin`` channels whose groups have ``cout_g`` outputs
+    as :func:`split_depthwise` (else :func:`lane_filled` and the point-wise conv)."""
+    return cin <= SPLIT_MAX_IN and cout_g <= SPLIT_MAX_OUT
+
+
+def group_then_point(group: nn.Conv2d, point: nn.Conv2d, parts: Sequence[Tensor]) -> Tensor:
+    """``point(group(torch.cat(parts, 1)))`` for a stride-1 zero-padded group conv and a 1x1 conv: per part
+    (the parts are concatenated first only where a group straddles two of them), the part's groups as
+    :func:`split_depthwise` where :func:`splits` holds, else as :func:`lane_filled` followed by the columns
+    of ``point`` that read them; the parts' results are added in place. Same function and MACs."""
+    g = group.groups
+    cout, cin_g, _, kw = group.weight.shape
+    cout_g = cout // g
+    if any(p.shape[1] % cin_g for p in parts):
+        parts = [torch.cat(list(parts), 1)]
+    out: Tensor | None = None
+    j = 0                                                             # first group of the part
+    for part in parts:
+        gp = part.shape[1] // cin_g
+        rows = slice(j * cout_g, (j + gp) * cout_g)
+        weight, pw = group.weight[rows], point.weight[:, rows]
+        bias = None if group.bias is None else group.bias[rows]
+        pb = point.bias if out is None else None
+        if splits(part.shape[1], cout_g):
+            y = split_depthwise(part, weight, bias, gp, group.padding, pw, pb)
+        else:
+            y = F.conv2d(lane_filled(part, weight, bias, gp, group.padding, lane_stride(cin_g, cout_g, kw)),
+                         pw, pb)
+        out = y if out is None else out.add_(y)
+        j += gp
+    if out is None or j != g:
+        raise ValueError(f"group_then_point: the parts have {[p.shape[1] for p in parts]} channels; the "
+                         f"group conv reads {g * cin_g}")
+    return out
 
 
 def split_depthwise_point(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:
-    """``point(group(x))`` for a stride-1 zero-padded group conv followed by a 1x1 conv, computed per output
-    ``o`` of a group as a depth-wise conv of ``x`` (input channel ``c`` of group ``j`` with the kernel
-    ``group.weight[j, o, c]``) and a 1x1 conv of that whose weight repeats ``point``'s column for ``(j, o)``
-    over the group's inputs, which sums them; the ``cout_g`` results are added in place. Same function: the
-    group conv's bias moves into ``point``'s. Same MACs in the depth-wise convs as in the group conv."""
-    g = group.groups
-    cout, cin_g, kh, kw = group.weight.shape
+    """``point(group(x))`` computed by :func:`split_depthwise`."""
+    return split_depthwise(x, group.weight, group.bias, group.groups, group.padding, point.weight, point.bias)
+
+
+def split_depthwise(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int, padding: tuple[int, ...],
+                    point_weight: Tensor, point_bias: Tensor | None) -> Tensor:
+    """A stride-1 zero-padded group conv (``weight``, ``bias``, ``groups``) followed by a 1x1 conv
+    (``point_weight``, ``point_bias``), computed per output ``o`` of a group as a depth-wise conv of ``x``
+    (input channel ``c`` of group ``j`` with the kernel ``weight[j, o, c]``; oneDNN vectorises it over the
+    input channels, so no lane is empty) and a 1x1 conv of that whose weight repeats the point-wise column of
+    ``(j, o)`` over the group's inputs, which sums them; the results are added in place. Same function: the
+    group conv's bias moves into the point-wise bias. Same MACs in the depth-wise convs as in the group
+    conv."""
+    g = groups
+    cout, cin_g, kh, kw = weight.shape
     cout_g, cin = cout // g, cin_g * g
-    depthwise = group.weight.view(g, cout_g, cin_g, kh, kw).transpose(0, 1).reshape(cout_g, cin, 1, kh, kw)
-    mix = point.weight.view(-1, g, cout_g, 1)
-    bias = torch.mv(point.weight.view(-1, cout), group.bias) if group.bias is not None else None
-    if point.bias is not None:
-        bias = point.bias if bias is None else bias + point.bias
+    depthwise = weight.reshape(g, cout_g, cin_g, kh, kw).transpose(0, 1).reshape(cout_g, cin, 1, kh, kw)
+    mix = point_weight.reshape(-1, g, cout_g, 1)
+    folded = torch.mv(point_weight.reshape(-1, cout), bias) if bias is not None else None
+    if point_bias is not None:
+        folded = point_bias if folded is None else folded + point_bias
 
     def part(o: int, b: Tensor | None) -> Tensor:
-        y = F.conv2d(x, depthwise[o], padding=group.padding, groups=cin)
+        y = F.conv2d(x, depthwise[o], padding=padding, groups=cin)
         return F.conv2d(y, mix[:, :, o].expand(-1, g, cin_g).reshape(-1, cin, 1, 1), b)
 
-    out = part(0, bias)
+    out = part(0, folded)
     for o in range(1, cout_g):
         out.add_(part(o, None))
     return out
 
 
 def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
-    """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight; under
-    ``torch.inference_mode`` on the CPU a group conv (not depth-wise) runs :func:`lane_filled_conv`. Plain
-    ``no_grad`` runs ``conv`` itself, so ``FlopCounterMode`` on a CPU forward (mcd.complexity) counts the
-    block's true MACs."""
+    """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight.
+    Without gradients it is ``conv`` itself (CPU inference mode runs :func:`group_then_point` instead, from
+    :class:`FastGhostConv`), so ``FlopCounterMode`` on a CPU forward (mcd.complexity) counts the block's true
+    MACs."""
     g = conv.groups
-    if g == 1 or x.device.type != "cpu":
-        return conv(x)
-    if torch.is_inference_mode_enabled():
-        plain = (*conv.stride, *conv.dilation) == (1,) * 4 and conv.padding_mode == "zeros"
-        if g == conv.in_channels or not plain:
-            return conv(x)
-        cout, cin_g, _, kw = conv.weight.shape
-        return lane_filled_conv(conv, x, lane_stride(cin_g, cout // g, kw))
-    if not torch.is_grad_enabled():
+    if g == 1 or x.device.type != "cpu" or not torch.is_grad_enabled():
         return conv(x)
     cout, cin_g = conv.weight.shape[:2]
     mask = torch.block_diag(*[x.new_ones(cout // g, cin_g) for _ in range(g)])[:, :, None, None]

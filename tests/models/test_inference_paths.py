@@ -12,11 +12,12 @@ from mcd.lit.precision import cpu_bf16_supported
 from mcd.models import build
 from mcd.models.ghost_conv import (
     FastGhostConv,
-    grouped_conv,
+    fast_path_applies,
+    group_then_point,
     lane_filled_conv,
     lane_stride,
-    split_depthwise_applies,
     split_depthwise_point,
+    splits,
 )
 from mcd.models.kernel_pool import apply_pixel_kernels
 from mcd.models.position_pooling import PositionAwarePool, position_features
@@ -45,15 +46,16 @@ def test_lane_stride_fills_the_lanes_of_thin_groups_only():
     assert lane_stride(24, 16, 7) == 1 and lane_stride(24, 12, 7) == 1
 
 
-def test_inference_mode_runs_the_lane_filled_path_with_the_same_result():
+def test_inference_mode_runs_the_fast_path_with_the_same_result():
     torch.manual_seed(0)
     block = FastGhostConv(16, 16).eval()
     x = torch.rand(1, 16, 13, 21)
     with torch.no_grad():
         ref = block(x)                                       # plain no_grad: the grouped conv itself
+        assert not fast_path_applies(block.group, [x])
     with torch.inference_mode():
         fast = block(x)
-        assert grouped_conv(block.group, x).is_contiguous(memory_format=torch.channels_last)  # the fast path
+        assert fast_path_applies(block.group, [x]) and not fast_path_applies(block.ghost, [x])
     torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-5)
 
 
@@ -71,15 +73,38 @@ def test_split_depthwise_point_is_the_group_conv_then_the_point_conv(cin, cout, 
             torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
 
 
-def test_split_depthwise_runs_for_thin_groups_on_narrow_inputs_in_inference_mode_only():
-    x = torch.rand(1, 16, 8, 8)
-    thin, wide = (torch.nn.Conv2d(16, cout, 7, padding=3, groups=4) for cout in (8, 24))
-    deep = torch.nn.Conv2d(64, 8, 7, padding=3, groups=4)
-    with torch.inference_mode():
-        assert split_depthwise_applies(thin, x) and not split_depthwise_applies(wide, x)
-        assert not split_depthwise_applies(deep, torch.rand(1, 64, 8, 8))
+def test_split_depthwise_runs_for_thin_groups_on_narrow_inputs_only():
+    assert splits(16, 2) and splits(12, 2) and not splits(16, 6) and not splits(48, 2)
+
+
+@pytest.mark.parametrize(("split", "cout"), [((48, 16), 8), ((48, 16), 24), ((32, 32), 8), ((10, 54), 8),
+                                             ((64,), 8), ((16, 16, 32), 8)])
+@pytest.mark.parametrize("bias", [True, False])
+def test_group_then_point_on_parts_is_the_block_on_their_concatenation(split, cout, bias):
+    """Parts aligned with the groups (each part's groups run on the part: split depth-wise or lane-filled) and
+    parts that a group straddles (concatenated first), against the group conv and point conv of the
+    concatenation, fp32, both memory formats, an odd size."""
+    torch.manual_seed(len(split) + cout)
+    group = torch.nn.Conv2d(sum(split), cout, 7, padding=3, groups=4, bias=bias)
+    point = torch.nn.Conv2d(cout, 12, 1, bias=bias)
+    parts = [torch.randn(1, c, 11, 19) * 5 for c in split]
     with torch.no_grad():
-        assert not split_depthwise_applies(thin, x)
+        ref = point(group(torch.cat(parts, 1)))
+    with torch.inference_mode():
+        for fmt in (torch.contiguous_format, torch.channels_last):
+            fast = group_then_point(group, point, [p.contiguous(memory_format=fmt) for p in parts])
+            torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
+
+
+def test_a_fast_ghost_conv_block_on_parts_is_the_block_on_their_concatenation():
+    torch.manual_seed(1)
+    block = FastGhostConv(64, 16).eval()
+    parts = [torch.rand(1, 48, 9, 14), torch.rand(1, 16, 9, 14)]
+    with torch.no_grad():
+        ref = block(torch.cat(parts, 1))
+        torch.testing.assert_close(block.forward_parts(parts), ref)     # no_grad: concatenated as before
+    with torch.inference_mode():
+        torch.testing.assert_close(block.forward_parts(parts), ref, rtol=1e-5, atol=1e-4)
 
 
 @pytest.mark.parametrize(("cin", "cout"), [(12, 16), (16, 16), (16, 48)])
