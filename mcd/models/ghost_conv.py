@@ -59,15 +59,18 @@ class FastGhostConv(nn.Module):
     def forward(self, x: Tensor) -> Tensor:
         return self.forward_parts([x])
 
-    def forward_parts(self, parts: Sequence[Tensor]) -> Tensor:
-        """The block on ``torch.cat(parts, 1)``. CPU inference (:func:`fast_path_applies`) runs
-        :func:`group_then_point`, which concatenates the parts only where the group conv's groups straddle
-        them (docs/inference.md; a U-Net decoder block is handed its upsampled features and skip)."""
+    def forward_parts(self, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
+        """The block on the channel concatenation of ``parts`` and of ``constant`` ``[B, D]`` broadcast over
+        the image. CPU inference (:func:`fast_path_applies`) runs :func:`group_then_point`, which
+        concatenates parts only where a group straddles them and convolves no constant channel
+        (docs/inference.md; a U-Net decoder block is handed its upsampled features and skip, the kernel-map
+        head the kernel descriptor)."""
         if fast_path_applies(self.group, parts):
-            primary = group_then_point(self.group, self.point, parts)
+            primary = group_then_point(self.group, self.point, parts, constant)
         else:
-            primary = self.point(grouped_conv(self.group, torch.cat(list(parts), 1) if len(parts) > 1
-                                              else parts[0]))
+            whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
+            x = torch.cat(whole, 1) if len(whole) > 1 else whole[0]
+            primary = self.point(grouped_conv(self.group, x))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
 
 
@@ -143,35 +146,125 @@ def splits(cin: int, cout_g: int) -> bool:
     return cin <= SPLIT_MAX_IN and cout_g <= SPLIT_MAX_OUT
 
 
-def group_then_point(group: nn.Conv2d, point: nn.Conv2d, parts: Sequence[Tensor]) -> Tensor:
-    """``point(group(torch.cat(parts, 1)))`` for a stride-1 zero-padded group conv and a 1x1 conv: per part
-    (the parts are concatenated first only where a group straddles two of them), the part's groups as
-    :func:`split_depthwise` where :func:`splits` holds, else as :func:`lane_filled` followed by the columns
-    of ``point`` that read them; the parts' results are added in place. Same function and MACs."""
+def group_then_point(group: nn.Conv2d, point: nn.Conv2d, parts: Sequence[Tensor],
+                     constant: Tensor | None = None) -> Tensor:
+    """``point(group(x))`` for a stride-1 zero-padded group conv and a 1x1 conv, where ``x`` is the channel
+    concatenation of ``parts`` and, when given, of ``constant`` ``[B, D]`` broadcast over the image (the last
+    ``D`` channels). The input is cut into runs of whole groups (:func:`group_runs`: a part that holds whole
+    groups is a run as it is; pieces that share a group are concatenated); each run's groups run as
+    :func:`split_depthwise` where :func:`splits` holds, else as :func:`lane_filled` followed by the columns of
+    ``point`` that read them, and the runs' results are added in place. Constant channels that share the
+    last group with variable ones are not convolved: their part of that group's output is its value inside
+    the image (folded into the bias) plus a correction in the ``padding``-wide border
+    (:func:`add_border_correction`). Same function and MACs."""
     g = group.groups
     cout, cin_g, _, kw = group.weight.shape
     cout_g = cout // g
-    if any(p.shape[1] % cin_g for p in parts):
-        parts = [torch.cat(list(parts), 1)]
+    variable = sum(p.shape[1] for p in parts)
+    depth = 0 if constant is None else constant.shape[1]
+    if variable + depth != g * cin_g:
+        raise ValueError(f"group_then_point: the parts have {[p.shape[1] for p in parts]} channels and the "
+                         f"constant {depth}; the group conv reads {g * cin_g}")
+    if constant is not None and (variable % cin_g == 0 or depth >= cin_g):       # not in a shared group
+        return group_then_point(group, point, [*parts, broadcast(constant, parts[0])])
     out: Tensor | None = None
-    j = 0                                                             # first group of the part
-    for part in parts:
-        gp = part.shape[1] // cin_g
-        rows = slice(j * cout_g, (j + gp) * cout_g)
-        weight, pw = group.weight[rows], point.weight[:, rows]
+    for j, x in group_runs(parts, cin_g):
+        n = -(-x.shape[1] // cin_g)
+        rows = slice(j * cout_g, (j + n) * cout_g)
+        weight, pw = group.weight[rows, : x.shape[1] // n], point.weight[:, rows]
         bias = None if group.bias is None else group.bias[rows]
         pb = point.bias if out is None else None
-        if splits(part.shape[1], cout_g):
-            y = split_depthwise(part, weight, bias, gp, group.padding, pw, pb)
+        if constant is not None and x.shape[1] < n * cin_g:            # the group it shares with the constant
+            taps = torch.einsum("bc,ocyx->boyx", constant.float(),
+                                group.weight[rows, x.shape[1]:].float())                # [B, cout_g, kh, kw]
+            inside = taps.sum((-2, -1))
+            single = x.shape[0] == 1
+            if single:
+                bias = inside[0] if bias is None else bias + inside[0]
+            y = lane_filled(x, weight, bias, n, group.padding, lane_stride(x.shape[1], cout_g, kw))
+            if not single:
+                y.add_(inside[:, :, None, None].to(y.dtype))
+            add_border_correction(y, taps, group.padding)
+            y = F.conv2d(y, pw, pb)
+        elif splits(x.shape[1], cout_g):
+            y = split_depthwise(x, weight, bias, n, group.padding, pw, pb)
         else:
-            y = F.conv2d(lane_filled(part, weight, bias, gp, group.padding, lane_stride(cin_g, cout_g, kw)),
+            y = F.conv2d(lane_filled(x, weight, bias, n, group.padding, lane_stride(cin_g, cout_g, kw)),
                          pw, pb)
         out = y if out is None else out.add_(y)
-        j += gp
-    if out is None or j != g:
-        raise ValueError(f"group_then_point: the parts have {[p.shape[1] for p in parts]} channels; the "
-                         f"group conv reads {g * cin_g}")
+    if out is None:
+        raise ValueError("group_then_point needs at least one part")
     return out
+
+
+def group_runs(parts: Sequence[Tensor], cin_g: int) -> list[tuple[int, Tensor]]:
+    """``(first group, input)`` runs covering the channel concatenation of ``parts`` for a group conv with
+    ``cin_g`` inputs per group: a part that starts at a group boundary and holds whole groups is a run as it
+    is (no copy); other parts are cut at the group boundaries and the pieces of each group concatenated. The
+    last run may end inside a group (its remaining inputs are constant channels)."""
+    runs: list[tuple[int, Tensor]] = []
+    pending: list[Tensor] = []
+    start = 0                                                  # channel where the pending pieces start
+
+    def emit() -> None:
+        runs.append((start // cin_g, pending[0] if len(pending) == 1 else torch.cat(pending, 1)))
+        pending.clear()
+
+    for part in parts:
+        c = part.shape[1]
+        if not pending and start % cin_g == 0 and c % cin_g == 0:
+            runs.append((start // cin_g, part))
+            start += c
+            continue
+        offset = 0
+        while offset < c:
+            first = start + sum(q.shape[1] for q in pending)
+            take = min(c - offset, cin_g - first % cin_g)
+            pending.append(part[:, offset : offset + take])
+            offset += take
+            if (first + take) % cin_g == 0:
+                emit()
+                start = first + take
+    if pending:
+        emit()
+    return runs
+
+
+def add_border_correction(y: Tensor, taps: Tensor, padding: tuple[int, ...]) -> None:
+    """Add to ``y`` ``[B, O, H, W]`` (in place) the difference, in the ``padding``-wide border, between a
+    zero-padded convolution of a constant image and its value inside the image: ``taps`` ``[B, O, kh, kw]``
+    is the kernel already summed against the constant; inside, every tap counts, at the border only those
+    that land in the image."""
+    h, w = y.shape[-2:]
+    kh, kw = taps.shape[-2:]
+    ph, pw = padding[0], padding[1]
+    inside = taps.sum((-2, -1))[:, :, None, None]
+
+    def valid(n: int, k: int, p: int) -> Tensor:                             # [n, k]: tap in the image
+        at = torch.arange(n, device=taps.device)[:, None] + torch.arange(k, device=taps.device) - p
+        return ((at >= 0) & (at < n)).to(taps.dtype)
+
+    vy, vx = valid(h, kh, ph), valid(w, kw, pw)
+
+    def fix(ys: slice, xs: slice) -> None:
+        if ys.start < ys.stop and xs.start < xs.stop:
+            fixed = torch.einsum("boij,yi,xj->boyx", taps, vy[ys], vx[xs]) - inside
+            y[:, :, ys, xs] += fixed.to(y.dtype)
+
+    top = slice(0, min(ph, h))
+    bottom = slice(max(h - ph, top.stop), h)
+    left = slice(0, min(pw, w))
+    right = slice(max(w - pw, left.stop), w)
+    fix(top, slice(0, w))
+    fix(bottom, slice(0, w))
+    fix(slice(top.stop, bottom.start), left)
+    fix(slice(top.stop, bottom.start), right)
+
+
+def broadcast(constant: Tensor, like: Tensor) -> Tensor:
+    """``constant`` ``[B, D]`` as ``D`` channels over ``like``'s image, in its dtype."""
+    b, _, h, w = like.shape
+    return constant[:, :, None, None].expand(b, constant.shape[1], h, w).to(like.dtype)
 
 
 def split_depthwise_point(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:

@@ -2,22 +2,21 @@
 
 Level ``j`` works at ``1 / 2^j`` resolution with ``widths[j]`` channels and ``convs`` blocks; the encoder
 pools between levels (max pooling, or position-aware pooling), the decoder upsamples bilinearly, concatenates
-the skip and runs ``convs`` blocks (a block that takes its input in parts is handed the upsampled features
-and the skip instead, :func:`on_parts`); a 1x1 convolution makes the output. The deepest level may swap its
-blocks after the first for another module (semantic alignment). Inputs of any size are replicate-padded to a
-multiple of the stride ``2^(levels-1)`` and the outputs cropped back, so odd sizes and inputs smaller than
-the stride work.
+the skip and runs ``convs`` blocks (a block that takes its input in parts is handed the upsampled features and
+the skip instead, :func:`mcd.models.blocks.on_parts`); a 1x1 convolution makes the output. The deepest level
+may swap its blocks after the first for another module (semantic alignment). Inputs of any size are
+replicate-padded to a multiple of the stride ``2^(levels-1)`` and the outputs cropped back, so odd sizes and
+inputs smaller than the stride work.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from mcd.models.blocks import BlockFactory, ConvReLU
+from mcd.models.blocks import BlockFactory, ConvReLU, on_parts
 from mcd.models.inputs import crop, pad_to_multiple
 
 PoolFactory = Callable[[int], nn.Module]
@@ -26,13 +25,6 @@ PoolFactory = Callable[[int], nn.Module]
 def max_pool(_channels: int) -> nn.Module:
     """2x2 max pooling (ceil mode, so odd sizes keep their last row/column)."""
     return nn.MaxPool2d(2, ceil_mode=True)
-
-
-def on_parts(block: nn.Module, parts: list[Tensor]) -> Tensor:
-    """``block(torch.cat(parts, 1))``; a block with a ``forward_parts`` method (Fast GhostConv) is handed the
-    parts instead, so it can skip the concatenation (docs/inference.md, "Split depth-wise")."""
-    forward_parts = getattr(block, "forward_parts", None)
-    return forward_parts(parts) if callable(forward_parts) else block(torch.cat(parts, 1))
 
 
 class UNet(nn.Module):

@@ -19,7 +19,7 @@ from mcd.models.ghost_conv import (
     split_depthwise_point,
     splits,
 )
-from mcd.models.kernel_pool import apply_pixel_kernels
+from mcd.models.kernel_pool import KernelMapHead, apply_pixel_kernels
 from mcd.models.position_pooling import PositionAwarePool, position_features
 from mcd.sampling import frame_budget, normalise_map, shares
 from tests.models.helpers import row_cfg
@@ -94,6 +94,42 @@ def test_group_then_point_on_parts_is_the_block_on_their_concatenation(split, co
         for fmt in (torch.contiguous_format, torch.channels_last):
             fast = group_then_point(group, point, [p.contiguous(memory_format=fmt) for p in parts])
             torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
+
+
+@pytest.mark.parametrize("batch", [1, 2])
+@pytest.mark.parametrize("size", [(11, 19), (5, 4), (1, 9)])       # borders that overlap: smaller than 7
+@pytest.mark.parametrize(("split", "depth", "groups", "cout"), [((16, 7, 3), 16, 2, 20), ((10, 3), 3, 4, 8),
+                                                                ((16, 4), 8, 2, 8), ((8,), 8, 2, 8)])
+def test_group_then_point_with_constant_channels_is_the_block_on_the_broadcast(batch, size, split, depth,
+                                                                             groups, cout):
+    """The kernel-map head's first block: constant channels (the descriptor) that share the last group with
+    variable ones are not convolved; a constant that fills a group of its own is broadcast. Against the group
+    and point conv of the concatenation with the broadcast constant, fp32, both memory formats."""
+    torch.manual_seed(batch + size[0] + depth)
+    group = torch.nn.Conv2d(sum(split) + depth, cout, 7, padding=3, groups=groups)
+    point = torch.nn.Conv2d(cout, 10, 1)
+    parts = [torch.randn(batch, c, *size) * 3 for c in split]
+    constant = torch.randn(batch, depth) * 3
+    whole = torch.cat([*parts, constant[:, :, None, None].expand(-1, -1, *size)], 1)
+    with torch.no_grad():
+        ref = point(group(whole))
+    with torch.inference_mode():
+        for fmt in (torch.contiguous_format, torch.channels_last):
+            fast = group_then_point(group, point, [p.contiguous(memory_format=fmt) for p in parts], constant)
+            torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
+
+
+def test_the_kernel_map_head_in_inference_mode_is_the_head_on_the_broadcast_descriptor():
+    torch.manual_seed(2)
+    head = KernelMapHead(42, [40, 40], FastGhostConv).eval()
+    parts = [torch.rand(1, 16, 12, 17), torch.rand(1, 7, 12, 17), torch.rand(1, 3, 12, 17) * 4]
+    desc = torch.randn(1, 16)
+    with torch.no_grad():
+        ref = head(parts, desc)
+        whole = torch.cat([*parts, desc[:, :, None, None].expand(-1, -1, 12, 17)], 1)
+        torch.testing.assert_close(torch.tanh(head.scale(head.out(head.blocks(whole)))), ref)
+    with torch.inference_mode():
+        torch.testing.assert_close(head(parts, desc), ref, rtol=1e-4, atol=1e-4)
 
 
 def test_a_fast_ghost_conv_block_on_parts_is_the_block_on_their_concatenation():
