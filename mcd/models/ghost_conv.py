@@ -37,6 +37,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from mcd.models.inputs import cat_channels
+
 
 class FastGhostConv(nn.Module):
     """``cin -> cout`` Fast GhostConv block (``cout`` must be even: half primary, half ghost)."""
@@ -210,7 +212,7 @@ def group_runs(parts: Sequence[Tensor], cin_g: int) -> list[tuple[int, Tensor]]:
     start = 0                                                  # channel where the pending pieces start
 
     def emit() -> None:
-        runs.append((start // cin_g, pending[0] if len(pending) == 1 else torch.cat(pending, 1)))
+        runs.append((start // cin_g, pending[0] if len(pending) == 1 else cat_channels(pending)))
         pending.clear()
 
     for part in parts:

@@ -25,7 +25,7 @@ from torch import Tensor, nn
 from torch.profiler import record_function
 
 from mcd.models.denoiser import Denoiser
-from mcd.models.inputs import compress, expand, gbuffers, grey, need
+from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
@@ -94,8 +94,8 @@ class TwoStage(nn.Module):
         """``F_s``'s input (docs/method.md "Inputs"): ``c_1``, ``g``, grey ``c_1`` and grey albedo."""
         who = "two_stage"
         c1, albedo = need(x, "c1_in", who), need(x, "albedo", who)
-        return torch.cat([compress(c1, self.colour), gbuffers(x, who), compress(grey(c1), self.colour),
-                          grey(albedo)], 1)
+        return cat_channels([compress(c1, self.colour), gbuffers(x, who), compress(grey(c1), self.colour),
+                             grey(albedo)])
 
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         who = "two_stage"
@@ -124,7 +124,7 @@ class TwoStage(nn.Module):
         else:
             feats = [compress(need(x, f"c{int(self.budget)}", who), self.colour), g]
         with record_function("F_d"):
-            y = self.denoiser(torch.cat([f.float() for f in feats], 1))
+            y = self.denoiser(cat_channels([f.float() for f in feats]))
         out["output"] = expand(y, self.colour)
         return out
 

@@ -19,6 +19,7 @@ from mcd.models.ghost_conv import (
     split_depthwise_point,
     splits,
 )
+from mcd.models.inputs import cat_channels
 from mcd.models.kernel_pool import KernelMapHead, apply_pixel_kernels
 from mcd.models.position_pooling import PositionAwarePool, position_features
 from mcd.sampling import frame_budget, normalise_map, shares
@@ -155,6 +156,19 @@ def test_fast_ghost_conv_in_inference_mode_is_the_block(cin, cout):
     with torch.inference_mode():
         for fmt in (torch.contiguous_format, torch.channels_last):
             torch.testing.assert_close(block(x.contiguous(memory_format=fmt)), ref, rtol=1e-5, atol=1e-4)
+
+
+def test_a_concatenation_with_one_channel_inputs_stays_channels_last_without_gradients():
+    cl = torch.channels_last
+    rgb = torch.rand(1, 3, 5, 7).contiguous(memory_format=cl)
+    parts = [torch.rand(1, 1, 5, 7), rgb, torch.rand(1, 2, 5, 7).bfloat16()]
+    assert not torch.cat(parts, 1).is_contiguous(memory_format=cl)          # what torch.cat does
+    with torch.inference_mode():
+        out = cat_channels(parts)
+    assert out.is_contiguous(memory_format=cl) and out.dtype == torch.float32
+    torch.testing.assert_close(out, torch.cat(parts, 1))
+    grad = cat_channels([rgb.requires_grad_(), parts[0]])                  # autograd: torch.cat itself
+    assert grad.requires_grad
 
 
 def _unfold_kernels(image: torch.Tensor, kernels: torch.Tensor) -> torch.Tensor:
