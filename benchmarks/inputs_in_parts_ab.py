@@ -2,7 +2,8 @@
 input concatenated first (the behaviour before; docs/inference.md, "Inputs in parts").
 
 One process, one model (``model=paper``, seeded weights), seeded random 1920x1080 inputs,
-``torch.inference_mode`` with bf16 autocast and channels-last (the bench's fastest CPU path). The variants
+``torch.inference_mode`` with bf16 autocast and channels-last (the bench's fastest CPU path; ``--dtype fp32``:
+fp32 channels-last). The variants
 alternate call by call, each timed in thread CPU time (which a machine shared with other jobs disturbs far
 less than wall time):
 
@@ -64,6 +65,7 @@ def main() -> None:
     parser.add_argument("--reps", type=int, default=3)
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("--height", type=int, default=1080)
+    parser.add_argument("--dtype", choices=("bf16", "fp32"), default="bf16")
     args = parser.parse_args()
     cl = torch.channels_last
     torch.manual_seed(0)
@@ -76,8 +78,8 @@ def main() -> None:
     x["ref"] = None
     times: dict[str, list[float]] = {v: [] for v in VARIANTS}
     print(f"{device_name(torch.device('cpu'))}, {torch.get_num_threads()} thread(s), row F, "
-          f"{args.width}x{args.height}, bf16 channels-last, thread CPU s per call")
-    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16):
+          f"{args.width}x{args.height}, {args.dtype} channels-last, thread CPU s per call")
+    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=args.dtype == "bf16"):
         outputs = {}
         for v in VARIANTS:                                                    # warm-up, and the outputs
             use(v)
