@@ -269,12 +269,12 @@ def test_a_long_capping_cascade_reaches_the_same_water_level():
 
 
 @needs_bf16
-@pytest.mark.parametrize("row", ["F", "A"])
-def test_fastest_cpu_path_of_a_row_stays_near_fp32_eager(row):
+@pytest.mark.parametrize(("row", "profile"), [("F", "paper"), ("A", "paper"), ("F", "cpu")])
+def test_fastest_cpu_path_of_a_row_stays_near_fp32_eager(row, profile):
     """The bench's fastest CPU path (inference mode, bf16 autocast, channels-last, every fast path) against
     the fp32 eager forward under plain no_grad (grouped convs as they are)."""
     torch.manual_seed(0)
-    model = build(row_cfg(row, profile="paper")).eval()
+    model = build(row_cfg(row, profile=profile)).eval()
     x = {name: torch.rand(1, 1 if name == "depth" else 3, 48, 80) * (20 if name.startswith("c") else 1)
          for name in model.required_buffers()}
     x["ref"] = None
