@@ -1,13 +1,16 @@
 """Group convolutions of row F's Fast GhostConv blocks on the CPU, as oneDNN runs them, lane-filled and split
-into depth-wise convolutions (mcd/models/ghost_conv.py; docs/inference.md, "Grouped convolutions"), beside a
-dense 3x3 convolution.
+into depth-wise convolutions, and the blocks whose input comes in parts (mcd/models/ghost_conv.py;
+docs/inference.md, "Grouped convolutions"), beside a dense 3x3 convolution.
 
 For every Fast GhostConv block of ``F_s`` and the kernel-map head (paper capacity) at its resolution for a
 ``--width`` x ``--height`` frame: GMAC/s of its 7x7 group convolution as ``conv(x)`` (oneDNN) and through
 :func:`mcd.models.ghost_conv.lane_filled_conv` with the ``S`` that :func:`lane_stride` picks, bf16 autocast
-and channels-last (the bench's fastest CPU path); and for the blocks where
-:func:`mcd.models.ghost_conv.split_depthwise_applies` holds, the group conv followed by the block's point-wise
-conv both ways (lane-filled then ``point``, and :func:`split_depthwise_point`). Times are the best of
+and channels-last (the bench's fastest CPU path); for the blocks where :func:`mcd.models.ghost_conv.splits`
+holds, the group conv followed by the block's point-wise conv both ways (lane-filled then ``point``, and
+:func:`split_depthwise_point`); and for the two blocks whose input is a concatenation (the full-resolution
+decoder block of ``F_s``: upsampled features and skip; the kernel-map head's first block: finest features,
+``g``, ``i`` and the broadcast kernel descriptor), group + point-wise conv on the concatenation (built in the
+timed call) against :func:`mcd.models.ghost_conv.group_then_point` on the parts. Times are the best of
 ``--reps`` calls in thread CPU time (``time.thread_time``), which a machine shared with other jobs disturbs
 far less than wall time; run it with ``OMP_NUM_THREADS=1``.
 
@@ -26,10 +29,12 @@ import torch.nn.functional as F
 from mcd.bench import compose_cfg, device_name
 from mcd.models import build
 from mcd.models.ghost_conv import (
+    broadcast,
+    group_then_point,
     lane_filled_conv,
     lane_stride,
-    split_depthwise_applies,
     split_depthwise_point,
+    splits,
 )
 
 CL = torch.channels_last
@@ -76,7 +81,7 @@ def main() -> None:
                 plain = best_cpu_ms(lambda conv=conv, x=x: conv(x), args.reps)
                 filled = best_cpu_ms(lambda conv=conv, x=x, s=s: lane_filled_conv(conv, x, s), args.reps)
                 split = "| — | — | — |"
-                if split_depthwise_applies(conv, x):
+                if splits(conv.in_channels, cout // conv.groups):
                     p = block.point
                     lanes = best_cpu_ms(lambda c=conv, x=x, s=s, p=p: p(lane_filled_conv(c, x, s)), args.reps)
                     parts = best_cpu_ms(lambda c=conv, x=x, p=p: split_depthwise_point(c, p, x), args.reps)
@@ -84,6 +89,26 @@ def main() -> None:
                 print(f"| {name} | {conv.in_channels}->{cout}, {conv.groups} groups | {s} | "
                       f"{gmacs / plain * 1e3:.1f} | {gmacs / filled * 1e3:.1f} | {plain / filled:.2f}x "
                       f"{split}")
+        print("\n| block in parts | group + point on the concatenation ms | on the parts ms | speed-up |")
+        print("|---|---|---|---|")
+        h, w = args.height, args.width
+        decoder = unet.decoder[-1][0]
+        skip = unet.widths[0]
+        head = model.sampler.head.blocks[0]
+        desc = torch.randn(1, model.sampler.pool.describe.out_channels)
+        for name, block, widths, constant in (
+                (f"F_s decoder, full resolution, {decoder.group.in_channels - skip} upsampled + {skip} skip",
+                 decoder, (decoder.group.in_channels - skip, skip), None),
+                ("kernel-map head, finest 16 + g 7 + i 3 + descriptor 16", head, (skip, 7, 3), desc)):
+            parts = [torch.rand(1, c, h, w).bfloat16().contiguous(memory_format=CL) for c in widths]
+            whole = parts if constant is None else [*parts, broadcast(constant, parts[0])]
+            g, p = block.group, block.point
+            cat = best_cpu_ms(lambda g=g, p=p, whole=whole: group_then_point(g, p, [torch.cat(whole, 1)]),
+                              args.reps)
+            split = best_cpu_ms(lambda g=g, p=p, parts=parts, c=constant: group_then_point(g, p, parts, c),
+                                args.reps)
+            print(f"| {name} | {cat:.1f} | {split:.1f} | {cat / split:.2f}x |")
+        print()
         for cin, cout in ((16, 16), (32, 32), (64, 64)):
             x = torch.rand(1, cin, args.height, args.width).bfloat16().contiguous(memory_format=CL)
             weight = torch.rand(cout, cin, 3, 3).bfloat16().contiguous(memory_format=CL)

@@ -15,10 +15,12 @@ blocks of :data:`LANES`, so a group of 2 or 5 outputs leaves most of every block
 the blocks with ``S`` horizontally adjacent outputs: a stride-``(1, S)`` convolution whose ``S * cout_g``
 outputs per group hold the same kernel shifted by ``0 .. S - 1`` columns (width ``k + S - 1``), then one
 copy interleaves the ``S`` phases back into columns. Same function (the zero taps add nothing), chosen per
-layer by :func:`lane_stride`'s cost model. Blocks whose groups have at most :data:`SPLIT_MAX_OUT` outputs and
-whose input has at most :data:`SPLIT_MAX_IN` channels instead run :func:`split_depthwise_point`: one
+layer by :func:`lane_stride`'s cost model. Inputs (or parts of an input) of at most :data:`SPLIT_MAX_IN`
+channels whose groups have at most :data:`SPLIT_MAX_OUT` outputs instead run :func:`split_depthwise`: one
 depth-wise convolution per output of a group (oneDNN vectorises those over the input channels) with the
-point-wise convolution folded in, which sums over each group's inputs.
+point-wise convolution folded in, which sums over each group's inputs. A block given its input in parts
+(:meth:`FastGhostConv.forward_parts`: a U-Net decoder block's upsampled features and skip) runs each part's
+groups on the part itself, without the concatenation (:func:`group_then_point`).
 
 The group convolution's output width is not given by the paper; it is ``mid_ratio * cout`` (default 0.5),
 which makes the block cheaper than the 3x3 block it replaces, as the paper's component table requires (rows
@@ -29,10 +31,13 @@ E, G, H, L lose params and MACs against D, C, J, B). Groups fall back to ``gcd(g
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
+
+from mcd.models.inputs import cat_channels
 
 
 class FastGhostConv(nn.Module):
@@ -54,9 +59,19 @@ class FastGhostConv(nn.Module):
         self.act = nn.ReLU(inplace=True)
 
     def forward(self, x: Tensor) -> Tensor:
-        if split_depthwise_applies(self.group, x):
-            primary = split_depthwise_point(self.group, self.point, x)
+        return self.forward_parts([x])
+
+    def forward_parts(self, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
+        """The block on the channel concatenation of ``parts`` and of ``constant`` ``[B, D]`` broadcast over
+        the image. CPU inference (:func:`fast_path_applies`) runs :func:`group_then_point`, which
+        concatenates parts only where a group straddles them and convolves no constant channel
+        (docs/inference.md; a U-Net decoder block is handed its upsampled features and skip, the kernel-map
+        head the kernel descriptor)."""
+        if fast_path_applies(self.group, parts):
+            primary = group_then_point(self.group, self.point, parts, constant)
         else:
+            whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
+            x = torch.cat(whole, 1) if len(whole) > 1 else whole[0]
             primary = self.point(grouped_conv(self.group, x))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
 
@@ -81,85 +96,222 @@ def lane_stride(cin_g: int, cout_g: int, kernel: int) -> int:
 
 
 def lane_filled_conv(conv: nn.Conv2d, x: Tensor, stride: int) -> Tensor:
-    """``conv(x)`` for a stride-1, zero-padded group ``conv``, computed as a stride-``(1, stride)`` conv with
-    ``stride`` column phases per output channel (see the module docstring). ``stride = 1`` is ``conv(x)``."""
+    """``conv(x)`` for a stride-1, zero-padded group ``conv``, computed by :func:`lane_filled`."""
+    return lane_filled(x, conv.weight, conv.bias, conv.groups, conv.padding, stride)
+
+
+def lane_filled(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int, padding: tuple[int, ...],
+                stride: int) -> Tensor:
+    """``F.conv2d(x, weight, bias, padding=padding, groups=groups)`` (stride 1, zero padding) as a
+    stride-``(1, stride)`` conv with ``stride`` column phases per output channel (see the module docstring).
+    ``stride = 1`` is the conv itself."""
     if stride == 1:
-        return conv(x)
-    g, s = conv.groups, stride
-    cout, cin_g, kh, kw = conv.weight.shape
+        return F.conv2d(x, weight, bias, padding=padding, groups=groups)
+    g, s = groups, stride
+    cout, cin_g, kh, kw = weight.shape
     cout_g = cout // g
-    weight = conv.weight.new_zeros(g, s, cout_g, cin_g, kh, kw + s - 1)
+    filled = weight.new_zeros(g, s, cout_g, cin_g, kh, kw + s - 1)
     for phase in range(s):
-        weight[:, phase, ..., phase : phase + kw] = conv.weight.view(g, cout_g, cin_g, kh, kw)
-    bias = None if conv.bias is None else conv.bias.view(g, 1, cout_g).expand(g, s, cout_g).reshape(-1)
+        filled[:, phase, ..., phase : phase + kw] = weight.reshape(g, cout_g, cin_g, kh, kw)
+    bias = None if bias is None else bias.view(g, 1, cout_g).expand(g, s, cout_g).reshape(-1)
     b, _, h, w = x.shape
     wo = -(-w // s)
     if wo * s != w:                              # zero columns on the right; their outputs are cropped
         x = F.pad(x, (0, wo * s - w))
-    y = F.conv2d(x, weight.view(g * s * cout_g, cin_g, kh, kw + s - 1), bias, stride=(1, s),
-                 padding=conv.padding, groups=g)                              # [B, (g, phase, o), H, wo]
+    y = F.conv2d(x, filled.view(g * s * cout_g, cin_g, kh, kw + s - 1), bias, stride=(1, s),
+                 padding=padding, groups=g)                                   # [B, (g, phase, o), H, wo]
     y = y.permute(0, 2, 3, 1).reshape(b, h, wo, g, s, cout_g).transpose(3, 4).reshape(b, h, wo * s, cout)
     return y[:, :, :w].permute(0, 3, 1, 2).contiguous(memory_format=torch.channels_last)
 
 
-#: :func:`split_depthwise_point` runs where a group has at most this many outputs and the block's input at
-#: most :data:`SPLIT_MAX_IN` channels: the widths where it measured faster than :func:`lane_filled_conv`
-#: (docs/inference.md, "Measured: the group convolutions"; oneDNN's depth-wise rate falls for wider inputs).
+#: :func:`group_then_point` splits a part into depth-wise convs where a group has at most this many outputs
+#: and the part at most :data:`SPLIT_MAX_IN` channels: the widths where that measured faster than
+#: :func:`lane_filled` (docs/inference.md, "Measured: the group convolutions"; oneDNN's depth-wise rate
+#: falls for wider inputs).
 SPLIT_MAX_OUT = 2
 SPLIT_MAX_IN = 16
 
 
-def split_depthwise_applies(conv: nn.Conv2d, x: Tensor) -> bool:
-    """Whether a Fast GhostConv block's group ``conv`` runs :func:`split_depthwise_point` on ``x``: CPU
-    inference mode, a plain stride-1 zero-padded group conv (not depth-wise) of thin groups on a narrow
-    input."""
+def fast_path_applies(conv: nn.Conv2d, parts: Sequence[Tensor]) -> bool:
+    """Whether a Fast GhostConv block's group ``conv`` runs :func:`group_then_point` on ``parts``: CPU
+    inference mode and a plain stride-1 zero-padded group conv (not dense, not depth-wise). Plain
+    ``no_grad`` keeps the grouped conv, so ``FlopCounterMode`` counts the true MACs."""
     g = conv.groups
     plain = (*conv.stride, *conv.dilation) == (1,) * 4 and conv.padding_mode == "zeros"
-    thin = 1 < g < conv.in_channels and conv.out_channels // g <= SPLIT_MAX_OUT
-    return (x.device.type == "cpu" and torch.is_inference_mode_enabled() and plain and thin
-            and conv.in_channels <= SPLIT_MAX_IN)
+    return (all(p.device.type == "cpu" for p in parts) and torch.is_inference_mode_enabled() and plain
+            and 1 < g < conv.in_channels)
+
+
+def splits(cin: int, cout_g: int) -> bool:
+    """Whether :func:`group_then_point` runs a part of ``cin`` channels whose groups have ``cout_g`` outputs
+    as :func:`split_depthwise` (else :func:`lane_filled` and the point-wise conv)."""
+    return cin <= SPLIT_MAX_IN and cout_g <= SPLIT_MAX_OUT
+
+
+def group_then_point(group: nn.Conv2d, point: nn.Conv2d, parts: Sequence[Tensor],
+                     constant: Tensor | None = None) -> Tensor:
+    """``point(group(x))`` for a stride-1 zero-padded group conv and a 1x1 conv, where ``x`` is the channel
+    concatenation of ``parts`` and, when given, of ``constant`` ``[B, D]`` broadcast over the image (the last
+    ``D`` channels). Parts that hold whole groups are runs as they are; where a group straddles two parts they
+    are concatenated first (the per-group pieces measured slower for ``F_s``'s 144 -> 24 decoder block),
+    unless constant channels share the last group (then :func:`group_runs` cuts the input into the groups'
+    pieces so that the constant channels are left out). Each run's groups run as :func:`split_depthwise` where
+    :func:`splits` holds, else as :func:`lane_filled` followed by the columns of ``point`` that read them, and
+    the runs' results are added in place. Constant channels that share the last group with variable ones are
+    not convolved: their part of that group's output is its value inside the image (folded into the bias) plus
+    a correction in the ``padding``-wide border (:func:`add_border_correction`). Same function and MACs."""
+    g = group.groups
+    cout, cin_g, _, kw = group.weight.shape
+    cout_g = cout // g
+    variable = sum(p.shape[1] for p in parts)
+    depth = 0 if constant is None else constant.shape[1]
+    if variable + depth != g * cin_g:
+        raise ValueError(f"group_then_point: the parts have {[p.shape[1] for p in parts]} channels and the "
+                         f"constant {depth}; the group conv reads {g * cin_g}")
+    if constant is not None and (variable % cin_g == 0 or depth >= cin_g):       # not in a shared group
+        return group_then_point(group, point, [*parts, broadcast(constant, parts[0])])
+    if constant is None and len(parts) > 1 and any(p.shape[1] % cin_g for p in parts):
+        parts = [torch.cat(list(parts), 1)]         # a group straddles two parts: one grouped conv (faster)
+    out: Tensor | None = None
+    for j, x in group_runs(parts, cin_g):
+        n = -(-x.shape[1] // cin_g)
+        rows = slice(j * cout_g, (j + n) * cout_g)
+        weight, pw = group.weight[rows, : x.shape[1] // n], point.weight[:, rows]
+        bias = None if group.bias is None else group.bias[rows]
+        pb = point.bias if out is None else None
+        if constant is not None and x.shape[1] < n * cin_g:            # the group it shares with the constant
+            taps = torch.einsum("bc,ocyx->boyx", constant.float(),
+                                group.weight[rows, x.shape[1]:].float())                # [B, cout_g, kh, kw]
+            inside = taps.sum((-2, -1))
+            single = x.shape[0] == 1
+            if single:
+                bias = inside[0] if bias is None else bias + inside[0]
+            y = lane_filled(x, weight, bias, n, group.padding, lane_stride(x.shape[1], cout_g, kw))
+            if not single:
+                y.add_(inside[:, :, None, None].to(y.dtype))
+            add_border_correction(y, taps, group.padding)
+            y = F.conv2d(y, pw, pb)
+        elif splits(x.shape[1], cout_g):
+            y = split_depthwise(x, weight, bias, n, group.padding, pw, pb)
+        else:
+            y = F.conv2d(lane_filled(x, weight, bias, n, group.padding, lane_stride(cin_g, cout_g, kw)),
+                         pw, pb)
+        out = y if out is None else out.add_(y)
+    if out is None:
+        raise ValueError("group_then_point needs at least one part")
+    return out
+
+
+def group_runs(parts: Sequence[Tensor], cin_g: int) -> list[tuple[int, Tensor]]:
+    """``(first group, input)`` runs covering the channel concatenation of ``parts`` for a group conv with
+    ``cin_g`` inputs per group: a part that starts at a group boundary and holds whole groups is a run as it
+    is (no copy); other parts are cut at the group boundaries and the pieces of each group concatenated. The
+    last run may end inside a group (its remaining inputs are constant channels)."""
+    runs: list[tuple[int, Tensor]] = []
+    pending: list[Tensor] = []
+    start = 0                                                  # channel where the pending pieces start
+
+    def emit() -> None:
+        runs.append((start // cin_g, pending[0] if len(pending) == 1 else cat_channels(pending)))
+        pending.clear()
+
+    for part in parts:
+        c = part.shape[1]
+        if not pending and start % cin_g == 0 and c % cin_g == 0:
+            runs.append((start // cin_g, part))
+            start += c
+            continue
+        offset = 0
+        while offset < c:
+            first = start + sum(q.shape[1] for q in pending)
+            take = min(c - offset, cin_g - first % cin_g)
+            pending.append(part[:, offset : offset + take])
+            offset += take
+            if (first + take) % cin_g == 0:
+                emit()
+                start = first + take
+    if pending:
+        emit()
+    return runs
+
+
+def add_border_correction(y: Tensor, taps: Tensor, padding: tuple[int, ...]) -> None:
+    """Add to ``y`` ``[B, O, H, W]`` (in place) the difference, in the ``padding``-wide border, between a
+    zero-padded convolution of a constant image and its value inside the image: ``taps`` ``[B, O, kh, kw]``
+    is the kernel already summed against the constant; inside, every tap counts, at the border only those
+    that land in the image."""
+    h, w = y.shape[-2:]
+    kh, kw = taps.shape[-2:]
+    ph, pw = padding[0], padding[1]
+    inside = taps.sum((-2, -1))[:, :, None, None]
+
+    def valid(n: int, k: int, p: int) -> Tensor:                             # [n, k]: tap in the image
+        at = torch.arange(n, device=taps.device)[:, None] + torch.arange(k, device=taps.device) - p
+        return ((at >= 0) & (at < n)).to(taps.dtype)
+
+    vy, vx = valid(h, kh, ph), valid(w, kw, pw)
+
+    def fix(ys: slice, xs: slice) -> None:
+        if ys.start < ys.stop and xs.start < xs.stop:
+            fixed = torch.einsum("boij,yi,xj->boyx", taps, vy[ys], vx[xs]) - inside
+            y[:, :, ys, xs] += fixed.to(y.dtype)
+
+    top = slice(0, min(ph, h))
+    bottom = slice(max(h - ph, top.stop), h)
+    left = slice(0, min(pw, w))
+    right = slice(max(w - pw, left.stop), w)
+    fix(top, slice(0, w))
+    fix(bottom, slice(0, w))
+    fix(slice(top.stop, bottom.start), left)
+    fix(slice(top.stop, bottom.start), right)
+
+
+def broadcast(constant: Tensor, like: Tensor) -> Tensor:
+    """``constant`` ``[B, D]`` as ``D`` channels over ``like``'s image, in its dtype."""
+    b, _, h, w = like.shape
+    return constant[:, :, None, None].expand(b, constant.shape[1], h, w).to(like.dtype)
 
 
 def split_depthwise_point(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:
-    """``point(group(x))`` for a stride-1 zero-padded group conv followed by a 1x1 conv, computed per output
-    ``o`` of a group as a depth-wise conv of ``x`` (input channel ``c`` of group ``j`` with the kernel
-    ``group.weight[j, o, c]``) and a 1x1 conv of that whose weight repeats ``point``'s column for ``(j, o)``
-    over the group's inputs, which sums them; the ``cout_g`` results are added in place. Same function: the
-    group conv's bias moves into ``point``'s. Same MACs in the depth-wise convs as in the group conv."""
-    g = group.groups
-    cout, cin_g, kh, kw = group.weight.shape
+    """``point(group(x))`` computed by :func:`split_depthwise`."""
+    return split_depthwise(x, group.weight, group.bias, group.groups, group.padding, point.weight, point.bias)
+
+
+def split_depthwise(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int, padding: tuple[int, ...],
+                    point_weight: Tensor, point_bias: Tensor | None) -> Tensor:
+    """A stride-1 zero-padded group conv (``weight``, ``bias``, ``groups``) followed by a 1x1 conv
+    (``point_weight``, ``point_bias``), computed per output ``o`` of a group as a depth-wise conv of ``x``
+    (input channel ``c`` of group ``j`` with the kernel ``weight[j, o, c]``; oneDNN vectorises it over the
+    input channels, so no lane is empty) and a 1x1 conv of that whose weight repeats the point-wise column of
+    ``(j, o)`` over the group's inputs, which sums them; the results are added in place. Same function: the
+    group conv's bias moves into the point-wise bias. Same MACs in the depth-wise convs as in the group
+    conv."""
+    g = groups
+    cout, cin_g, kh, kw = weight.shape
     cout_g, cin = cout // g, cin_g * g
-    depthwise = group.weight.view(g, cout_g, cin_g, kh, kw).transpose(0, 1).reshape(cout_g, cin, 1, kh, kw)
-    mix = point.weight.view(-1, g, cout_g, 1)
-    bias = torch.mv(point.weight.view(-1, cout), group.bias) if group.bias is not None else None
-    if point.bias is not None:
-        bias = point.bias if bias is None else bias + point.bias
+    depthwise = weight.reshape(g, cout_g, cin_g, kh, kw).transpose(0, 1).reshape(cout_g, cin, 1, kh, kw)
+    mix = point_weight.reshape(-1, g, cout_g, 1)
+    folded = torch.mv(point_weight.reshape(-1, cout), bias) if bias is not None else None
+    if point_bias is not None:
+        folded = point_bias if folded is None else folded + point_bias
 
     def part(o: int, b: Tensor | None) -> Tensor:
-        y = F.conv2d(x, depthwise[o], padding=group.padding, groups=cin)
+        y = F.conv2d(x, depthwise[o], padding=padding, groups=cin)
         return F.conv2d(y, mix[:, :, o].expand(-1, g, cin_g).reshape(-1, cin, 1, 1), b)
 
-    out = part(0, bias)
+    out = part(0, folded)
     for o in range(1, cout_g):
         out.add_(part(o, None))
     return out
 
 
 def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
-    """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight; under
-    ``torch.inference_mode`` on the CPU a group conv (not depth-wise) runs :func:`lane_filled_conv`. Plain
-    ``no_grad`` runs ``conv`` itself, so ``FlopCounterMode`` on a CPU forward (mcd.complexity) counts the
-    block's true MACs."""
+    """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight.
+    Without gradients it is ``conv`` itself (CPU inference mode runs :func:`group_then_point` instead, from
+    :class:`FastGhostConv`), so ``FlopCounterMode`` on a CPU forward (mcd.complexity) counts the block's true
+    MACs."""
     g = conv.groups
-    if g == 1 or x.device.type != "cpu":
-        return conv(x)
-    if torch.is_inference_mode_enabled():
-        plain = (*conv.stride, *conv.dilation) == (1,) * 4 and conv.padding_mode == "zeros"
-        if g == conv.in_channels or not plain:
-            return conv(x)
-        cout, cin_g, _, kw = conv.weight.shape
-        return lane_filled_conv(conv, x, lane_stride(cin_g, cout // g, kw))
-    if not torch.is_grad_enabled():
+    if g == 1 or x.device.type != "cpu" or not torch.is_grad_enabled():
         return conv(x)
     cout, cin_g = conv.weight.shape[:2]
     mask = torch.block_diag(*[x.new_ones(cout // g, cin_g) for _ in range(g)])[:, :, None, None]

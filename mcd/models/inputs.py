@@ -7,6 +7,9 @@ Networks that halve the resolution pad their input (replicate) to a multiple of 
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Sequence
+
 import torch
 import torch.nn.functional as F
 from torch import Tensor
@@ -76,3 +79,22 @@ def pad_to_multiple(t: Tensor, multiple: int) -> Tensor:
 def crop(t: Tensor, size: tuple[int, int]) -> Tensor:
     """Top-left ``size`` crop, the inverse of :func:`pad_to_multiple`."""
     return t[..., : size[0], : size[1]]
+
+
+def cat_channels(tensors: Sequence[Tensor]) -> Tensor:
+    """``torch.cat(tensors, 1)``, channels-last when an input of several channels is and no gradient is
+    recorded.
+
+    ``torch.cat`` keeps channels-last only when every input suggests it, and a one-channel tensor (depth, a
+    grey image) suggests the contiguous format, so every convolution that read the concatenation would first
+    reorder it (docs/inference.md, "Channels-last inputs"). ``torch.cat(out=...)`` has no gradient, so with
+    gradients recorded this is ``torch.cat`` itself."""
+    cl = torch.channels_last
+    if torch.is_grad_enabled() or not any(t.dim() == 4 and t.shape[1] > 1
+                                          and t.is_contiguous(memory_format=cl) for t in tensors):
+        return torch.cat(list(tensors), 1)
+    dtype = functools.reduce(torch.promote_types, [t.dtype for t in tensors])
+    b, _, h, w = tensors[0].shape
+    out = torch.empty(b, sum(t.shape[1] for t in tensors), h, w, dtype=dtype, device=tensors[0].device,
+                      memory_format=cl)
+    return torch.cat(list(tensors), 1, out=out)

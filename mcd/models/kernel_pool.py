@@ -8,14 +8,14 @@ pool").
   r))`` per kernel; ``pi_bar = (1 - alpha) pi + alpha r``.
 - Descriptor: a convolution with an ``l x l`` kernel reduces ``pi_bar`` (``q`` channels) to a short vector.
 - Kernel map ``h`` (2 channels, tanh): from ``F_s``'s finest features, ``g``, the adaptive image ``i`` and the
-  descriptor, through a few conv blocks (Fast GhostConv when FG is on, as every block of ``F_s``). What
-  enters the final ``tanh`` is ``method.kp.head_output`` (docs/kernel_pool.md): ``tanh`` = the head's output
-  ``z`` as it is (the paper's text), ``tempered`` = ``z / temperature``, ``rms`` = ``z`` divided by
-  its root mean square over the image, per channel: ``tanh`` then cannot saturate everywhere, so the pool
-  keeps receiving gradient (without it the map saturates at the identity within ~100 steps and the pool is
-  never used); ``rms_centred`` (default) = ``rms`` after removing the kernel index's (channel 0's) mean over
-  the image, so the index spreads across the pool instead of settling on one kernel everywhere (with ``rms``,
-  row J's index collapsed to one kernel).
+  descriptor (broadcast over the image), through a few conv blocks (Fast GhostConv when FG is on, as every
+  block of ``F_s``). What enters the final ``tanh`` is ``method.kp.head_output`` (docs/kernel_pool.md):
+  ``tanh`` = the head's output ``z`` as it is (the paper's text), ``tempered`` = ``z / temperature``, ``rms``
+  = ``z`` divided by its root mean square over the image, per channel: ``tanh`` then cannot saturate
+  everywhere, so the pool keeps receiving gradient (without it the map saturates at the identity within ~100
+  steps and the pool is never used); ``rms_centred`` (default) = ``rms`` after removing the kernel index's
+  (channel 0's) mean over the image, so the index spreads across the pool instead of settling on one kernel
+  everywhere (with ``rms``, row J's index collapsed to one kernel).
 - Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
   over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
   between that kernel and the identity.
@@ -28,7 +28,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from mcd.models.blocks import BlockFactory
+from mcd.models.blocks import BlockFactory, on_parts
 
 
 def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
@@ -163,5 +163,10 @@ class KernelMapHead(nn.Module):
             return z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
         return z
 
-    def forward(self, features: Tensor) -> Tensor:
-        return torch.tanh(self.scale(self.out(self.blocks(features))))
+    def forward(self, parts: list[Tensor], constant: Tensor) -> Tensor:
+        """``h`` from the channel concatenation of ``parts`` (finest features, g, i) and of ``constant``
+        ``[B, D]`` (the kernel descriptor) broadcast over the image. The first block is handed them as they
+        are (:func:`mcd.models.blocks.on_parts`): a Fast GhostConv block on the CPU in inference mode does not
+        convolve the constant channels (docs/inference.md)."""
+        x = on_parts(self.blocks[0], parts, constant)
+        return torch.tanh(self.scale(self.out(self.blocks[1:](x))))

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from functools import partial
 
-import torch
 from torch import Tensor, nn
 from torch.profiler import record_function
 
@@ -57,10 +56,8 @@ class SamplingNetwork(nn.Module):
             raise RuntimeError("initial_denoise needs the kernel pool (method.KP=true)")
         adjusted = self.pool.adjust(coarsest)
         desc = self.pool.descriptor(adjusted)
-        b, _, h, w = image.shape
-        support = desc[:, :, None, None].expand(b, desc.shape[1], h, w).to(finest.dtype)
         with record_function("kernel-map head"):
-            kmap = self.head(torch.cat([finest, g.to(finest.dtype), image.to(finest.dtype), support], 1))
+            kmap = self.head([finest, g.to(finest.dtype), image.to(finest.dtype)], desc)
         normalised = self.pool.normalised(adjusted)
         with record_function("kernel application"):
             kernels = interpolate_kernels(normalised, kmap.float())

@@ -30,7 +30,7 @@ from torch.profiler import record_function
 
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
-from mcd.models.inputs import compress, expand, gbuffers, grey, need
+from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
 from mcd.models.mean_match import match_frame_mean
 from mcd.models.registry import register, widths_of
@@ -107,8 +107,8 @@ class TwoStage(nn.Module):
         """``F_s``'s input (docs/method.md "Inputs"): ``c_1``, ``g``, grey ``c_1`` and grey albedo."""
         who = "two_stage"
         c1, albedo = need(x, "c1_in", who), need(x, "albedo", who)
-        return torch.cat([compress(c1, self.colour), gbuffers(x, who), compress(grey(c1), self.colour),
-                          grey(albedo)], 1)
+        return cat_channels([compress(c1, self.colour), gbuffers(x, who), compress(grey(c1), self.colour),
+                             grey(albedo)])
 
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         who = "two_stage"
@@ -139,7 +139,7 @@ class TwoStage(nn.Module):
             render = need(x, uniform_buffer(self.budget), who)
             feats = [compress(render, self.colour), g]
         with record_function("F_d"):
-            y = self.denoiser(torch.cat([f.float() for f in feats], 1))
+            y = self.denoiser(cat_channels([f.float() for f in feats]))
             if self.residual:
                 y = y + feats[0].float()
         out["output"] = expand(y, self.colour)

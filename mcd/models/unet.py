@@ -2,21 +2,21 @@
 
 Level ``j`` works at ``1 / 2^j`` resolution with ``widths[j]`` channels and ``convs`` blocks; the encoder
 pools between levels (max pooling, or position-aware pooling), the decoder upsamples bilinearly, concatenates
-the skip and runs ``convs`` blocks; a 1x1 convolution makes the output. The deepest level may swap its blocks
-after the first for another module (semantic alignment). Inputs of any size are replicate-padded to a
-multiple of the stride ``2^(levels-1)`` and the outputs cropped back, so odd sizes and inputs smaller than
-the stride work.
+the skip and runs ``convs`` blocks (a block that takes its input in parts is handed the upsampled features and
+the skip instead, :func:`mcd.models.blocks.on_parts`); a 1x1 convolution makes the output. The deepest level
+may swap its blocks after the first for another module (semantic alignment). Inputs of any size are
+replicate-padded to a multiple of the stride ``2^(levels-1)`` and the outputs cropped back, so odd sizes and
+inputs smaller than the stride work.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from mcd.models.blocks import BlockFactory, ConvReLU
+from mcd.models.blocks import BlockFactory, ConvReLU, on_parts
 from mcd.models.inputs import crop, pad_to_multiple
 
 PoolFactory = Callable[[int], nn.Module]
@@ -71,5 +71,5 @@ class UNet(nn.Module):
         coarsest = x
         for level, skip in zip(self.decoder, reversed(skips), strict=True):
             x = F.interpolate(x, size=skip.shape[-2:], mode="bilinear", align_corners=False)
-            x = level(torch.cat([x, skip], 1))
+            x = level[1:](on_parts(level[0], [x, skip]))
         return {"out": crop(self.head(x), size), "finest": crop(x, size), "coarsest": coarsest}

@@ -12,13 +12,15 @@ from mcd.lit.precision import cpu_bf16_supported
 from mcd.models import build
 from mcd.models.ghost_conv import (
     FastGhostConv,
-    grouped_conv,
+    fast_path_applies,
+    group_then_point,
     lane_filled_conv,
     lane_stride,
-    split_depthwise_applies,
     split_depthwise_point,
+    splits,
 )
-from mcd.models.kernel_pool import apply_pixel_kernels
+from mcd.models.inputs import cat_channels
+from mcd.models.kernel_pool import KernelMapHead, apply_pixel_kernels
 from mcd.models.position_pooling import PositionAwarePool, position_features
 from mcd.sampling import frame_budget, normalise_map, shares
 from tests.models.helpers import row_cfg
@@ -45,15 +47,16 @@ def test_lane_stride_fills_the_lanes_of_thin_groups_only():
     assert lane_stride(24, 16, 7) == 1 and lane_stride(24, 12, 7) == 1
 
 
-def test_inference_mode_runs_the_lane_filled_path_with_the_same_result():
+def test_inference_mode_runs_the_fast_path_with_the_same_result():
     torch.manual_seed(0)
     block = FastGhostConv(16, 16).eval()
     x = torch.rand(1, 16, 13, 21)
     with torch.no_grad():
         ref = block(x)                                       # plain no_grad: the grouped conv itself
+        assert not fast_path_applies(block.group, [x])
     with torch.inference_mode():
         fast = block(x)
-        assert grouped_conv(block.group, x).is_contiguous(memory_format=torch.channels_last)  # the fast path
+        assert fast_path_applies(block.group, [x]) and not fast_path_applies(block.ghost, [x])
     torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-5)
 
 
@@ -71,15 +74,74 @@ def test_split_depthwise_point_is_the_group_conv_then_the_point_conv(cin, cout, 
             torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
 
 
-def test_split_depthwise_runs_for_thin_groups_on_narrow_inputs_in_inference_mode_only():
-    x = torch.rand(1, 16, 8, 8)
-    thin, wide = (torch.nn.Conv2d(16, cout, 7, padding=3, groups=4) for cout in (8, 24))
-    deep = torch.nn.Conv2d(64, 8, 7, padding=3, groups=4)
-    with torch.inference_mode():
-        assert split_depthwise_applies(thin, x) and not split_depthwise_applies(wide, x)
-        assert not split_depthwise_applies(deep, torch.rand(1, 64, 8, 8))
+def test_split_depthwise_runs_for_thin_groups_on_narrow_inputs_only():
+    assert splits(16, 2) and splits(12, 2) and not splits(16, 6) and not splits(48, 2)
+
+
+@pytest.mark.parametrize(("split", "cout"), [((48, 16), 8), ((48, 16), 24), ((32, 32), 8), ((10, 54), 8),
+                                             ((64,), 8), ((16, 16, 32), 8)])
+@pytest.mark.parametrize("bias", [True, False])
+def test_group_then_point_on_parts_is_the_block_on_their_concatenation(split, cout, bias):
+    """Parts aligned with the groups (each part's groups run on the part: split depth-wise or lane-filled) and
+    parts that a group straddles (concatenated first), against the group conv and point conv of the
+    concatenation, fp32, both memory formats, an odd size."""
+    torch.manual_seed(len(split) + cout)
+    group = torch.nn.Conv2d(sum(split), cout, 7, padding=3, groups=4, bias=bias)
+    point = torch.nn.Conv2d(cout, 12, 1, bias=bias)
+    parts = [torch.randn(1, c, 11, 19) * 5 for c in split]
     with torch.no_grad():
-        assert not split_depthwise_applies(thin, x)
+        ref = point(group(torch.cat(parts, 1)))
+    with torch.inference_mode():
+        for fmt in (torch.contiguous_format, torch.channels_last):
+            fast = group_then_point(group, point, [p.contiguous(memory_format=fmt) for p in parts])
+            torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
+
+
+@pytest.mark.parametrize("batch", [1, 2])
+@pytest.mark.parametrize("size", [(11, 19), (5, 4), (1, 9)])       # borders that overlap: smaller than 7
+@pytest.mark.parametrize(("split", "depth", "groups", "cout"), [((16, 7, 3), 16, 2, 20), ((10, 3), 3, 4, 8),
+                                                                ((16, 4), 8, 2, 8), ((8,), 8, 2, 8)])
+def test_group_then_point_with_constant_channels_is_the_block_on_the_broadcast(batch, size, split, depth,
+                                                                             groups, cout):
+    """The kernel-map head's first block: constant channels (the descriptor) that share the last group with
+    variable ones are not convolved; a constant that fills a group of its own is broadcast. Against the group
+    and point conv of the concatenation with the broadcast constant, fp32, both memory formats."""
+    torch.manual_seed(batch + size[0] + depth)
+    group = torch.nn.Conv2d(sum(split) + depth, cout, 7, padding=3, groups=groups)
+    point = torch.nn.Conv2d(cout, 10, 1)
+    parts = [torch.randn(batch, c, *size) * 3 for c in split]
+    constant = torch.randn(batch, depth) * 3
+    whole = torch.cat([*parts, constant[:, :, None, None].expand(-1, -1, *size)], 1)
+    with torch.no_grad():
+        ref = point(group(whole))
+    with torch.inference_mode():
+        for fmt in (torch.contiguous_format, torch.channels_last):
+            fast = group_then_point(group, point, [p.contiguous(memory_format=fmt) for p in parts], constant)
+            torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
+
+
+def test_the_kernel_map_head_in_inference_mode_is_the_head_on_the_broadcast_descriptor():
+    torch.manual_seed(2)
+    head = KernelMapHead(42, [40, 40], FastGhostConv).eval()
+    parts = [torch.rand(1, 16, 12, 17), torch.rand(1, 7, 12, 17), torch.rand(1, 3, 12, 17) * 4]
+    desc = torch.randn(1, 16)
+    with torch.no_grad():
+        ref = head(parts, desc)
+        whole = torch.cat([*parts, desc[:, :, None, None].expand(-1, -1, 12, 17)], 1)
+        torch.testing.assert_close(torch.tanh(head.scale(head.out(head.blocks(whole)))), ref)
+    with torch.inference_mode():
+        torch.testing.assert_close(head(parts, desc), ref, rtol=1e-4, atol=1e-4)
+
+
+def test_a_fast_ghost_conv_block_on_parts_is_the_block_on_their_concatenation():
+    torch.manual_seed(1)
+    block = FastGhostConv(64, 16).eval()
+    parts = [torch.rand(1, 48, 9, 14), torch.rand(1, 16, 9, 14)]
+    with torch.no_grad():
+        ref = block(torch.cat(parts, 1))
+        torch.testing.assert_close(block.forward_parts(parts), ref)     # no_grad: concatenated as before
+    with torch.inference_mode():
+        torch.testing.assert_close(block.forward_parts(parts), ref, rtol=1e-5, atol=1e-4)
 
 
 @pytest.mark.parametrize(("cin", "cout"), [(12, 16), (16, 16), (16, 48)])
@@ -94,6 +156,19 @@ def test_fast_ghost_conv_in_inference_mode_is_the_block(cin, cout):
     with torch.inference_mode():
         for fmt in (torch.contiguous_format, torch.channels_last):
             torch.testing.assert_close(block(x.contiguous(memory_format=fmt)), ref, rtol=1e-5, atol=1e-4)
+
+
+def test_a_concatenation_with_one_channel_inputs_stays_channels_last_without_gradients():
+    cl = torch.channels_last
+    rgb = torch.rand(1, 3, 5, 7).contiguous(memory_format=cl)
+    parts = [torch.rand(1, 1, 5, 7), rgb, torch.rand(1, 2, 5, 7).bfloat16()]
+    assert not torch.cat(parts, 1).is_contiguous(memory_format=cl)          # what torch.cat does
+    with torch.inference_mode():
+        out = cat_channels(parts)
+    assert out.is_contiguous(memory_format=cl) and out.dtype == torch.float32
+    torch.testing.assert_close(out, torch.cat(parts, 1))
+    grad = cat_channels([rgb.requires_grad_(), parts[0]])                  # autograd: torch.cat itself
+    assert grad.requires_grad
 
 
 def _unfold_kernels(image: torch.Tensor, kernels: torch.Tensor) -> torch.Tensor:
@@ -194,12 +269,12 @@ def test_a_long_capping_cascade_reaches_the_same_water_level():
 
 
 @needs_bf16
-@pytest.mark.parametrize("row", ["F", "A"])
-def test_fastest_cpu_path_of_a_row_stays_near_fp32_eager(row):
+@pytest.mark.parametrize(("row", "profile"), [("F", "paper"), ("A", "paper"), ("F", "cpu")])
+def test_fastest_cpu_path_of_a_row_stays_near_fp32_eager(row, profile):
     """The bench's fastest CPU path (inference mode, bf16 autocast, channels-last, every fast path) against
     the fp32 eager forward under plain no_grad (grouped convs as they are)."""
     torch.manual_seed(0)
-    model = build(row_cfg(row, profile="paper")).eval()
+    model = build(row_cfg(row, profile=profile)).eval()
     x = {name: torch.rand(1, 1 if name == "depth" else 3, 48, 80) * (20 if name.startswith("c") else 1)
          for name in model.required_buffers()}
     x["ref"] = None
