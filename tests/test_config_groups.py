@@ -52,7 +52,7 @@ def test_two_stage_keys_keep_their_defaults() -> None:
     m = group_file("method", "two_stage")
     assert m["name"] == "two_stage" and all(m[s] for s in SWITCHES)
     assert (m["mean_match"], m["denoiser_output"], m["colour"], m["sampling"]) == (
-        False, "direct", "log1p", {"levels": 5})
+        True, "residual", "log1p", {"levels": 5})
     assert m["kp"] == {"denoiser_reads_adaptive": False, "head_output": "rms_centred", "temperature": 1.0,
                        "pool_init_scale": 1.0}
     unet = group_file("method", "unet")
