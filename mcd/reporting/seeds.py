@@ -22,16 +22,17 @@ SEEDS_SWEEP = "seeds"
 
 
 def seed_runs(runs: list[Run]) -> list[Run]:
-    """Finished, non-transfer jobs of the seeds sweep that know their seed and budget."""
-    return [
-        r
-        for r in runs
-        if r.sweep == SEEDS_SWEEP
-        and r.status == "ok"
-        and r.transfer is None
-        and r.seed is not None
-        and r.budget is not None
-    ]
+    """Finished, non-transfer jobs of the seeds sweep that know their seed and budget, and the ablation
+    sweep's seed-0 jobs of the same experiments, profile and budget where the seeds sweep has no seed 0: the
+    same job (a seeds sweep run with ``seed=1,2,3,4`` reuses them instead of training seed 0 again)."""
+    ok = [r for r in runs if r.status == "ok" and r.transfer is None and r.seed is not None
+          and r.budget is not None]
+    seeds = [r for r in ok if r.sweep == SEEDS_SWEEP]
+    have_zero = {(r.experiment, r.budget, r.data_profile) for r in seeds if r.seed == 0}
+    wanted = {(r.experiment, r.budget, r.data_profile) for r in seeds}
+    zeros = [r for r in ok if r.sweep == "ablation" and r.seed == 0
+             and (key := (r.experiment, r.budget, r.data_profile)) in wanted and key not in have_zero]
+    return seeds + zeros
 
 
 def _by_seed(runs: list[Run]) -> dict[tuple[str, float], dict[int, tuple[float, float]]]:

@@ -191,3 +191,22 @@ def test_seeds_run_without_ssim_shows_a_gap_not_a_crash(tmp_path):
     _seed_job(tmp_path, "F", 1, 22.0)
     row = seeds.spread(find_runs([tmp_path])).iloc[0]
     assert row["n"] == 2 and row["PSNR mean"] == 21.5 and math.isnan(row["SSIM mean"])
+
+
+def test_the_ablation_sweeps_seed_0_completes_a_seeds_sweep_run_from_seed_1(tmp_path):
+    """`+sweep=seeds seed=1,2,3,4` reuses the ablation job of seed 0 (the same job); a seeds-sweep seed 0,
+    where there is one, wins; other experiments' ablation jobs stay out."""
+    from mcd.reporting import seeds
+
+    for s, v in ((1, 22.0), (2, 23.0)):
+        _seed_job(tmp_path, "F", s, v)
+    metrics = {"psnr": 21.0, "ssim": 0.7, "experiment": "F", "budget": 4, "seed": 0}
+    _job(tmp_path / "abl", "F_spp4", metrics=metrics, sweep="ablation")
+    _job(tmp_path / "abl", "A_spp4", metrics={**metrics, "experiment": "A"}, experiment="A", sweep="ablation")
+    (tmp_path / "out1").mkdir()
+    (tmp_path / "out2").mkdir()
+    table = seeds.write(find_runs([tmp_path]), tmp_path / "out1")["seeds"].set_index("row")
+    assert list(table.index) == ["F"] and table.loc["F", "n"] == 3 and table.loc["F", "PSNR mean"] == 22.0
+    _seed_job(tmp_path, "F", 0, 24.0)
+    table = seeds.write(find_runs([tmp_path]), tmp_path / "out2")["seeds"].set_index("row")
+    assert table.loc["F", "n"] == 3 and table.loc["F", "PSNR mean"] == 23.0

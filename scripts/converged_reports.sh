@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# The converged reports of issue 12 (docs/benchmark.md "Reports"): every trained job of data=small under one
+# budget, train=plateau (3000 steps, cosine to lr_min; docs/training.md "Budgets"), then `python -m mcd.report`.
+#
+#   scripts/converged_reports.sh [stage ...]     # stages: ablation baselines transfer seeds rest spp report
+#
+# Runs two jobs at a time with one thread each (docs/training.md "CPU threads"). Safe to stop and run again:
+# a sweep skips its finished jobs and resumes unfinished ones from their last.ckpt (ckpt_path=auto), so the
+# whole set can span several sessions of a 2-core machine. Needs MCD_SCENES_DIR for the small profile's
+# non-vendored scenes (docs/scenes.md). MULTIRUN (default ./multirun) is where the job directories go.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PY=${PY:-.venv/bin/python}
+ROOT=$(realpath -m "${MULTIRUN:-multirun}")
+TAG=_plateau
+COMMON=(data=small train=plateau "sweep_tag=$TAG" trainer.enable_progress_bar=false)
+export OMP_NUM_THREADS=1
+
+sweep() {  # sweep <name> <experiments of process 1> <experiments of process 2> [overrides...]
+  local name=$1 a=$2 b=$3; shift 3
+  local dir="hydra.sweep.dir=$ROOT/$name/small$TAG"
+  "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$a" "${COMMON[@]}" "$dir" "$@" &
+  local p1=$!
+  if [ -n "$b" ]; then "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$b" "${COMMON[@]}" "$dir" "$@"; fi
+  wait "$p1"
+}
+
+stage() {
+  case $1 in
+    ablation) sweep ablation A,C,E B,D,F ;;                      # the component chain: the paper's two claims
+    baselines) sweep baselines rae,dasr,oidn fastdvdnet,ntasad,noisy ;;  # U-Net = row A (same network)
+    transfer) sweep transfer F A "transfer.init_from=$ROOT/ablation/small$TAG/\${experiment}_spp4" ;;
+    seeds) sweep seeds A,B C,F seed=1,2,3,4 ;;                  # seed 0: the ablation jobs (mcd.reporting.seeds)
+    rest) sweep ablation G,I,K,M H,J,L ;;
+    spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
+    report)
+      "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
+        --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh)." ;;
+    *) echo "unknown stage $1 (ablation baselines transfer seeds rest spp report)" >&2; exit 2 ;;
+  esac
+}
+
+for s in "${@:-ablation baselines transfer seeds rest spp report}"; do
+  for t in $s; do stage "$t"; done
+done
