@@ -40,6 +40,7 @@ def test_two_stage_output_takes_the_frame_mean_of_what_f_d_denoised():
     x = frame(h=24, w=40, scale=3.0)
     for row, render in (("F", None), ("A", "c4")):
         cfg = row_cfg(row)
+        cfg.method.mean_match, cfg.method.denoiser_output = False, "direct"
         torch.manual_seed(0)
         plain = build(cfg).eval()
         last = [m for m in plain.denoiser.modules() if isinstance(m, torch.nn.Conv2d)][-1]
@@ -67,6 +68,7 @@ def test_residual_denoiser_output_starts_from_its_colour_input():
     x = frame(h=24, w=40, scale=3.0)
     for row in ("F", "A"):
         cfg = row_cfg(row)
+        cfg.method.mean_match = False
         outputs = {}
         for mode in ("direct", "residual"):
             cfg.method.denoiser_output = mode
