@@ -4,13 +4,19 @@ Not in the paper. A Monte Carlo render is an unbiased estimate of the reference,
 of it, per colour channel, estimates the reference's frame mean closely (at 4 spp on the ``small`` profile
 within 0.5-3% per scene), while a denoiser trained in a compressed colour range can lose or shift that
 energy, most on scenes it was not trained on (docs/method.md, "Output", gives the measurements).
-:func:`match_frame_mean` rescales each channel of the output so that its frame mean equals the input's.
-The gain is part of the model in training too (gradients flow through it), so the network learns the
-image up to a per-channel scale and the scale comes from the render.
+:func:`match_frame_mean` rescales each channel of the output so that its mean equals the render's, separately
+for the highlights (the output brighter than about :data:`HIGHLIGHT`, 8x a frame's average) and for the rest,
+with a smooth weight between the two bands. One gain for the whole frame let a visible light source, which
+holds most of a frame's linear energy while the loss (in the compressed range) barely constrains its value,
+rescale every other pixel when the network got the light wrong; a gain without the highlights left the lights
+and bright regions uncorrected (both measured: docs/method.md). The band weights come from the output, which
+has little noise, so the render's means over them stay unbiased estimates of the reference's. The gains are
+part of the model in training too (gradients flow through them).
 """
 
 from __future__ import annotations
 
+import torch
 from torch import Tensor
 
 #: Added to both means so that an all-black frame (or channel) keeps a gain of 1 and no division by zero.
@@ -18,14 +24,33 @@ EPS = 1e-6
 #: The gain is clamped to ``[1 / GAIN_MAX, GAIN_MAX]``: an output channel that is (nearly) black everywhere,
 #: as at initialisation, would otherwise get a gain of up to ``mean / EPS`` and its gradients with it.
 GAIN_MAX = 8.0
+#: The centre of the highlight band: a pixel whose largest output channel is this bright belongs half to the
+#: highlights. The store's exposure sets a frame's mean reference value to 0.5 (``data.exposure_target``;
+#: docs/data.md), so this is 8x a frame's average.
+HIGHLIGHT = 4.0
+
+
+def _band_gain(out: Tensor, render: Tensor, weight: Tensor) -> Tensor:
+    """Per image and channel, ``(sum(w * render) + EPS * n) / (sum(w * out) + EPS * n)`` with ``n = sum(w)``,
+    clamped to ``[1 / GAIN_MAX, GAIN_MAX]``; 1 where the band is empty."""
+    n = weight.sum(dim=(-2, -1), keepdim=True)
+    want = (render * weight).sum(dim=(-2, -1), keepdim=True)
+    have = (out * weight).sum(dim=(-2, -1), keepdim=True)
+    gain = ((want + EPS * n) / (have + EPS * n)).clamp(1.0 / GAIN_MAX, GAIN_MAX)
+    return torch.where(n > 0, gain, torch.ones_like(gain))
 
 
 def match_frame_mean(output: Tensor, render: Tensor) -> Tensor:
-    """``output * (mean(render) + EPS) / (mean(output) + EPS)`` per image and channel (``[B, 3, H, W]``,
-    linear HDR, computed in fp32), the gain clamped to ``[1 / GAIN_MAX, GAIN_MAX]``. The means are taken of
-    values clamped at 0 (``mcd.models.inputs.expand`` produces none below 0; a render has none after the
-    store's sanitising)."""
-    out = output.float()
-    want = render.float().clamp_min(0).mean(dim=(-2, -1), keepdim=True)
-    have = out.clamp_min(0).mean(dim=(-2, -1), keepdim=True)
-    return out * ((want + EPS) / (have + EPS)).clamp(1.0 / GAIN_MAX, GAIN_MAX)
+    """``output`` with each channel's mean matched to the render's, separately over the highlights and over
+    the rest (``[B, 3, H, W]``, linear HDR, computed in fp32; module docstring). A pixel's highlight weight
+    rises smoothly from 0 at ``HIGHLIGHT / 4`` to 1 at ``HIGHLIGHT * 4`` (in log brightness of the output's
+    largest channel, without gradient), and its gain is the weighted mix of the two bands' gains, so the
+    frame mean is matched as a whole too. Values are clamped at 0 first (``mcd.models.inputs.expand``
+    produces none below 0; a render has none after the store's sanitising)."""
+    out = output.float().clamp_min(0)
+    rend = render.float().clamp_min(0)
+    level = torch.log2(out.detach().amax(dim=1, keepdim=True).clamp_min(1e-12) / HIGHLIGHT)
+    w = ((level + 2.0) / 4.0).clamp(0.0, 1.0)
+    w = w * w * (3.0 - 2.0 * w)  # smoothstep
+    gain = w * _band_gain(out, rend, w) + (1.0 - w) * _band_gain(out, rend, 1.0 - w)
+    return output.float() * gain
