@@ -31,13 +31,13 @@ HIGHLIGHT = 4.0
 
 
 def _band_gain(out: Tensor, render: Tensor, weight: Tensor) -> Tensor:
-    """Per image and channel, ``(sum(w * render) + EPS * n) / (sum(w * out) + EPS * n)`` with ``n = sum(w)``,
-    clamped to ``[1 / GAIN_MAX, GAIN_MAX]``; 1 where the band is empty."""
-    n = weight.sum(dim=(-2, -1), keepdim=True)
+    """Per image and channel, ``(sum(w * render) + e) / (sum(w * out) + e)``, ``e = EPS * sum(w) + 1e-12``,
+    clamped to ``[1 / GAIN_MAX, GAIN_MAX]``; 1 where the band is empty (no ``where``: its other branch's NaN
+    would reach the gradients)."""
+    e = EPS * weight.sum(dim=(-2, -1), keepdim=True) + 1e-12
     want = (render * weight).sum(dim=(-2, -1), keepdim=True)
     have = (out * weight).sum(dim=(-2, -1), keepdim=True)
-    gain = ((want + EPS * n) / (have + EPS * n)).clamp(1.0 / GAIN_MAX, GAIN_MAX)
-    return torch.where(n > 0, gain, torch.ones_like(gain))
+    return ((want + e) / (have + e)).clamp(1.0 / GAIN_MAX, GAIN_MAX)
 
 
 def match_frame_mean(output: Tensor, render: Tensor) -> Tensor:
