@@ -17,6 +17,20 @@ def test_output_takes_the_renders_frame_mean_per_channel():
                                out / out.mean((-2, -1), keepdim=True), rtol=1e-5, atol=1e-6)
 
 
+def test_a_wrong_light_does_not_rescale_the_rest_of_the_frame():
+    """Two bands: a visible light (most of the frame's linear energy) that the output gets 5x too dark is
+    corrected on its own, and the rest (20% too dark) on its own; the frame mean is matched as a whole; HDR
+    values up to 1e5 stay finite."""
+    render = torch.full((1, 3, 16, 16), 0.5)
+    render[..., :2, :2] = 1e5
+    out = torch.full((1, 3, 16, 16), 0.4)
+    out[..., :2, :2] = 2e4
+    matched = match_frame_mean(out, render)
+    torch.testing.assert_close(matched[..., 4:, 4:], torch.full((1, 3, 12, 12), 0.5))
+    torch.testing.assert_close(matched[..., :2, :2], torch.full((1, 3, 2, 2), 1e5))
+    torch.testing.assert_close(matched.mean((-2, -1)), render.mean((-2, -1)))
+
+
 def test_black_frames_stay_black_and_the_gain_is_clamped():
     black = torch.zeros(1, 3, 8, 8)
     assert torch.equal(match_frame_mean(black, black), black)
