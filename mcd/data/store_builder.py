@@ -407,13 +407,11 @@ class StoreBuilder(StoreReader):
             for b in todo[f]:
                 seed = derive_seed(s["seed"], spec.name, f, b)
                 extra: dict[str, Any] = {}
+                halves: list[np.ndarray] | None = None
                 if b == "ref" and self._quality_frame(man, f):
                     spp = self._ref_spp(man, f)
                     halves = [r.color(spp // 2, derive_seed(seed, "half", k)) for k in (0, 1)]
                     img = (halves[0] + halves[1]) / 2
-                    if f == 0:
-                        self._set_exposure(spec, man, img)
-                    extra["psnr_estimate"] = round(estimate_psnr(*halves, float(man["exposure"] or 1.0)), 3)
                 elif b in COLOUR_BUFFERS:
                     spp = buffer_spp(b, self.data_cfg)
                     img = r.color(spp, seed)
@@ -431,10 +429,12 @@ class StoreBuilder(StoreReader):
                         if f == 0
                         else backward_motion(depth, Camera.from_dict(cams[f]), Camera.from_dict(cams[f - 1]))
                     )
+                if f == 0 and b == "ref":  # before the estimate, which is taken on exposed images
+                    self._set_exposure(spec, man, img)
+                if halves is not None:
+                    extra["psnr_estimate"] = round(estimate_psnr(*halves, float(man["exposure"] or 1.0)), 3)
                 self._write(spec.name, man, f, b, img, spp, seed, mi.variant(), extra)
                 rendered[b] += 1
-                if f == 0 and b == "ref":
-                    self._set_exposure(spec, man, img)
                 if f == 0 and b == "depth":
                     man["depth_scale"] = depth_scale(img)
             self._save(spec.name, man)
