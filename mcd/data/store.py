@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Self
 
 import numpy as np
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from mcd.data.buffers import CHANNELS, COLOUR_BUFFERS
 from mcd.data.camera import Camera
@@ -41,6 +41,7 @@ SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 #: Command-line overrides that shape the store (``data=..``, ``data.*``, ``+scene@data.scenes.*``,
 #: ``paths.*``).
 STORE_OVERRIDE = re.compile(r"[+~]*(data[.=]|scene@data\.|paths\.)")
+_MISSING = object()
 
 
 class CorruptManifestError(RuntimeError):
@@ -163,13 +164,17 @@ class StoreReader:
             "segments",
             "frames_per_segment",
             "ref_spp",
+            "ref_quality.target_db",
+            "ref_quality.max_spp",
             "gbuffer_spp",
             "max_depth",
             "seed",
+            "exposure_target",
         )
         lists = ("train_scenes", "transfer_scenes", "test_scenes")
         scenes = [f"data.{k}=[{','.join(d.get(k) or [])}]" for k in lists]
-        values = [f"data.{k}={'null' if d[k] is None else d[k]}" for k in keys if k in d]
+        found = {k: OmegaConf.select(d, k, default=_MISSING) for k in keys}
+        values = [f"data.{k}={'null' if v is None else v}" for k, v in found.items() if v is not _MISSING]
         return [f"data.name={self.profile}", *values, *scenes]
 
     # --------------------------------------------------------------------------------------------- manifest

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import shlex
 
 import numpy as np
 import pytest
@@ -250,3 +251,21 @@ def test_killed_render_process_resumes(tmp_path):
     assert resumed["rendered"]["ref"] == 6 - resumed["reused"]["ref"]
     assert all((root / k).stat().st_mtime_ns == t for k, t in mtimes.items())
     assert not list(root.glob("*/.*.tmp*"))
+
+
+def test_reader_without_overrides_spells_out_every_store_setting(tmp_path):
+    """The render command printed in a store's errors, when no command line is known, reproduces the data
+    settings that shape the store, the reference-quality ones included (docs/data.md "Reference quality")."""
+    from mcd.data.store import StoreReader
+
+    changed = ["data.ref_quality.target_db=35", "data.ref_quality.max_spp=2048", "data.exposure_target=0.25",
+               "data.ref_spp=64", "data.max_depth=null", "data.test_scenes=[cbox]"]
+    cfg = compose_cfg("data=tiny", f"paths.data_dir={tmp_path}", *changed)
+    reader = StoreReader(cfg.paths.data_dir, cfg.data, None, overrides=None)
+    command = shlex.split(reader.render_command())
+    assert command[:3] == ["python", "-m", "mcd.render"]
+    again = compose_cfg("data=tiny", *command[3:])
+    for key in ("width", "height", "segments", "frames_per_segment", "ref_spp", "ref_quality", "gbuffer_spp",
+                "max_depth", "seed", "exposure_target", "train_scenes", "transfer_scenes", "test_scenes"):
+        assert again.data[key] == cfg.data[key], key
+    assert again.paths.data_dir == str(tmp_path)
