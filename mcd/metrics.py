@@ -133,17 +133,36 @@ def flip(x: np.ndarray, ref: np.ndarray) -> float:
     return float(np.mean(flip_map(x, ref), dtype=np.float64))
 
 
+def _border_mask(shape: tuple[int, ...], width: int) -> np.ndarray | None:
+    """True on the outer ``width``-pixel frame of an ``H x W`` image; None without an interior (a side under
+    ``3 * width``)."""
+    h, w = shape[:2]
+    if min(h, w) < 3 * width:
+        return None
+    border = np.ones((h, w), dtype=bool)
+    border[width:h - width, width:w - width] = False
+    return border
+
+
+def border_psnr(x: np.ndarray, ref: np.ndarray, width: int = BORDER) -> float:
+    """PSNR (display images) of the outer ``width``-pixel frame alone, in dB; NaN for an image without an
+    interior (a side under ``3 * width``)."""
+    _check_pair(x, ref)
+    border = _border_mask(x.shape, width)
+    if border is None:
+        return math.nan
+    return _psnr_of_mse(float(np.mean((to_display(x) - to_display(ref))[border] ** 2)))
+
+
 def border_gap(x: np.ndarray, ref: np.ndarray, width: int = BORDER) -> float:
     """PSNR (display images) of the outer ``width``-pixel frame minus that of the interior, in dB; NaN for an
     image without an interior (a side under ``3 * width``)."""
     _check_pair(x, ref)
-    h, w = x.shape[:2]
-    if min(h, w) < 3 * width:
+    border = _border_mask(x.shape, width)
+    if border is None:
         return math.nan
-    inner = np.zeros((h, w), dtype=bool)
-    inner[width:h - width, width:w - width] = True
     sq = (to_display(x) - to_display(ref)) ** 2
-    return _psnr_of_mse(float(np.mean(sq[~inner]))) - _psnr_of_mse(float(np.mean(sq[inner])))
+    return _psnr_of_mse(float(np.mean(sq[border]))) - _psnr_of_mse(float(np.mean(sq[~border])))
 
 
 def colour_shift(x: np.ndarray, ref: np.ndarray) -> float:

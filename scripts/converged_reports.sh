@@ -34,6 +34,11 @@ stage() {
     rest) sweep ablation G,I,K,M H,J,L ;;
     spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
     report)
+      local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/edge_effect.py)
+      for d in "$ROOT"/*/small$TAG/*/; do
+        if [ -f "$d/metrics.json" ] && [ "$d/metrics.json" -nt "$d/edges.json" ]; then todo+=("$d"); fi
+      done
+      if [ ${#todo[@]} -gt 0 ]; then "$PY" -m mcd.edge_effect "${todo[@]}"; fi
       "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
         --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh)." ;;
     *) echo "unknown stage $1 (ablation baselines transfer seeds rest spp report)" >&2; exit 2 ;;

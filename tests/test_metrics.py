@@ -117,6 +117,8 @@ def test_border_gap_is_zero_for_uniform_error_and_negative_for_a_bad_frame():
     gap = metrics.border_gap(from_display(framed), ref)
     assert gap == pytest.approx(20 * math.log10(0.05 / 0.2), abs=1e-6)  # 0.05 inside: -12.04 dB
     assert math.isnan(metrics.border_gap(x[:11, :11], ref[:11, :11]))  # no interior
+    assert metrics.border_psnr(from_display(framed), ref) == pytest.approx(20 * math.log10(1 / 0.2), abs=1e-6)
+    assert math.isnan(metrics.border_psnr(x[:11, :11], ref[:11, :11]))
 
 
 def test_colour_shift_is_the_largest_channel_ratio_and_nan_for_a_black_channel():

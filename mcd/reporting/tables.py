@@ -49,11 +49,14 @@ ADDED_COLUMNS = (
     ("border gap", "border_gap", 1.0),
     ("input border gap", "input_border_gap", 1.0),
     ("colour shift %", "colour_shift", 1e2),
+    ("edge effect", "edge_effect", 1.0),
 )
 ADDED_NOTE = ("FLIP x1e2 (LDR-FLIP of the display images, lower is better), tPSNR in dB (PSNR of frame "
               "differences), border gap in dB (PSNR of the outer 4-pixel frame minus the interior's; the "
               "input's beside it shows the content's share), colour shift % (largest per-channel difference "
-              "of the frame mean from the reference's): metrics this project adds (docs/benchmark.md "
+              "of the frame mean from the reference's), edge effect in dB (PSNR of a crop's outer 4-pixel "
+              "frame minus that of the same pixels denoised inside the whole frame: what the image border "
+              "itself costs; python -m mcd.edge_effect): metrics this project adds (docs/benchmark.md "
               "\"Metrics\"); empty for runs from before them.")
 
 

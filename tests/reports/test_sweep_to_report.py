@@ -1,7 +1,7 @@
 """End to end on 32x32 renders (issue 5, "What it must show"): a two-job sweep (rows A and F, real Mitsuba
 renders, real training steps), a failing job recorded without stopping anything, a rerun that skips the
-finished jobs, F transferred to a held-out scene, the bench on the same methods, and `python -m mcd.report`
-producing every table and figure with its provenance."""
+finished jobs, F transferred to a held-out scene, the bench on the same methods, F's edge effect measured
+after the run, and `python -m mcd.report` producing every table and figure with its provenance."""
 
 from __future__ import annotations
 
@@ -121,6 +121,11 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
         tmp_path,
     )
 
+    # the edge effect of the finished F, measured after the run from the checkpoint it tested
+    edges = _run(["-m", "mcd.edge_effect", str(sweep_dir / "F_spp4"), "--margin", "8"], tmp_path)
+    assert "edge effect" in edges.stdout
+    f_edges = json.loads((sweep_dir / "F_spp4" / "edges.json").read_text())
+
     _run(
         ["-m", "mcd.report", str(sweep_dir), str(transfer_dir), "--name", "t32", "--bench", str(bench_csv)],
         tmp_path,
@@ -151,6 +156,9 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     f_metrics = json.loads((sweep_dir / "F_spp4" / "metrics.json").read_text())
     assert comp.loc["F", "KP identity"] == pytest.approx(f_metrics["kp_identity"])
     assert 0 <= f_metrics["kp_identity"] <= 1 and pd.isna(comp.loc["A", "KP identity"])
+    assert f_edges["checkpoint"] == f_metrics["checkpoint"] and len(f_edges["frames"]) >= 1
+    assert comp.loc["F", "edge effect"] == pytest.approx(f_edges["edge_effect"])
+    assert pd.isna(comp.loc["A", "edge effect"])  # not measured
     assert comp.loc["C", "status"].startswith("failed: ")
     t1 = pd.read_csv(report / "table1.csv").set_index("experiment")
     assert t1.loc["A", "method"] == "U-Net (row A)"  # no unet job: row A's identical network stands in

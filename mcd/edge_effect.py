@@ -1,0 +1,150 @@
+"""Border artefacts separated from content: the edge effect (docs/benchmark.md "Metrics", "Edge effect").
+
+The border gap of ``mcd.metrics`` compares a frame's outer 4 pixels with its interior, so it also measures
+how hard the content there is (on ``cbox`` the 1-2 pixel black frame around the box makes every denoiser's
+border worse than its interior, OIDN's included). The edge effect asks the question the padding of a
+network actually raises: are pixels denoised worse *because* they lie at the image border?
+
+Each test frame is denoised twice: whole, and cut to an inset crop (``margin`` pixels off each side, every
+input buffer alike, so the crop is a smaller frame of the same render). The crop's outer ``width``-pixel
+frame lies at the image border in the second run and ``margin`` pixels inside the image in the first. The
+edge effect is the PSNR (display images, against the reference) of those pixels as the crop's border minus
+their PSNR as interior pixels of the whole frame, in dB. 0: the image border costs nothing; below 0: border
+artefacts (padding of the U-Nets, the sampling map or the kernels at the border). With adaptive sampling the
+crop also spends its samples differently (the map is normalised over the crop), which is part of what a
+frame of that size gets. ``tests/models/test_bundled_f.py`` holds the bundled F to it on rendered frames.
+
+For finished runs (after the fact, from the checkpoint the run tested; no retraining)::
+
+    python -m mcd.edge_effect RUN_DIR [RUN_DIR ...] [--margin 16]
+
+writes ``edges.json`` into each run directory (per frame, per scene and over scenes, averaged as
+``mcd.metrics.aggregate`` does; with the command, the commit and the checkpoint), which ``mcd.report`` reads
+into the ``edge effect`` column of every table. ``scripts/converged_reports.sh report`` runs it on every job.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+from collections.abc import Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import torch
+from omegaconf import OmegaConf
+from torch import Tensor
+
+from mcd.metrics import BORDER, aggregate, border_psnr, colour_shift, psnr
+
+if TYPE_CHECKING:
+    from mcd.lit.module import DenoiseModule
+
+#: Pixels cut off each side of a frame for its inset crop (more than the ``BORDER`` frame that is compared).
+MARGIN = 16
+#: The file :func:`main` writes into a run directory.
+EDGES_FILE = "edges.json"
+
+
+def inset_batch(batch: dict[str, object], margin: int = MARGIN) -> dict[str, object]:
+    """``batch`` with every image tensor (``[..., H, W]``, 4-D or more) cut by ``margin`` pixels on each
+    side."""
+    if margin < 1:
+        raise ValueError(f"margin={margin}: give at least 1 pixel")
+
+    def cut(v: object) -> object:
+        if isinstance(v, Tensor) and v.ndim >= 4:
+            h, w = v.shape[-2:]
+            if min(h, w) - 2 * margin < 3 * BORDER:
+                raise ValueError(f"a {w}x{h} frame is too small for a {margin}-pixel inset and a "
+                                 f"{BORDER}-pixel border frame")
+            return v[..., margin:h - margin, margin:w - margin]
+        return v
+
+    return {k: cut(v) for k, v in batch.items()}
+
+
+def measure(module: DenoiseModule, batches: Iterable[dict[str, object]], margin: int = MARGIN,
+            width: int = BORDER) -> list[dict[str, object]]:
+    """Per test frame (the datamodule's test batches, in order): scene, frame, the whole frame's PSNR and
+    colour shift, and the edge effect (module docstring) with ``margin`` and ``width``.
+
+    The whole frames run first, then the crops (``DenoiseModule.test_step`` resets a temporal model at each
+    sequence start), so neither run sees the other's temporal state."""
+    from mcd.lit.test_recorder import hwc
+
+    module.eval()
+    batches = list(batches)
+    with torch.inference_mode():
+        whole = [module.test_step(b, i) for i, b in enumerate(batches)]
+        crops = [module.test_step(inset_batch(b, margin), i) for i, b in enumerate(batches)]
+    rows: list[dict[str, object]] = []
+    for full, crop in zip(whole, crops, strict=True):
+        out, ref = hwc(full["outputs"]["output"][0]), hwc(full["ref"])
+        crop_out, crop_ref = hwc(crop["outputs"]["output"][0]), hwc(crop["ref"])
+        h, w = out.shape[:2]
+        same_pixels = out[margin:h - margin, margin:w - margin]
+        rows.append({"scene": full["scene"], "frame": full["frame"], "psnr": psnr(out, ref),
+                     "colour_shift": colour_shift(out, ref),
+                     "edge_effect": border_psnr(crop_out, crop_ref, width)
+                     - border_psnr(same_pixels, crop_ref, width)})
+    return rows
+
+
+def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
+    """The edge effect of a finished run (``metrics.json``) on its test frames, with the checkpoint it
+    tested (a method without weights, e.g. OIDN: as built from ``resolved_config.yaml``); the ``edges.json``
+    record."""
+    from mcd.data import Store
+    from mcd.data.buffers import run_buffers
+    from mcd.data.datamodule import MCDDataModule
+    from mcd.denoise.weights import load
+    from mcd.lit.module import DenoiseModule
+    from mcd.models import build
+
+    metrics_file = run_dir / "metrics.json"
+    if not metrics_file.is_file():
+        raise FileNotFoundError(f"{metrics_file}: not a finished run of python -m mcd.run (no metrics.json); "
+                                "give a run directory whose job finished")
+    tested = json.loads(metrics_file.read_text()).get("checkpoint")
+    if tested:
+        loaded = load(str(tested))
+        cfg, model = loaded.cfg, loaded.model
+    else:
+        cfg = OmegaConf.load(run_dir / "resolved_config.yaml")
+        model = build(cfg).eval()
+    store = Store.from_cfg(cfg, overrides=[])
+    buffers = run_buffers(model.required_buffers(), cfg.budget)
+    store.ensure(buffers, progress=False)
+    datamodule = MCDDataModule(cfg, store, buffers, model.window)
+    datamodule.setup("test")
+    rows = measure(DenoiseModule(cfg, model, None), datamodule.test_dataloader(), margin)
+    averages = aggregate(rows, ("edge_effect", "psnr", "colour_shift"))
+    from mcd.reporting.provenance import git_commit
+
+    return {"edge_effect": averages["edge_effect"], "per_scene": averages["per_scene"],
+            "frames": rows, "margin": margin, "width": BORDER, "checkpoint": tested,
+            "command": shlex.join(["python", "-m", "mcd.edge_effect", str(run_dir), "--margin", str(margin)]),
+            "commit": git_commit()}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m mcd.edge_effect",
+                                     description=__doc__.split("\n\n")[0] if __doc__ else None)
+    parser.add_argument("runs", nargs="+", type=Path, help="finished run directories of python -m mcd.run")
+    parser.add_argument("--margin", type=int, default=MARGIN, help="pixels cut off each side for the crop")
+    args = parser.parse_args(argv)
+    for run_dir in args.runs:  # check them all before the first long measurement
+        if not (run_dir / "metrics.json").is_file():
+            parser.error(f"{run_dir}: no metrics.json (not a finished run of python -m mcd.run)")
+    for run_dir in args.runs:
+        record = measure_run(run_dir, args.margin)
+        (run_dir / EDGES_FILE).write_text(json.dumps(record, indent=1, default=float))
+        scenes = ", ".join(f"{k} {v['edge_effect']:+.2f}" for k, v in record["per_scene"].items())
+        print(f"{run_dir}: edge effect {record['edge_effect']:+.2f} dB ({scenes})")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
