@@ -68,8 +68,8 @@ def inset_batch(batch: dict[str, object], margin: int = MARGIN) -> dict[str, obj
 
 def measure(module: DenoiseModule, batches: Iterable[dict[str, object]], margin: int = MARGIN,
             width: int = BORDER) -> list[dict[str, object]]:
-    """Per test frame (the datamodule's test batches, in order): scene, frame, the whole frame's PSNR and
-    colour shift, and the edge effect (module docstring) with ``margin`` and ``width``.
+    """Per test frame (the datamodule's test batches, in order): scene, frame, the whole frame's PSNR, its
+    noisy input's and its colour shift, and the edge effect (module docstring) with ``margin`` and ``width``.
 
     The whole frames run first, then the crops (``DenoiseModule.test_step`` resets a temporal model at each
     sequence start), so neither run sees the other's temporal state."""
@@ -87,7 +87,7 @@ def measure(module: DenoiseModule, batches: Iterable[dict[str, object]], margin:
         h, w = out.shape[:2]
         same_pixels = out[margin:h - margin, margin:w - margin]
         rows.append({"scene": full["scene"], "frame": full["frame"], "psnr": psnr(out, ref),
-                     "colour_shift": colour_shift(out, ref),
+                     "input_psnr": psnr(hwc(full["noisy"]), ref), "colour_shift": colour_shift(out, ref),
                      "edge_effect": border_psnr(crop_out, crop_ref, width)
                      - border_psnr(same_pixels, crop_ref, width)})
     return rows
