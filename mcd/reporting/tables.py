@@ -182,8 +182,31 @@ def component_checks(df: pd.DataFrame) -> list[str]:
     return lines
 
 
+#: Methods without training shown beside the transfer jobs, from their 4-spp job's scores on the same scene.
+TRANSFER_REFERENCES = ("oidn",)
+
+
+def _scene_row(run: Run, scene: str, root: Path | None) -> dict[str, object] | None:
+    """A transfer-table row of a method that needs no training (OIDN) on ``scene``, from its run's
+    per-scene scores (the transfer jobs' test frames are the same scene's test frames)."""
+    scores = (run.metrics or {}).get("per_scene", {}).get(scene)
+    if not scores:
+        return None
+
+    def get(key: str, scale: float = 1.0) -> float:
+        value = scores.get(key)
+        return math.nan if value is None else float(value) * scale
+
+    return {"method": display_name(run.experiment), "scene": scene, "fine-tuned": False,
+            "fine-tune epochs": 0, "PSNR": get("psnr"), "SSIM": get("ssim", 1e2), "rMSE": get("rmse", 1e3),
+            "L_t": get("lt", 1e2), **{col: get(key, scale) for col, key, scale in ADDED_COLUMNS},
+            "input PSNR": get("input_psnr"), "input FLIP": get("input_flip", 1e2),
+            "run": run_label(run, root) + " (its scores on this scene; no training)"}
+
+
 def transfer(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
-    """Transfer jobs (metrics.json `transfer`): held-out scene, with and without fine-tuning."""
+    """Transfer jobs (metrics.json `transfer`): held-out scene, with and without fine-tuning; beside them
+    the methods of :data:`TRANSFER_REFERENCES` (no training) on the same scenes."""
     rows = []
     for run in runs:
         t = run.transfer
@@ -205,6 +228,12 @@ def transfer(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
                 "run": run_label(run, root),
             }
         )
+    for scene in dict.fromkeys(str(r["scene"]) for r in rows):
+        for exp in TRANSFER_REFERENCES:
+            ref = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
+            row = _scene_row(ref, scene, root) if ref is not None and ref.status == "ok" else None
+            if row is not None:
+                rows.append(row)
     return pd.DataFrame(rows)
 
 

@@ -210,3 +210,22 @@ def test_the_ablation_sweeps_seed_0_completes_a_seeds_sweep_run_from_seed_1(tmp_
     _seed_job(tmp_path, "F", 0, 24.0)
     table = seeds.write(find_runs([tmp_path]), tmp_path / "out2")["seeds"].set_index("row")
     assert table.loc["F", "n"] == 3 and table.loc["F", "PSNR mean"] == 23.0
+
+
+def test_transfer_table_sets_oidn_on_the_held_out_scene_beside_the_transfer_jobs(tmp_path):
+    from mcd.reporting.tables import transfer
+
+    scores = {"psnr": 26.5, "ssim": 0.8, "rmse": 0.1, "input_psnr": 7.3, "flip": 0.2}
+    _job(tmp_path, "oidn", experiment="oidn", sweep="baselines",
+         metrics={"psnr": 30.0, "experiment": "oidn", "budget": 4,
+                  "per_scene": {"cbox": {"psnr": 34.0}, "veach-ajar": scores}})
+    for ft in (0, 30):
+        _job(tmp_path, f"F_ft{ft}", sweep="transfer",
+             metrics={"psnr": 20.0 + ft / 10, "experiment": "F", "budget": 4,
+                      "transfer": {"scene": "veach-ajar", "finetune": ft > 0, "finetune_epochs": ft}})
+    table = transfer(find_runs([tmp_path])).set_index("method")
+    assert list(table.index) == ["Ours (F)", "Ours (F)", "OIDN"]
+    oidn = table.loc["OIDN"]
+    assert oidn["scene"] == "veach-ajar" and oidn["PSNR"] == 26.5 and oidn["SSIM"] == 80.0
+    assert oidn["input PSNR"] == 7.3 and oidn["FLIP"] == 20.0 and math.isnan(oidn["L_t"])
+    assert "no training" in oidn["run"]
