@@ -10,7 +10,8 @@ of one or more sweeps (docs/benchmark.md "Reports"), generated from the run dire
 - ``strips/<scene>.png`` and ``strips/<scene>_methods.png`` (qualitative, with crops),
   ``per_frame/<scene>_psnr.png`` (per-frame PSNR over each test sequence);
 - ``README.md``: provenance (commands, config, data profile, commit, device, wall time), the paper's claims
-  checked against our numbers, failed jobs with their error, and an index of the files.
+  checked against our numbers, F against the trained baselines, OIDN and its noisy input
+  (``mcd.reporting.findings``), failed jobs with their error, and an index of the files.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from mcd.reporting import curves, frames, seeds, speed, spp, strips, tables
+from mcd.reporting import curves, findings, frames, seeds, speed, spp, strips, tables
 from mcd.reporting.provenance import Provenance
 from mcd.reporting.runs import Run, Sweep, display_name, find_runs, find_sweeps
 from mcd.reporting.select import to_markdown
@@ -117,6 +118,9 @@ def write_readme(
         "## Findings (generated from the tables below)",
         "",
         *[f"- {line}" for line in _headline(results["table1"])],
+        *[f"- {line}" for line in findings.baselines(results["table1"])],
+        *[f"- {line}" for line in findings.oidn_gap(runs)],
+        *[f"- {line}" for line in findings.above_input(results["spp"])],
         *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],
         *[f"- Over seeds, {line}" for line in seeds.checks(results.get("seeds_differences", pd.DataFrame()))],
         *[f"- {line}" for line in seeds.reproducibility(runs)],
@@ -170,7 +174,7 @@ def make_report(
 
     results = tables.write_all(runs, out_dir, root)
     results.update(seeds.write(runs, out_dir))
-    spp.write(runs, out_dir, prov, root)
+    results["spp"] = spp.write(runs, out_dir, prov, root)
     speed.write(runs, bench, out_dir, prov)
     strip_files = strips.write(runs, out_dir, prov)
     frame_files = frames.write(runs, out_dir, prov)

@@ -229,3 +229,33 @@ def test_transfer_table_sets_oidn_on_the_held_out_scene_beside_the_transfer_jobs
     assert oidn["scene"] == "veach-ajar" and oidn["PSNR"] == 26.5 and oidn["SSIM"] == 80.0
     assert oidn["input PSNR"] == 7.3 and oidn["FLIP"] == 20.0 and math.isnan(oidn["L_t"])
     assert "no training" in oidn["run"]
+
+
+def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_path):
+    from mcd.reporting import findings
+    from mcd.reporting.spp import spp_frame
+    from mcd.reporting.tables import table1
+
+    per = {"cbox": {"psnr": 28.0}, "room0": {"psnr": 27.0}, "veach-ajar": {"psnr": 20.0}}
+    for budget, psnr, noisy in ((4, 25.0, 17.0), (32, 26.0, 27.0)):
+        d = _job(tmp_path, f"F{budget}", experiment="F", budget=budget,
+                 metrics={"psnr": psnr, "experiment": "F", "budget": budget, "per_scene": per})
+        (d / ".hydra" / "config.yaml").write_text(
+            f"experiment: F\nbudget: {budget}\nsweep_name: ablation\ndata:\n  train_scenes: [cbox, room0]\n")
+        _job(tmp_path, f"noisy{budget}", experiment="noisy", budget=budget, sweep="baselines",
+             metrics={"psnr": noisy, "experiment": "noisy", "budget": budget})
+    oidn_scenes = {"cbox": {"psnr": 34.0}, "room0": {"psnr": 29.0}, "veach-ajar": {"psnr": 27.0}}
+    _job(tmp_path, "oidn", experiment="oidn", sweep="baselines",
+         metrics={"psnr": 30.0, "experiment": "oidn", "budget": 4, "per_scene": oidn_scenes})
+    _job(tmp_path, "rae", experiment="rae", sweep="baselines",
+         metrics={"psnr": 25.5, "experiment": "rae", "budget": 4})
+    _job(tmp_path, "A", experiment="A", metrics={"psnr": 24.0, "experiment": "A", "budget": 4})
+    runs = find_runs([tmp_path])
+    [line] = findings.baselines(table1(runs))
+    assert "does NOT hold: RAE 25.50 dB (+0.50)" in line and "FastDVDnet, DASR, NTASAD not finished" in line
+    gap = findings.oidn_gap(runs)
+    assert gap[0].startswith("F - OIDN at 4 spp over all test scenes: -5.00 dB")
+    assert "training scenes' test frames: -4.00 dB (F 27.50, OIDN 31.50)" in gap[1] and "is NOT met" in gap[1]
+    assert "veach-ajar -7.00" in gap[1]
+    [line] = findings.above_input(spp_frame(runs))
+    assert "does NOT hold at 32 spp (-1.00 dB)" in line and "4 spp +8.00" in line

@@ -1,0 +1,93 @@
+"""The report's findings about the full method F against the other rows (docs/benchmark.md "Reports"), stated
+plainly from the tables, whether they hold or not:
+
+- F at or above every trained baseline of Table 1 at 4 spp;
+- the F-OIDN gap at 4 spp, over all test scenes and over the training scenes' test frames (aim: F >= OIDN - 1
+  dB on the training scenes);
+- F above the noisy input at every budget of the spp sweep.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from mcd.reporting.runs import Run, display_name
+from mcd.reporting.select import pick
+
+#: Table 1's rows that are trained (OIDN comes pretrained, the noisy input is not a method).
+TRAINED_BASELINES = ("unet", "fastdvdnet", "rae", "dasr", "ntasad")
+#: How far below OIDN F may be on the training scenes' test frames and still meet the aim.
+OIDN_AIM_DB = 1.0
+
+
+def baselines(t1: pd.DataFrame) -> list[str]:
+    """F against every trained baseline of Table 1 (a U-Net row stood in for by row A counts as the U-Net)."""
+    t = t1.set_index("experiment")
+    if "F" not in t.index or pd.isna(t.loc["F", "PSNR"]):
+        return []
+    f = float(t.loc["F", "PSNR"])
+    names = {str(r["experiment"]): str(r["method"]) for _, r in t1.iterrows()}
+    rows = [e for e in t.index if e in (*TRAINED_BASELINES, "A") and e != "F"]
+    done = {e: float(t.loc[e, "PSNR"]) for e in rows if not pd.isna(t.loc[e, "PSNR"])}
+    missing = [display_name(e) for e in TRAINED_BASELINES
+               if e not in done and not (e == "unet" and "A" in done)]
+    if not done:
+        return ["F against the trained baselines at 4 spp: none of them finished."]
+    above = {e: p for e, p in done.items() if p > f}
+    verdict = ("holds" if not above else "does NOT hold: " + ", ".join(
+        f"{names[e]} {p:.2f} dB (+{p - f:.2f})" for e, p in sorted(above.items(), key=lambda x: -x[1])))
+    rest = f" ({', '.join(missing)} not finished)" if missing else ""
+    margin = f - max(done.values())
+    return [f"F at or above every trained baseline at 4 spp: {verdict}; F {f:.2f} dB, {margin:+.2f} dB "
+            f"against the best of them{rest}."]
+
+
+def _train_scenes(run: Run) -> list[str]:
+    data = run.config.get("data") or {}
+    return [str(s) for s in data.get("train_scenes") or []]
+
+
+def _mean_over(run: Run, scenes: list[str], key: str = "psnr") -> float:
+    per = (run.metrics or {}).get("per_scene") or {}
+    values = [per[s].get(key) for s in scenes if s in per and per[s].get(key) is not None]
+    return float(sum(values) / len(values)) if values and len(values) == len(scenes) else math.nan
+
+
+def oidn_gap(runs: list[Run], budget: float = 4.0) -> list[str]:
+    """F - OIDN at ``budget``: over all test scenes, and over the training scenes' test frames against the
+    aim of being at most :data:`OIDN_AIM_DB` below OIDN; per scene beside."""
+    f = pick(runs, "F", budget, prefer_sweep="ablation")
+    oidn = pick(runs, "oidn", budget, prefer_sweep="baselines")
+    if f is None or oidn is None or f.status != "ok" or oidn.status != "ok":
+        return []
+    lines = [f"F - OIDN at {budget:g} spp over all test scenes: "
+             f"{f.metrics['psnr'] - oidn.metrics['psnr']:+.2f} dB (F {f.metrics['psnr']:.2f}, "
+             f"OIDN {oidn.metrics['psnr']:.2f})."]
+    train = _train_scenes(f)
+    fp, op = _mean_over(f, train), _mean_over(oidn, train)
+    if not math.isnan(fp) and not math.isnan(op):
+        gap = fp - op
+        verdict = "met" if gap >= -OIDN_AIM_DB else "NOT met"
+        per_f, per_o = f.metrics["per_scene"], oidn.metrics["per_scene"]
+        scenes = ", ".join(f"{s} {per_f[s]['psnr'] - per_o[s]['psnr']:+.2f}" for s in per_f if s in per_o)
+        lines.append(f"F - OIDN on the training scenes' test frames: {gap:+.2f} dB (F {fp:.2f}, "
+                     f"OIDN {op:.2f}); the aim F >= OIDN - {OIDN_AIM_DB:g} dB is {verdict}. "
+                     f"Per scene: {scenes}.")
+    return lines
+
+
+def above_input(spp_df: pd.DataFrame) -> list[str]:
+    """F against the noisy input at each budget of the spp sweep (both finished)."""
+    ok = spp_df[spp_df["status"] == "ok"]
+    f = ok[ok["experiment"] == "F"].set_index("budget")["psnr"]
+    noisy = ok[ok["experiment"] == "noisy"].set_index("budget")["psnr"]
+    budgets = sorted(set(f.index) & set(noisy.index))
+    if not budgets:
+        return []
+    gains = {b: float(f[b] - noisy[b]) for b in budgets}
+    below = [f"{b:g} spp ({g:+.2f} dB)" for b, g in gains.items() if g <= 0]
+    verdict = "holds" if not below else "does NOT hold at " + ", ".join(below)
+    each = ", ".join(f"{b:g} spp {g:+.2f}" for b, g in gains.items())
+    return [f"F above its noisy input at every budget: {verdict}. F - noisy per budget: {each} dB."]
