@@ -225,6 +225,29 @@ class Sweep:
     data_profile: str
 
 
+def _widened(task: list[str], sweep_dir: Path) -> list[str]:
+    """``task`` (a sweep's command-line overrides from its multirun.yaml) with each key its jobs ran with
+    several values of widened to all of them. A sweep split over processes that share one directory
+    (scripts/converged_reports.sh runs two) keeps only the last process's command in multirun.yaml; widened,
+    the command runs every job the directory holds."""
+    seen: dict[str, list[str]] = {}
+    for overrides in sorted(sweep_dir.glob("*/.hydra/overrides.yaml")):
+        for item in OmegaConf.load(overrides):
+            key, _, value = str(item).partition("=")
+            values = seen.setdefault(key, [])
+            if value not in values:
+                values.append(value)
+    out = []
+    for item in task:
+        key, sep, value = item.partition("=")
+        ran = seen.get(key, [])
+        if sep and len(ran) > 1:
+            listed = value.split(",")
+            value = ",".join([*listed, *sorted(v for v in ran if v not in listed)])
+        out.append(f"{key}{sep}{value}")
+    return out
+
+
 def find_sweeps(roots: list[Path]) -> list[Sweep]:
     """The sweep directories (holding multirun.yaml) under or above `roots`."""
     files: set[Path] = set()
@@ -243,7 +266,7 @@ def find_sweeps(roots: list[Path]) -> list[Sweep]:
             Sweep(
                 path=f.parent,
                 name=str(name),
-                command="python -m mcd.run -m " + " ".join(str(t) for t in task),
+                command="python -m mcd.run -m " + " ".join(_widened(list(map(str, task)), f.parent)),
                 data_profile=str(choices.get("data", "?")),
             )
         )

@@ -259,3 +259,20 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
     assert "veach-ajar -7.00" in gap[1]
     [line] = findings.above_input(spp_frame(runs))
     assert "does NOT hold at 32 spp (-1.00 dB)" in line and "4 spp +8.00" in line
+
+
+def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_job(tmp_path):
+    from mcd.reporting.runs import find_sweeps
+
+    sweep = tmp_path / "seeds" / "small"
+    for exp, seed in (("A", 1), ("A", 2), ("C", 1), ("C", 2)):
+        d = _job(sweep, f"{exp}_s{seed}", experiment=exp)
+        (d / ".hydra" / "overrides.yaml").write_text(
+            f"- +sweep=seeds\n- +experiment={exp}\n- seed={seed}\n- data.test_scenes=[cbox,room0]\n")
+    # the last of the two processes wrote multirun.yaml: its own experiments only
+    (sweep / "multirun.yaml").write_text(
+        "hydra:\n  overrides:\n    task: ['+sweep=seeds', '+experiment=C', 'seed=1,2', "
+        "'data.test_scenes=[cbox,room0]']\n")
+    [found] = find_sweeps([tmp_path])
+    assert found.command == ("python -m mcd.run -m +sweep=seeds +experiment=C,A seed=1,2 "
+                             "data.test_scenes=[cbox,room0]")
