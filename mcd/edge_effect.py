@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 from collections.abc import Iterable
@@ -44,6 +45,8 @@ if TYPE_CHECKING:
 
 #: Pixels cut off each side of a frame for its inset crop (more than the ``BORDER`` frame that is compared).
 MARGIN = 16
+#: What :func:`map_border` reports, where a model has the maps.
+MAP_KEYS = ("map_border_ratio", "index_border", "index_interior")
 #: The file :func:`main` writes into a run directory.
 EDGES_FILE = "edges.json"
 
@@ -86,11 +89,36 @@ def measure(module: DenoiseModule, batches: Iterable[dict[str, object]], margin:
         crop_out, crop_ref = hwc(crop["outputs"]["output"][0]), hwc(crop["ref"])
         h, w = out.shape[:2]
         same_pixels = out[margin:h - margin, margin:w - margin]
-        rows.append({"scene": full["scene"], "frame": full["frame"], "psnr": psnr(out, ref),
-                     "input_psnr": psnr(hwc(full["noisy"]), ref), "colour_shift": colour_shift(out, ref),
-                     "edge_effect": border_psnr(crop_out, crop_ref, width)
-                     - border_psnr(same_pixels, crop_ref, width)})
+        row = {"scene": full["scene"], "frame": full["frame"], "psnr": psnr(out, ref),
+               "input_psnr": psnr(hwc(full["noisy"]), ref), "colour_shift": colour_shift(out, ref),
+               "edge_effect": border_psnr(crop_out, crop_ref, width)
+               - border_psnr(same_pixels, crop_ref, width)}
+        row.update(map_border(full["outputs"]))
+        rows.append(row)
     return rows
+
+
+def _ring(x: Tensor) -> tuple[Tensor, Tensor]:
+    """The outermost pixel ring of ``[..., H, W]`` and the interior 8 or more pixels from the border."""
+    ring = torch.cat([x[..., 0, :], x[..., -1, :], x[..., 1:-1, 0], x[..., 1:-1, -1]], -1)
+    return ring, x[..., 8:-8, 8:-8]
+
+
+def map_border(outputs: dict[str, Tensor]) -> dict[str, float]:
+    """What a two-stage model's maps do on the outermost pixel ring (docs/benchmark.md "Metrics", edge
+    effect): ``map_border_ratio``, the sampling map's mean there over its interior mean (1: no border
+    preference; the ring holds ``4 (W - 1) / (W H)`` of the pixels), and ``index_border`` /
+    ``index_interior``, the kernel index ``h[0]``'s mean there and inside (docs/kernel_pool.md)."""
+    found: dict[str, float] = {}
+    m = outputs.get("sampling_map")
+    if m is not None and min(m.shape[-2:]) > 16:
+        ring, inner = _ring(m.float())
+        found["map_border_ratio"] = float(ring.mean() / inner.mean().clamp_min(1e-12))
+    k = outputs.get("kernel_map")
+    if k is not None and min(k.shape[-2:]) > 16:
+        ring, inner = _ring(k[:, 0].float())
+        found["index_border"], found["index_interior"] = float(ring.mean()), float(inner.mean())
+    return found
 
 
 def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
@@ -121,10 +149,11 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
     datamodule.setup("test")
     rows = measure(DenoiseModule(cfg, model, None), datamodule.test_dataloader(), margin)
-    averages = aggregate(rows, ("edge_effect", "psnr", "colour_shift"))
+    averages = aggregate(rows, ("edge_effect", "psnr", "colour_shift", *MAP_KEYS))
     from mcd.reporting.provenance import git_commit
 
-    return {"edge_effect": averages["edge_effect"], "per_scene": averages["per_scene"],
+    return {"edge_effect": averages["edge_effect"], **{k: averages[k] for k in MAP_KEYS},
+            "per_scene": averages["per_scene"],
             "frames": rows, "margin": margin, "width": BORDER, "checkpoint": tested,
             "command": shlex.join(["python", "-m", "mcd.edge_effect", str(run_dir), "--margin", str(margin)]),
             "commit": git_commit()}
@@ -144,6 +173,9 @@ def main(argv: list[str] | None = None) -> None:
         (run_dir / EDGES_FILE).write_text(json.dumps(record, indent=1, default=float))
         scenes = ", ".join(f"{k} {v['edge_effect']:+.2f}" for k, v in record["per_scene"].items())
         print(f"{run_dir}: edge effect {record['edge_effect']:+.2f} dB ({scenes})")
+        maps = [f"{k} {record[k]:.2f}" for k in MAP_KEYS if not math.isnan(record[k])]
+        if maps:
+            print(f"{run_dir}: outermost pixel ring: {', '.join(maps)}")
 
 
 if __name__ == "__main__":

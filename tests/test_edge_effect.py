@@ -58,3 +58,15 @@ def test_inset_batch_cuts_every_image_buffer_and_refuses_too_small_frames():
     assert cut["c4"].shape == (1, 2, 3, 24, 14) and cut["scene"] == ["cbox"] and cut["frame"].shape == (1, 2)
     with pytest.raises(ValueError, match="too small"):
         inset_batch(batch, 10)  # 30 - 20 leaves no interior inside a 4-pixel frame
+
+
+def test_map_border_reads_the_outermost_ring_of_the_maps():
+    from mcd.edge_effect import map_border
+
+    m = torch.full((1, 1, 40, 30), 2.0)
+    m[..., 0, :] = m[..., -1, :] = m[..., :, 0] = m[..., :, -1] = 6.0
+    k = torch.zeros(1, 2, 40, 30)
+    k[:, 0, 0, :] = k[:, 0, -1, :] = k[:, 0, :, 0] = k[:, 0, :, -1] = 1.0
+    got = map_border({"output": torch.zeros(1, 3, 40, 30), "sampling_map": m, "kernel_map": k})
+    assert got == {"map_border_ratio": 3.0, "index_border": 1.0, "index_interior": 0.0}
+    assert map_border({"output": torch.zeros(1, 3, 40, 30)}) == {}

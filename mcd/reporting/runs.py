@@ -17,7 +17,7 @@ from typing import Any
 import pandas as pd
 from omegaconf import OmegaConf
 
-from mcd.edge_effect import EDGES_FILE
+from mcd.edge_effect import EDGES_FILE, MAP_KEYS
 
 #: Names shown in tables and legends; experiments not listed here (rows A-M) show as they are.
 DISPLAY_NAMES = {
@@ -173,7 +173,7 @@ def load_run(path: Path) -> Run:
         metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
     edges = _load_json(path / EDGES_FILE)  # measured after the run by python -m mcd.edge_effect
     if metrics is not None and edges is not None and edges.get("checkpoint") == metrics.get("checkpoint"):
-        metrics = {**metrics, "edge_effect": edges.get("edge_effect")}
+        metrics = {**metrics, **{k: edges.get(k) for k in ("edge_effect", *MAP_KEYS)}}
     error = _load_json(path / "error.json")
     if error is None and (path / "error.json").exists():
         error = {"error": f"{path / 'error.json'} exists but is not readable JSON"}

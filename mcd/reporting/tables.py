@@ -130,6 +130,8 @@ def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
         row.update(added_columns(run))
         row["KP identity"] = metric(run, "kp_identity")
         row["KP index std"] = metric(run, "kp_index_std")
+        row["map ring ratio"] = metric(run, "map_border_ratio")
+        row["KP index ring"] = metric(run, "index_border")
         row["status"] = _status(run)
         row["run"] = run_label(run, root)
         rows.append(row)
@@ -267,6 +269,10 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
             "SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs per 1920x1080 frame, params in millions; "
             "`paper` columns: the paper's component table.",
             ADDED_NOTE,
+            "map ring ratio: the sampling map's mean on the outermost pixel ring over its interior mean (1: "
+            "no preference for the border); KP index ring: the kernel index h[0] on that ring (the "
+            "interior's spread is KP index std); both measured with the edge effect (python -m "
+            "mcd.edge_effect).",
             *component_checks(comp),
         ],
     )

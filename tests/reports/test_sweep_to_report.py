@@ -158,6 +158,8 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     assert 0 <= f_metrics["kp_identity"] <= 1 and pd.isna(comp.loc["A", "KP identity"])
     assert f_edges["checkpoint"] == f_metrics["checkpoint"] and len(f_edges["frames"]) >= 1
     assert comp.loc["F", "edge effect"] == pytest.approx(f_edges["edge_effect"])
+    assert comp.loc["F", "map ring ratio"] == pytest.approx(f_edges["map_border_ratio"])
+    assert f_edges["map_border_ratio"] > 0
     assert pd.isna(comp.loc["A", "edge effect"])  # not measured
     assert comp.loc["C", "status"].startswith("failed: ")
     t1 = pd.read_csv(report / "table1.csv").set_index("experiment")
