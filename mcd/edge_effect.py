@@ -45,6 +45,8 @@ if TYPE_CHECKING:
 
 #: Pixels cut off each side of a frame for its inset crop (more than the ``BORDER`` frame that is compared).
 MARGIN = 16
+#: How far the whole frames' PSNR here may be from the run's own (fp32 here, the run's precision there).
+PSNR_AGREEMENT_DB = 0.1
 #: What :func:`map_border` reports, where a model has the maps.
 MAP_KEYS = ("map_border_ratio", "index_border", "index_interior")
 #: The file :func:`main` writes into a run directory.
@@ -62,7 +64,7 @@ def inset_batch(batch: dict[str, object], margin: int = MARGIN) -> dict[str, obj
             h, w = v.shape[-2:]
             if min(h, w) - 2 * margin < 3 * BORDER:
                 raise ValueError(f"a {w}x{h} frame is too small for a {margin}-pixel inset and a "
-                                 f"{BORDER}-pixel border frame")
+                                 f"{BORDER}-pixel border frame: give a smaller margin (--margin)")
             return v[..., margin:h - margin, margin:w - margin]
         return v
 
@@ -136,13 +138,18 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
     if not metrics_file.is_file():
         raise FileNotFoundError(f"{metrics_file}: not a finished run of python -m mcd.run (no metrics.json); "
                                 "give a run directory whose job finished")
-    tested = json.loads(metrics_file.read_text()).get("checkpoint")
-    if tested:
-        loaded = load(str(tested))
-        cfg, model = loaded.cfg, loaded.model
-    else:
-        cfg = OmegaConf.load(run_dir / "resolved_config.yaml")
+    run_metrics = json.loads(metrics_file.read_text())
+    tested = run_metrics.get("checkpoint")
+    cfg = OmegaConf.load(run_dir / "resolved_config.yaml")  # its test frames (a transfer job's too)
+    # the weights it tested: its checkpoint; a transfer job tested as loaded, the weights it started from
+    weights = tested or OmegaConf.select(cfg, "transfer.init_from", default=None)
+    if weights:
+        model = load(str(weights)).model
+    elif not cfg.method.get("trainable", True):
         model = build(cfg).eval()
+    else:
+        raise FileNotFoundError(f"{metrics_file}: names no checkpoint and no transfer.init_from; the weights "
+                                "this run tested are unknown")
     store = Store.from_cfg(cfg, overrides=[])
     buffers = run_buffers(model.required_buffers(), cfg.budget)
     store.ensure(buffers, progress=False)
@@ -150,11 +157,15 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
     datamodule.setup("test")
     rows = measure(DenoiseModule(cfg, model, None), datamodule.test_dataloader(), margin)
     averages = aggregate(rows, ("edge_effect", "psnr", "colour_shift", *MAP_KEYS))
+    if abs(averages["psnr"] - float(run_metrics["psnr"])) > PSNR_AGREEMENT_DB:
+        raise RuntimeError(f"{run_dir}: the whole frames score {averages['psnr']:.3f} dB here but "
+                           f"{run_metrics['psnr']:.3f} dB in its metrics.json: these are not the weights or "
+                           f"frames the run tested ({weights}); nothing written")
     from mcd.reporting.provenance import git_commit
 
     return {"edge_effect": averages["edge_effect"], **{k: averages[k] for k in MAP_KEYS},
-            "per_scene": averages["per_scene"],
-            "frames": rows, "margin": margin, "width": BORDER, "checkpoint": tested,
+            "psnr": averages["psnr"], "per_scene": averages["per_scene"], "frames": rows, "margin": margin,
+            "width": BORDER, "checkpoint": tested, "weights": weights,
             "command": shlex.join(["python", "-m", "mcd.edge_effect", str(run_dir), "--margin", str(margin)]),
             "commit": git_commit()}
 

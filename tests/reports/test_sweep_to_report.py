@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -121,10 +122,26 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
         tmp_path,
     )
 
-    # the edge effect of the finished F, measured after the run from the checkpoint it tested
-    edges = _run(["-m", "mcd.edge_effect", str(sweep_dir / "F_spp4"), "--margin", "8"], tmp_path)
-    assert "edge effect" in edges.stdout
+    # the edge effect of the finished F, measured after the run from the checkpoint it tested, and of the
+    # transfer job tested as loaded (no checkpoint of its own: the weights it started from)
+    as_loaded = transfer_dir / "F_spp4_ft0"
+    edges = _run(["-m", "mcd.edge_effect", str(sweep_dir / "F_spp4"), str(as_loaded), "--margin", "8"],
+                 tmp_path)
+    assert edges.stdout.count("edge effect") == 2
     f_edges = json.loads((sweep_dir / "F_spp4" / "edges.json").read_text())
+    loaded_edges = json.loads((as_loaded / "edges.json").read_text())
+    assert loaded_edges["checkpoint"] is None and loaded_edges["weights"] == str(sweep_dir / "F_spp4")
+    assert loaded_edges["psnr"] == pytest.approx(json.loads((as_loaded / "metrics.json").read_text())["psnr"],
+                                                 abs=0.1)
+    # a run whose record does not match what is measured is refused, nothing written
+    shutil.copytree(sweep_dir / "F_spp4", tmp_path / "F_copy")
+    record = json.loads((tmp_path / "F_copy" / "metrics.json").read_text())
+    (tmp_path / "F_copy" / "metrics.json").write_text(json.dumps({**record, "psnr": record["psnr"] + 5}))
+    (tmp_path / "F_copy" / "edges.json").unlink()
+    refused = _run(["-m", "mcd.edge_effect", str(tmp_path / "F_copy"), "--margin", "8"], tmp_path,
+                   returncode=1)
+    assert "not the weights or frames the run tested" in refused.stderr
+    assert not (tmp_path / "F_copy" / "edges.json").exists()
 
     _run(
         ["-m", "mcd.report", str(sweep_dir), str(transfer_dir), "--name", "t32", "--bench", str(bench_csv)],
