@@ -179,14 +179,22 @@ def main(argv: list[str] | None = None) -> None:
     for run_dir in args.runs:  # check them all before the first long measurement
         if not (run_dir / "metrics.json").is_file():
             parser.error(f"{run_dir}: no metrics.json (not a finished run of python -m mcd.run)")
-    for run_dir in args.runs:
-        record = measure_run(run_dir, args.margin)
+    failed = []
+    for run_dir in args.runs:  # one run that cannot be measured does not stop the others
+        try:
+            record = measure_run(run_dir, args.margin)
+        except (RuntimeError, ValueError, FileNotFoundError) as err:
+            print(f"{run_dir}: not measured: {err}", file=sys.stderr)
+            failed.append(str(run_dir))
+            continue
         (run_dir / EDGES_FILE).write_text(json.dumps(record, indent=1, default=float))
         scenes = ", ".join(f"{k} {v['edge_effect']:+.2f}" for k, v in record["per_scene"].items())
         print(f"{run_dir}: edge effect {record['edge_effect']:+.2f} dB ({scenes})")
         maps = [f"{k} {record[k]:.2f}" for k in MAP_KEYS if not math.isnan(record[k])]
         if maps:
             print(f"{run_dir}: outermost pixel ring: {', '.join(maps)}")
+    if failed:
+        sys.exit(f"{len(failed)} of {len(args.runs)} run(s) not measured (errors above): {', '.join(failed)}")
 
 
 if __name__ == "__main__":

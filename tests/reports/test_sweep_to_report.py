@@ -138,10 +138,12 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     record = json.loads((tmp_path / "F_copy" / "metrics.json").read_text())
     (tmp_path / "F_copy" / "metrics.json").write_text(json.dumps({**record, "psnr": record["psnr"] + 5}))
     (tmp_path / "F_copy" / "edges.json").unlink()
-    refused = _run(["-m", "mcd.edge_effect", str(tmp_path / "F_copy"), "--margin", "8"], tmp_path,
-                   returncode=1)
-    assert "not the weights or frames the run tested" in refused.stderr
+    refused = _run(["-m", "mcd.edge_effect", str(tmp_path / "F_copy"), str(sweep_dir / "A_spp4"), "--margin",
+                    "8"], tmp_path, returncode=1)
+    assert "not the weights or frames the run tested" in refused.stderr and "1 of 2 run(s)" in refused.stderr
     assert not (tmp_path / "F_copy" / "edges.json").exists()
+    assert (sweep_dir / "A_spp4" / "edges.json").is_file()  # the other run was measured all the same
+    (sweep_dir / "A_spp4" / "edges.json").unlink()
 
     _run(
         ["-m", "mcd.report", str(sweep_dir), str(transfer_dir), "--name", "t32", "--bench", str(bench_csv)],
