@@ -21,7 +21,9 @@ sweep() {  # sweep <name> <experiments of process 1> <experiments of process 2> 
   local dir="hydra.sweep.dir=$ROOT/$name/small$TAG"
   "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$a" "${COMMON[@]}" "$dir" "$@" &
   local p1=$!
-  if [ -n "$b" ]; then "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$b" "${COMMON[@]}" "$dir" "$@"; fi
+  # the second process starts later: Hydra writes the sweep directory's multirun.yaml as a process starts, and
+  # two writes at once leave it corrupt
+  if [ -n "$b" ]; then sleep 15; "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$b" "${COMMON[@]}" "$dir" "$@"; fi
   wait "$p1"
 }
 

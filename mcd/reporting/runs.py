@@ -9,15 +9,19 @@ Hydra's `multirun.yaml`, which records the command line that launched it.
 from __future__ import annotations
 
 import json
+import logging
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+import yaml
 from omegaconf import OmegaConf
 
 from mcd.edge_effect import EDGES_FILE, MAP_KEYS
+
+log = logging.getLogger(__name__)
 
 #: Names shown in tables and legends; experiments not listed here (rows A-M) show as they are.
 DISPLAY_NAMES = {
@@ -258,7 +262,12 @@ def find_sweeps(roots: list[Path]) -> list[Sweep]:
         )
     sweeps = []
     for f in sorted(files):
-        cfg = OmegaConf.load(f)
+        try:
+            cfg = OmegaConf.load(f)
+        except (yaml.YAMLError, ValueError) as err:  # e.g. two processes wrote it at once
+            log.warning("%s: unreadable (%s); the sweep's command is left out of the report, its runs are "
+                        "not (each run directory keeps its own .hydra/)", f, type(err).__name__)
+            continue
         task = OmegaConf.select(cfg, "hydra.overrides.task", default=[]) or []
         choices = OmegaConf.select(cfg, "hydra.runtime.choices", default={}) or {}
         name = OmegaConf.select(cfg, "sweep_name", default=None) or f.parent.parent.name

@@ -276,3 +276,14 @@ def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_jo
     [found] = find_sweeps([tmp_path])
     assert found.command == ("python -m mcd.run -m +sweep=seeds +experiment=C,A seed=1,2 "
                              "data.test_scenes=[cbox,room0]")
+
+
+def test_a_corrupt_multirun_yaml_leaves_out_its_command_not_its_runs(tmp_path, caplog):
+    from mcd.reporting.runs import find_sweeps
+
+    sweep = tmp_path / "transfer" / "small"
+    _job(sweep, "F_ft0", metrics={"psnr": 20.0, "experiment": "F", "budget": 4})
+    (sweep / "multirun.yaml").write_text("hydra:\n  overrides:\n    task: []\nsweep_name: transfer\nsfer\n")
+    assert find_sweeps([tmp_path]) == []
+    assert "unreadable" in caplog.text and "multirun.yaml" in caplog.text
+    assert [r.status for r in find_runs([tmp_path])] == ["ok"]
