@@ -268,7 +268,9 @@ def find_sweeps(roots: list[Path]) -> list[Sweep]:
             log.warning("%s: unreadable (%s); the sweep's command is left out of the report, its runs are "
                         "not (each run directory keeps its own .hydra/)", f, type(err).__name__)
             continue
-        task = OmegaConf.select(cfg, "hydra.overrides.task", default=[]) or []
+        node = OmegaConf.select(cfg, "hydra.overrides.task", default=None)
+        # as typed: an override like transfer.init_from=.../${experiment}_spp4 stays unresolved
+        task = OmegaConf.to_container(node, resolve=False) if node is not None else []
         choices = OmegaConf.select(cfg, "hydra.runtime.choices", default={}) or {}
         name = OmegaConf.select(cfg, "sweep_name", default=None) or f.parent.parent.name
         sweeps.append(

@@ -272,10 +272,10 @@ def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_jo
     # the last of the two processes wrote multirun.yaml: its own experiments only
     (sweep / "multirun.yaml").write_text(
         "hydra:\n  overrides:\n    task: ['+sweep=seeds', '+experiment=C', 'seed=1,2', "
-        "'data.test_scenes=[cbox,room0]']\n")
+        "'data.test_scenes=[cbox,room0]', 'transfer.init_from=runs/${experiment}']\nexperiment: C\n")
     [found] = find_sweeps([tmp_path])
     assert found.command == ("python -m mcd.run -m +sweep=seeds +experiment=C,A seed=1,2 "
-                             "data.test_scenes=[cbox,room0]")
+                             "data.test_scenes=[cbox,room0] transfer.init_from=runs/${experiment}")
 
 
 def test_a_corrupt_multirun_yaml_leaves_out_its_command_not_its_runs(tmp_path, caplog):
