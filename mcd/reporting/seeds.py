@@ -177,6 +177,7 @@ def reproducibility(runs: list[Run]) -> list[str]:
         (abs(metric(r, "psnr") - metric(o, "psnr")), r.experiment)
         for r in seed_runs(runs)
         for o in others.get(_job_key(r), [])
+        if o.path != r.path  # an ablation seed-0 job standing in for the seeds sweep is not its own repeat
     ]
     if not gaps:
         return []

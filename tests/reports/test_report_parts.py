@@ -207,6 +207,7 @@ def test_the_ablation_sweeps_seed_0_completes_a_seeds_sweep_run_from_seed_1(tmp_
     (tmp_path / "out2").mkdir()
     table = seeds.write(find_runs([tmp_path]), tmp_path / "out1")["seeds"].set_index("row")
     assert list(table.index) == ["F"] and table.loc["F", "n"] == 3 and table.loc["F", "PSNR mean"] == 22.0
+    assert seeds.reproducibility(find_runs([tmp_path])) == []  # the stand-in is not compared with itself
     _seed_job(tmp_path, "F", 0, 24.0)
     table = seeds.write(find_runs([tmp_path]), tmp_path / "out2")["seeds"].set_index("row")
     assert table.loc["F", "n"] == 3 and table.loc["F", "PSNR mean"] == 23.0
