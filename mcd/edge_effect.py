@@ -19,7 +19,9 @@ For finished runs (after the fact, from the checkpoint the run tested; no retrai
     python -m mcd.edge_effect RUN_DIR [RUN_DIR ...] [--margin 16]
 
 writes ``edges.json`` into each run directory (per frame, per scene and over scenes, averaged as
-``mcd.metrics.aggregate`` does; with the command, the commit and the checkpoint), which ``mcd.report`` reads
+``mcd.metrics.aggregate`` does; with the command, the commit and the weights: the checkpoint the run tested,
+or for a transfer job tested as loaded the weights it started from). The whole frames must score the run's own
+PSNR within ``PSNR_AGREEMENT_DB``, else nothing is written for that run. ``mcd.report`` reads the file
 into the ``edge effect`` column of every table. ``scripts/converged_reports.sh report`` runs it on every job.
 """
 
@@ -124,9 +126,9 @@ def map_border(outputs: dict[str, Tensor]) -> dict[str, float]:
 
 
 def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
-    """The edge effect of a finished run (``metrics.json``) on its test frames, with the checkpoint it
-    tested (a method without weights, e.g. OIDN: as built from ``resolved_config.yaml``); the ``edges.json``
-    record."""
+    """The edge effect of a finished run (``metrics.json``) on its test frames (``resolved_config.yaml``),
+    with the weights it tested: its checkpoint; a transfer job tested as loaded, ``transfer.init_from``; a
+    method without weights (OIDN, the noisy input), as built. Returns the ``edges.json`` record."""
     from mcd.data import Store
     from mcd.data.buffers import run_buffers
     from mcd.data.datamodule import MCDDataModule

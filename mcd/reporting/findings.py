@@ -28,16 +28,16 @@ def baselines(t1: pd.DataFrame) -> list[str]:
     if "F" not in t.index or pd.isna(t.loc["F", "PSNR"]):
         return []
     f = float(t.loc["F", "PSNR"])
-    names = {str(r["experiment"]): str(r["method"]) for _, r in t1.iterrows()}
-    rows = [e for e in t.index if e in (*TRAINED_BASELINES, "A") and e != "F"]
-    done = {e: float(t.loc[e, "PSNR"]) for e in rows if not pd.isna(t.loc[e, "PSNR"])}
+    done = {e: float(t.loc[e, "PSNR"]) for e in t.index
+            if e in (*TRAINED_BASELINES, "A") and not pd.isna(t.loc[e, "PSNR"])}
     missing = [display_name(e) for e in TRAINED_BASELINES
                if e not in done and not (e == "unet" and "A" in done)]
     if not done:
         return ["F against the trained baselines at 4 spp: none of them finished."]
     above = {e: p for e, p in done.items() if p > f}
+    ranked = sorted(above.items(), key=lambda x: -x[1])
     verdict = ("holds" if not above else "does NOT hold: " + ", ".join(
-        f"{names[e]} {p:.2f} dB (+{p - f:.2f})" for e, p in sorted(above.items(), key=lambda x: -x[1])))
+        f"{t.loc[e, 'method']} {p:.2f} dB (+{p - f:.2f})" for e, p in ranked))
     rest = f" ({', '.join(missing)} not finished)" if missing else ""
     margin = f - max(done.values())
     return [f"F at or above every trained baseline at 4 spp: {verdict}; F {f:.2f} dB, {margin:+.2f} dB "
