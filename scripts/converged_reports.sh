@@ -32,7 +32,7 @@ stage() {
     ablation) sweep ablation A,C,E B,D,F ;;                      # the component chain: the paper's two claims
     baselines) sweep baselines rae,dasr,oidn fastdvdnet,ntasad,noisy ;;  # U-Net = row A (same network)
     transfer) sweep transfer F A "transfer.init_from=$ROOT/ablation/small$TAG/\${experiment}_spp4" ;;
-    seeds) sweep seeds A,B C,F seed=1,2,3,4 ;;                  # seed 0: the ablation jobs (mcd.reporting.seeds)
+    seeds) sweep seeds A,F B,C seed=1,2,3,4 ;;                  # seed 0: the ablation jobs; A+F and B+C balance the two processes
     rest) sweep ablation G,I,K,M H,J,L ;;
     spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
     report)
