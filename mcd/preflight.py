@@ -1,9 +1,9 @@
 """Checks of a run's config that must fail before anything is rendered or trained (docs/reliability.md).
 
-:func:`check_run` refuses a budget that is not a number or has no stored uniform render, and images smaller
-than the SSIM window; the store checks every scene file before its first render
-(:meth:`mcd.data.store_builder.StoreBuilder.ensure`), and the model its own budget rule when it is built (row
-F's adaptive sampling needs ``1 < s``; a method without it reads ``c_s``).
+:func:`check_run` refuses a budget that is not a number or has no stored uniform render, images smaller
+than the SSIM window and training crops the frames cannot hold; the store checks every scene file before its
+first render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`), and the model its own budget rule
+when it is built (row F's adaptive sampling needs ``1 < s``; a method without it reads ``c_s``).
 """
 
 from __future__ import annotations
@@ -42,7 +42,22 @@ def check_image_size(cfg: DictConfig) -> None:
                          f"data.height >= {SSIM_WINDOW}")
 
 
+def check_crops(cfg: DictConfig) -> None:
+    """ValueError unless ``data.train_crop`` fits the frames and ``data.train_crop_at_edge`` is a
+    probability."""
+    d = cfg.data
+    crop, w, h = int(d.train_crop), int(d.width), int(d.height)
+    if crop > min(w, h):
+        raise ValueError(f"data.train_crop={crop} is larger than the {w}x{h} frames of profile {d.name}: "
+                         f"give data.train_crop <= {min(w, h)}")
+    at_edge = float(d.get("train_crop_at_edge", 0.0))
+    if not 0.0 <= at_edge <= 1.0:
+        raise ValueError(f"data.train_crop_at_edge={at_edge} is a probability: give a value in [0, 1] (0: "
+                         f"uniform crops; docs/training.md, 'Crops at frame edges')")
+
+
 def check_run(cfg: DictConfig) -> None:
     """Every check of this module, in the order a user would fix them."""
     check_budget(cfg)
     check_image_size(cfg)
+    check_crops(cfg)

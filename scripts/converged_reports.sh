@@ -2,7 +2,11 @@
 # The converged reports of issue 12 (docs/benchmark.md "Reports"): every trained job of data=small under one
 # budget, train=plateau (3000 steps, cosine to lr_min; docs/training.md "Budgets"), then `python -m mcd.report`.
 #
-#   scripts/converged_reports.sh [stage ...]     # stages: ablation baselines transfer seeds rest spp report
+#   scripts/converged_reports.sh [stage ...]     # stages: ablation baselines transfer spp seeds rest report
+#
+# Job directories go to <MULTIRUN>/<sweep>/small_converged, the report to reports/small_converged. The first pass,
+# multirun/*/small_plateau and reports/small_plateau (same budget), ran before the baselines took the output
+# steps of rows A-M and before pixels without geometry kept the render's value (docs/baselines.md "Output").
 #
 # Runs two jobs at a time with one thread each (docs/training.md "CPU threads"). Safe to stop and run again:
 # a sweep skips its finished jobs and resumes unfinished ones from their last.ckpt (ckpt_path=auto), so the
@@ -12,7 +16,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PY:-.venv/bin/python}
 ROOT=$(realpath -m "${MULTIRUN:-multirun}")
-TAG=_plateau
+TAG=_converged
 COMMON=(data=small train=plateau "sweep_tag=$TAG" trainer.enable_progress_bar=false)
 export OMP_NUM_THREADS=1
 
@@ -33,8 +37,8 @@ stage() {
     baselines) sweep baselines rae,dasr,oidn fastdvdnet,ntasad,noisy ;;  # U-Net = row A (same network)
     transfer) sweep transfer F A "transfer.init_from=$ROOT/ablation/small$TAG/\${experiment}_spp4" ;;
     seeds) sweep seeds A,F B,C seed=1,2,3,4 ;;                  # seed 0: the ablation jobs; A+F and B+C balance the two processes
-    rest) sweep ablation G,I,K,M H,J,L ;;
     spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
+    rest) sweep ablation G,I,K,M H,J,L ;;
     report)
       local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/edge_effect.py)
       for d in "$ROOT"/*/small$TAG/*/; do
@@ -45,10 +49,10 @@ stage() {
       fi
       "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
         --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh)." ;;
-    *) echo "unknown stage $1 (ablation baselines transfer seeds rest spp report)" >&2; exit 2 ;;
+    *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest report)" >&2; exit 2 ;;
   esac
 }
 
-for s in "${@:-ablation baselines transfer seeds rest spp report}"; do
+for s in "${@:-ablation baselines transfer spp seeds rest report}"; do
   for t in $s; do stage "$t"; done
 done

@@ -8,7 +8,10 @@ validation use ``data.train_scenes``; testing runs ``data.test_scenes`` (held-ou
 on their whole test sequences.
 
 - train: clips ``[B, T, C, h, w]`` with one random crop ``data.train_crop`` per clip (the same for all frames
-  and buffers), batch ``train.batch_size``, shuffled;
+  and buffers), batch ``train.batch_size``, shuffled; along each axis the crop lies against a frame edge
+  (either one, equally) with probability ``data.train_crop_at_edge``, elsewhere uniformly (docs/training.md,
+  "Crops at frame edges": uniform crops almost never hold the frame's outer pixels, which every test frame
+  has);
 - val: clips with a centre crop ``data.val_crop`` (the whole frame if it is smaller), batch 1;
 - test: whole frames, one current frame per batch in sequence order, ``T = past + 1 + future`` of the model's
   ``window`` with the sequence's edge frames repeated, the current frame at index ``past``, and ``reset`` True
@@ -38,6 +41,7 @@ from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, S
 from mcd.data.buffers import BUFFERS, validate_buffers
 from mcd.data.splits import split_frames
 from mcd.data.store import StoreReader
+from mcd.preflight import check_crops
 
 log = logging.getLogger(__name__)
 
@@ -81,10 +85,12 @@ class ClipDataset(Dataset):
         crop: int,
         size: tuple[int, int],
         random_crop: bool,
+        at_edge: float = 0.0,
     ):
         self.frames, self.clips, self.random_crop = frames, clips, random_crop
         self.h, self.w = size
         self.ch, self.cw = min(crop, self.h), min(crop, self.w)
+        self.at_edge = at_edge
 
     def __len__(self) -> int:
         return len(self.clips)
@@ -92,11 +98,18 @@ class ClipDataset(Dataset):
     def __getitem__(self, i: int) -> dict[str, Any]:
         scene, frames = self.clips[i]
         if self.random_crop:
-            y = int(torch.randint(0, self.h - self.ch + 1, ()).item())
-            x = int(torch.randint(0, self.w - self.cw + 1, ()).item())
+            y, x = self._offset(self.h - self.ch), self._offset(self.w - self.cw)
         else:
             y, x = (self.h - self.ch) // 2, (self.w - self.cw) // 2
         return self.frames.clip(scene, frames, (y, x, self.ch, self.cw))
+
+    def _offset(self, last: int) -> int:
+        """A random crop offset in ``0 .. last``: ``0`` or ``last`` (equally) with probability ``at_edge``,
+        else uniform."""
+        u = float(torch.rand(()).item())
+        if u < self.at_edge:
+            return 0 if u < self.at_edge / 2 else last
+        return int(torch.randint(0, last + 1, ()).item())
 
 
 class SequenceDataset(Dataset):
@@ -156,9 +169,8 @@ class MCDDataModule(L.LightningDataModule):
             return
         d = self.cfg.data
         h, w = int(d.height), int(d.width)
-        crop = int(d.train_crop)
-        if crop > min(h, w):
-            raise ValueError(f"data.train_crop={crop} is larger than the {h}x{w} frames of profile {d.name}")
+        check_crops(self.cfg)
+        crop, at_edge = int(d.train_crop), float(d.get("train_crop_at_edge", 0.0))
         train, val, test = [], [], []
         for scene in dict.fromkeys(self.train_scenes + self.test_scenes):
             sp = split_frames(
@@ -169,11 +181,12 @@ class MCDDataModule(L.LightningDataModule):
                 val += [(scene, c) for c in sp["val"]]
             if scene in self.test_scenes:
                 test += [(scene, s) for s in sp["test"]]
-        self.train_set = ClipDataset(self._frames, train, crop, (h, w), random_crop=True)
+        self.train_set = ClipDataset(self._frames, train, crop, (h, w), random_crop=True, at_edge=at_edge)
         self.val_set = ClipDataset(self._frames, val, int(d.val_crop), (h, w), random_crop=False)
         self.test_set = SequenceDataset(self._frames, test, self.window)
         log.info(
-            "datamodule %s: loading buffers %s; train %d clips of %d (crop %d) from %s; "
+            "datamodule %s: loading buffers %s; train %d clips of %d (crop %d, at a frame edge %.2f per "
+            "axis) from %s; "
             "val %d clips (crop %d); "
             "test %d frames from %s (window %s)",
             d.name,
@@ -181,6 +194,7 @@ class MCDDataModule(L.LightningDataModule):
             len(train),
             int(d.clip_len),
             crop,
+            at_edge,
             ",".join(self.train_scenes),
             len(val),
             min(int(d.val_crop), h, w),

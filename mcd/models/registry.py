@@ -14,6 +14,8 @@ from collections.abc import Callable
 from omegaconf import DictConfig
 from torch import nn
 
+from mcd.models.mean_match import attach_mean_match
+from mcd.models.misses import attach_pass_misses
 from mcd.registry import Registry
 
 Factory = Callable[[DictConfig, DictConfig, float], nn.Module]
@@ -33,5 +35,16 @@ def widths_of(model: DictConfig, key: str) -> DictConfig:
 
 
 def build(cfg: DictConfig) -> nn.Module:
-    """The model named by ``cfg.method.name``, from ``cfg.method``, ``cfg.model`` and ``cfg.budget``."""
-    return METHODS.get(str(cfg.method.name))(cfg.method, cfg.get("model"), float(cfg.budget))
+    """The model named by ``cfg.method.name``, from ``cfg.method``, ``cfg.model`` and ``cfg.budget``, with the
+    output steps its method sets (docs/method.md "Output"), in this order: ``method.mean_match`` (the output
+    takes the frame mean of the render it denoised; a model whose class sets ``applies_mean_match`` does that
+    itself, the others get :func:`mcd.models.mean_match.attach_mean_match`), then ``method.pass_misses``
+    (pixels without geometry keep the render's value: :func:`mcd.models.misses.attach_pass_misses`)."""
+    budget = float(cfg.budget)
+    method = cfg.method
+    module = METHODS.get(str(method.name))(method, cfg.get("model"), budget)
+    if bool(method.get("mean_match", False)) and not getattr(module, "applies_mean_match", False):
+        attach_mean_match(module, budget)
+    if bool(method.get("pass_misses", False)):
+        attach_pass_misses(module, budget)
+    return module

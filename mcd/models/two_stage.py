@@ -50,6 +50,9 @@ class TwoStage(nn.Module):
     """Rows A-M of the component study; see the module docstring."""
 
     window = (0, 0)
+    #: ``method.mean_match`` is a constructor argument here (``forward`` matches the mean itself, to the
+    #: render ``F_d`` denoised), so :func:`mcd.models.registry.build` attaches no hook.
+    applies_mean_match = True
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, mean_match: bool = False,

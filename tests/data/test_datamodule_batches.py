@@ -71,6 +71,49 @@ def test_crop_larger_than_frames_is_a_clear_error(cbox_store):
         MCDDataModule(bad, store, {"c4"}).setup("fit")
 
 
+def _crop_offsets(dm: MCDDataModule, store, n: int) -> list[tuple[int, int]]:
+    """Where each of ``n`` training crops of the first clip lies in its full frame."""
+    full = torch.from_numpy(store.load("cbox", 7, "ref")).permute(2, 0, 1)
+    offsets = []
+    for _ in range(n):
+        crop = dm.train_set[0]["ref"][0]
+        h, w = crop.shape[-2:]
+        offsets += [(y, x) for y in range(full.shape[1] - h + 1) for x in range(full.shape[2] - w + 1)
+                    if torch.equal(full[:, y : y + h, x : x + w], crop)]
+    return offsets
+
+
+@pytest.mark.parametrize("at_edge", [0.0, 0.5, 1.0])
+def test_training_crops_lie_at_frame_edges_as_often_as_asked(cbox_store, at_edge):
+    """docs/training.md, "Crops at frame edges": per axis, ``data.train_crop_at_edge`` of the crops lie
+    against a frame edge (either, equally); the rest are uniform over the 17 offsets of a 16 crop in 32."""
+    cfg, store = cbox_store
+    cfg = cfg.copy()
+    cfg.data.train_crop_at_edge = at_edge
+    dm = MCDDataModule(cfg, store, {"c4"})
+    dm.setup("fit")
+    torch.manual_seed(0)
+    offsets = np.array(_crop_offsets(dm, store, 400))
+    assert offsets.shape == (400, 2)
+    edge = np.isin(offsets, [0, 16])
+    expected = at_edge + (1 - at_edge) * 2 / 17             # snapped, or a uniform draw that lands on an edge
+    assert abs(edge.mean() - expected) < 0.06
+    if at_edge == 1.0:
+        assert {0, 16} == set(offsets.ravel().tolist())     # both edges of both axes, nothing between
+    else:
+        assert len(set(offsets[:, 0].tolist())) > 10         # still spread over the frame
+    # either edge equally
+    assert abs((offsets == 0).sum() - (offsets == 16).sum()) < 0.15 * max(1, edge.sum())
+
+
+def test_a_crop_edge_probability_outside_0_1_is_refused(cbox_store):
+    cfg, store = cbox_store
+    bad = cfg.copy()
+    bad.data.train_crop_at_edge = 1.5
+    with pytest.raises(ValueError, match=r"data\.train_crop_at_edge=1\.5 is a probability"):
+        MCDDataModule(bad, store, {"c4"}).setup("fit")
+
+
 def test_scene_override_for_fine_tuning(cbox_store):
     cfg, store = cbox_store
     dm = MCDDataModule(cfg, store, {"c4"}, train_scenes=["cbox"], test_scenes=[])

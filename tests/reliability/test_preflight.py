@@ -36,6 +36,18 @@ def test_an_image_below_the_ssim_window_fails_before_rendering(tmp_path):
     assert not (tmp_path / "data").exists()
 
 
+@pytest.mark.parametrize(("override", "message"), [
+    ("data.train_crop=64", r"data\.train_crop=64 is larger than the 32x32 frames.*give "
+                           r"data\.train_crop <= 32"),
+    ("data.train_crop_at_edge=-0.1", r"data\.train_crop_at_edge=-0\.1 is a probability: give a value in "
+                                     r"\[0, 1\]"),
+])
+def test_a_bad_training_crop_fails_before_rendering(tmp_path, override, message):
+    with pytest.raises(ValueError, match=message):
+        _run(tmp_path, "+experiment=A", override)
+    assert not (tmp_path / "data").exists()
+
+
 def test_a_missing_scene_file_fails_before_the_first_scene_renders(tmp_path):
     (tmp_path / "empty").mkdir()
     cfg = compose_cfg(*store32_overrides(tmp_path / "data"), "+scene@data.scenes.bathroom=bathroom",
