@@ -259,7 +259,12 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
     assert "training scenes' test frames: -4.00 dB (F 27.50, OIDN 31.50)" in gap[1] and "is NOT met" in gap[1]
     assert "veach-ajar -7.00" in gap[1]
     [line] = findings.above_input(spp_frame(runs))
-    assert "does NOT hold at 32 spp (-1.00 dB)" in line and "4 spp +8.00" in line
+    assert "does NOT hold at 32 spp (-1.00 dB) (not measured yet: 2, 8, 16 spp)" in line
+    assert "4 spp +8.00" in line
+    # only the budgets that ran: a verdict that does not claim the others
+    only4 = spp_frame(runs)
+    [line] = findings.above_input(only4[only4["budget"] == 4])
+    assert "holds at every budget measured so far (not measured yet: 2, 8, 16, 32 spp)" in line
 
 
 def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_job(tmp_path):
