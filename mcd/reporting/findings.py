@@ -37,8 +37,11 @@ def baselines(t1: pd.DataFrame) -> list[str]:
         return ["F against the trained baselines at 4 spp: none of them finished."]
     above = {e: p for e, p in done.items() if p > f}
     ranked = sorted(above.items(), key=lambda x: -x[1])
-    verdict = ("holds" if not above else "does NOT hold: " + ", ".join(
-        f"{t.loc[e, 'method']} {p:.2f} dB (+{p - f:.2f})" for e, p in ranked))
+    if above:
+        verdict = "does NOT hold: " + ", ".join(
+            f"{t.loc[e, 'method']} {p:.2f} dB (+{p - f:.2f})" for e, p in ranked)
+    else:
+        verdict = "holds" if not missing else "holds against those finished so far"
     rest = f" ({', '.join(missing)} not finished)" if missing else ""
     margin = f - max(done.values())
     return [f"F at or above every trained baseline at 4 spp: {verdict}; F {f:.2f} dB, {margin:+.2f} dB "

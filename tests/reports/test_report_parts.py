@@ -254,6 +254,10 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
     runs = find_runs([tmp_path])
     [line] = findings.baselines(table1(runs))
     assert "does NOT hold: RAE 25.50 dB (+0.50)" in line and "FastDVDnet, DASR, NTASAD not finished" in line
+    t1 = table1(runs)
+    [line] = findings.baselines(t1[t1["experiment"] != "rae"])  # only the U-Net (row A), below F
+    assert "holds against those finished so far; F 25.00 dB, +1.00 dB" in line
+    assert "(FastDVDnet, RAE, DASR, NTASAD not finished)" in line
     gap = findings.oidn_gap(runs)
     assert gap[0].startswith("F - OIDN at 4 spp over all test scenes: -5.00 dB")
     assert "training scenes' test frames: -4.00 dB (F 27.50, OIDN 31.50)" in gap[1] and "is NOT met" in gap[1]
