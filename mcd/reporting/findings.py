@@ -15,7 +15,7 @@ import pandas as pd
 
 from mcd.data.buffers import UNIFORM_BUDGETS
 from mcd.reporting.runs import Run, display_name
-from mcd.reporting.select import pick
+from mcd.reporting.select import pick, scene_mean, train_scenes
 
 #: Table 1's rows that are trained (OIDN comes pretrained, the noisy input is not a method).
 TRAINED_BASELINES = ("unet", "fastdvdnet", "rae", "dasr", "ntasad")
@@ -48,17 +48,6 @@ def baselines(t1: pd.DataFrame) -> list[str]:
             f"against the best of them{rest}."]
 
 
-def _train_scenes(run: Run) -> list[str]:
-    data = run.config.get("data") or {}
-    return [str(s) for s in data.get("train_scenes") or []]
-
-
-def _mean_over(run: Run, scenes: list[str], key: str = "psnr") -> float:
-    per = (run.metrics or {}).get("per_scene") or {}
-    values = [per[s].get(key) for s in scenes if s in per and per[s].get(key) is not None]
-    return float(sum(values) / len(values)) if values and len(values) == len(scenes) else math.nan
-
-
 def oidn_gap(runs: list[Run], budget: float = 4.0) -> list[str]:
     """F - OIDN at ``budget``: over all test scenes, and over the training scenes' test frames against the
     aim of being at most :data:`OIDN_AIM_DB` below OIDN; per scene beside."""
@@ -69,8 +58,8 @@ def oidn_gap(runs: list[Run], budget: float = 4.0) -> list[str]:
     lines = [f"F - OIDN at {budget:g} spp over all test scenes: "
              f"{f.metrics['psnr'] - oidn.metrics['psnr']:+.2f} dB (F {f.metrics['psnr']:.2f}, "
              f"OIDN {oidn.metrics['psnr']:.2f})."]
-    train = _train_scenes(f)
-    fp, op = _mean_over(f, train), _mean_over(oidn, train)
+    train = train_scenes(f)
+    fp, op = scene_mean(f, train), scene_mean(oidn, train)
     if not math.isnan(fp) and not math.isnan(op):
         gap = fp - op
         verdict = "met" if gap >= -OIDN_AIM_DB else "NOT met"

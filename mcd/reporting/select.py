@@ -43,6 +43,27 @@ def metric(run: Run | None, key: str, scale: float = 1.0) -> float:
         return math.nan
 
 
+def train_scenes(run: Run) -> list[str]:
+    """The training scenes of the run's data profile (``data.train_scenes``)."""
+    data = run.config.get("data") or {}
+    return [str(s) for s in data.get("train_scenes") or []]
+
+
+def scene_mean(run: Run | None, scenes: list[str], key: str = "psnr", scale: float = 1.0) -> float:
+    """The mean of ``metrics["per_scene"][s][key] * scale`` over ``scenes``; NaN unless every one has it."""
+    if run is None or run.metrics is None or not scenes:
+        return math.nan
+    per = run.metrics.get("per_scene") or {}
+    values = [per[s].get(key) for s in scenes if s in per and per[s].get(key) is not None]
+    return float(sum(values) / len(values)) * scale if len(values) == len(scenes) else math.nan
+
+
+def train_scene_metric(run: Run | None, key: str = "psnr", scale: float = 1.0) -> float:
+    """:func:`scene_mean` over the run's training scenes: the paper's Table 1 protocol (test frames of the
+    scenes it trained on; held-out scenes are the transfer test's, docs/benchmark.md "Reports")."""
+    return math.nan if run is None else scene_mean(run, train_scenes(run), key, scale)
+
+
 def run_label(run: Run | None, root: Path | None = None) -> str:
     """Where a table row came from: the run directory (relative to `root` when possible) or `not run`."""
     if run is None:

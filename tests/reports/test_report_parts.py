@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from mcd.reporting.runs import find_runs
 from mcd.reporting.select import pick, to_markdown
@@ -255,6 +256,10 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
     [line] = findings.baselines(table1(runs))
     assert "does NOT hold: RAE 25.50 dB (+0.50)" in line and "FastDVDnet, DASR, NTASAD not finished" in line
     t1 = table1(runs)
+    # Table 1 beside its all-scene mean: the training scenes' test frames (the paper's protocol), NaN for a
+    # run whose per-scene scores do not cover them
+    psnr_train = t1.set_index("experiment")["PSNR train scenes"]
+    assert psnr_train["F"] == pytest.approx(27.5) and math.isnan(psnr_train["rae"])
     [line] = findings.baselines(t1[t1["experiment"] != "rae"])  # only the U-Net (row A), below F
     assert "holds against those finished so far; F 25.00 dB, +1.00 dB" in line
     assert "(FastDVDnet, RAE, DASR, NTASAD not finished)" in line
