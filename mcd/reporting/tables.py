@@ -111,8 +111,8 @@ def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
 
 def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     """Rows A-M: switches as ticks, PSNR (and over the training scenes alone), SSIM x1e2, L_t x1e2, rMSE x1e3,
-    GMACs, params; paper beside; the
-    kernel map's identity share for the KP rows (1 = the pool unused, ``i_bar == i``)."""
+    GMACs, params; paper beside; the kernel map's identity share for the KP rows (1 = the pool unused,
+    ``i_bar == i``)."""
     rows = []
     for exp in COMPONENT_ROWS:
         run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="ablation")
