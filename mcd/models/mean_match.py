@@ -13,21 +13,15 @@ and bright regions uncorrected (both measured: docs/method.md). The band weights
 has little noise, so the render's means over them stay unbiased estimates of the reference's. The gains are
 part of the model in training too (gradients flow through them).
 
-The two-stage model applies it itself; every other method that sets ``method.mean_match`` gets it from
-:func:`attach_mean_match` (:func:`mcd.models.registry.build`), matched to the render the method denoised: its
-own adaptive image (DASR, NTASAD: the ``adaptive`` of its output, the samples it paid for) or the uniform
-render at the budget (RAE, FastDVDnet), so every learned method of Table 1 ends in the same output step
+Every method that sets ``method.mean_match`` gets it, matched to the render it denoised
+(:mod:`mcd.models.output_steps`), so every learned method of Table 1 ends in the same output step
 (docs/baselines.md, "Output").
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
-from torch import Tensor, nn
-
-from mcd.data.buffers import uniform_buffer
+from torch import Tensor
 
 #: Added to both means so that an all-black frame (or channel) keeps a gain of 1 and no division by zero.
 EPS = 1e-6
@@ -65,29 +59,3 @@ def match_frame_mean(output: Tensor, render: Tensor) -> Tensor:
     gain = w * _band_gain(out, rend, w) + (1.0 - w) * _band_gain(out, rend, 1.0 - w)
     return output.float() * gain
 
-
-def denoised_render(out: dict[str, Tensor], x: dict[str, Any], budget: float, past: int) -> Tensor:
-    """The render a method denoised, ``[B, 3, H, W]``: its output's ``adaptive`` image when it has one (the
-    samples an adaptive method paid for), else the current frame of the uniform render ``c{budget}`` of its
-    input ``x`` (index ``past`` of a windowed ``[B, T, C, H, W]`` input)."""
-    render = out.get("adaptive")
-    return render if render is not None else current_frame(x[uniform_buffer(budget)], past)
-
-
-def current_frame(buffer: Tensor, past: int) -> Tensor:
-    """``buffer`` ``[B, C, H, W]`` as it is, or frame ``past`` of a windowed ``[B, T, C, H, W]`` one."""
-    return buffer[:, past] if buffer.dim() == 5 else buffer
-
-
-def attach_mean_match(module: nn.Module, budget: float) -> nn.Module:
-    """``module`` (a method's model: ``forward(x) -> {"output", ...}``) with :func:`match_frame_mean` applied
-    to its ``output`` by a forward hook (same parameters and state dict), matched to
-    :func:`denoised_render`."""
-    past = int(getattr(module, "window", (0, 0))[0])
-
-    def hook(_: nn.Module, args: tuple[Any, ...], out: dict[str, Tensor]) -> dict[str, Tensor]:
-        out["output"] = match_frame_mean(out["output"], denoised_render(out, args[0], budget, past))
-        return out
-
-    module.register_forward_hook(hook)
-    return module

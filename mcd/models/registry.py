@@ -14,8 +14,7 @@ from collections.abc import Callable
 from omegaconf import DictConfig
 from torch import nn
 
-from mcd.models.mean_match import attach_mean_match
-from mcd.models.misses import attach_pass_misses
+from mcd.models.output_steps import attach_output_steps
 from mcd.registry import Registry
 
 Factory = Callable[[DictConfig, DictConfig, float], nn.Module]
@@ -36,15 +35,8 @@ def widths_of(model: DictConfig, key: str) -> DictConfig:
 
 def build(cfg: DictConfig) -> nn.Module:
     """The model named by ``cfg.method.name``, from ``cfg.method``, ``cfg.model`` and ``cfg.budget``, with the
-    output steps its method sets (docs/method.md "Output"), in this order: ``method.mean_match`` (the output
-    takes the frame mean of the render it denoised; a model whose class sets ``applies_mean_match`` does that
-    itself, the others get :func:`mcd.models.mean_match.attach_mean_match`), then ``method.pass_misses``
-    (pixels without geometry keep the render's value: :func:`mcd.models.misses.attach_pass_misses`)."""
+    output steps its method sets (``method.mean_match``, ``method.pass_misses``:
+    :func:`mcd.models.output_steps.attach_output_steps`; docs/method.md "Output")."""
     budget = float(cfg.budget)
-    method = cfg.method
-    module = METHODS.get(str(method.name))(method, cfg.get("model"), budget)
-    if bool(method.get("mean_match", False)) and not getattr(module, "applies_mean_match", False):
-        attach_mean_match(module, budget)
-    if bool(method.get("pass_misses", False)):
-        attach_pass_misses(module, budget)
-    return module
+    module = METHODS.get(str(cfg.method.name))(cfg.method, cfg.get("model"), budget)
+    return attach_output_steps(module, cfg.method, budget)

@@ -13,10 +13,10 @@
 - PP: position-aware pooling in ``F_d``'s encoder. FG (needs AS): Fast GhostConv blocks in ``F_s``.
   SA: semantic alignment at ``F_d``'s deepest level (state across frames until :meth:`reset`).
 Colour is compressed inside (``method.colour``, default ``log1p``); inputs and outputs are linear HDR.
-``method.mean_match`` rescales the output per channel to the frame mean of the render ``F_d`` denoised
-(``i`` with AS, ``c_s`` without; mcd.models.mean_match, docs/method.md "Output"; not in the paper), and
 ``method.denoiser_output=residual`` adds ``F_d``'s prediction to its colour input (the paper's ``F_d``
-predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output").
+predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output"); the output steps after it
+(``method.mean_match``, ``method.pass_misses``) are every method's (mcd.models.output_steps), against the
+render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 The stages run under ``torch.profiler.record_function`` labels (:data:`STAGES`), which
 ``python -m mcd.bench --profile`` reads (docs/inference.md).
 """
@@ -32,7 +32,6 @@ from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
-from mcd.models.mean_match import match_frame_mean
 from mcd.models.registry import register, widths_of
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
@@ -50,17 +49,12 @@ class TwoStage(nn.Module):
     """Rows A-M of the component study; see the module docstring."""
 
     window = (0, 0)
-    #: ``method.mean_match`` is a constructor argument here (``forward`` matches the mean itself, to the
-    #: render ``F_d`` denoised), so :func:`mcd.models.registry.build` attaches no hook.
-    applies_mean_match = True
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
-                 colour: str = "log1p", kp: dict | None = None, mean_match: bool = False,
-                 denoiser_output: str = "direct") -> None:
+                 colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct") -> None:
         super().__init__()
         self.sw = dict(switches)
         self.budget, self.levels, self.colour = float(budget), levels, colour
-        self.mean_match = bool(mean_match)
         if denoiser_output not in DENOISER_OUTPUTS:
             raise ValueError(f"method.denoiser_output={denoiser_output!r}; use one of {DENOISER_OUTPUTS}")
         self.residual = denoiser_output == "residual"
@@ -137,25 +131,21 @@ class TwoStage(nn.Module):
                 out["initial"] = expand(kp["initial"], self.colour)
             out["sampling_map"] = m
             out["adaptive"] = image
-            render = image
         else:
-            render = need(x, uniform_buffer(self.budget), who)
-            feats = [compress(render, self.colour), g]
+            feats = [compress(need(x, uniform_buffer(self.budget), who), self.colour), g]
         with record_function("F_d"):
             y = self.denoiser(cat_channels([f.float() for f in feats]))
             if self.residual:
                 y = y + feats[0].float()
         out["output"] = expand(y, self.colour)
-        if self.mean_match:
-            out["output"] = match_frame_mean(out["output"], render)
         return out
 
 
 @register("two_stage")
 def build_two_stage(method: DictConfig, model: DictConfig, budget: float) -> TwoStage:
     """``TwoStage`` from its method settings (switches, ``sampling.levels``, ``colour``, ``kp``,
-    ``mean_match``, ``denoiser_output``: conf/method/two_stage.yaml), the widths ``model.two_stage`` and the
-    budget."""
+    ``denoiser_output``: conf/method/two_stage.yaml; the output steps: mcd.models.registry.build), the widths
+    ``model.two_stage`` and the budget."""
     switches = check_switches(method, complete=True)
     sizes = OmegaConf.to_container(widths_of(model, "two_stage"), resolve=True)
     sampling = method.get("sampling", None) or {}
@@ -163,5 +153,4 @@ def build_two_stage(method: DictConfig, model: DictConfig, budget: float) -> Two
     return TwoStage(switches, budget, sizes, levels=int(sampling.get("levels", 5)),
                     colour=method.get("colour", "log1p"),
                     kp=OmegaConf.to_container(kp, resolve=True) if kp is not None else None,
-                    mean_match=bool(method.get("mean_match", False)),
                     denoiser_output=str(method.get("denoiser_output", "direct")))

@@ -35,11 +35,10 @@ def baselines(t1: pd.DataFrame) -> list[str]:
                if e not in done and not (e == "unet" and "A" in done)]
     if not done:
         return ["F against the trained baselines at 4 spp: none of them finished."]
-    above = {e: p for e, p in done.items() if p > f}
-    ranked = sorted(above.items(), key=lambda x: -x[1])
+    above = sorted(((e, p) for e, p in done.items() if p > f), key=lambda x: -x[1])
     if above:
         verdict = "does NOT hold: " + ", ".join(
-            f"{t.loc[e, 'method']} {p:.2f} dB (+{p - f:.2f})" for e, p in ranked)
+            f"{t.loc[e, 'method']} {p:.2f} dB (+{p - f:.2f})" for e, p in above)
     else:
         verdict = "holds" if not missing else "holds against those finished so far"
     rest = f" ({', '.join(missing)} not finished)" if missing else ""

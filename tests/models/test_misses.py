@@ -61,5 +61,5 @@ def test_the_mask_is_exactly_zero_normals_only():
     assert miss_mask(normal).flatten().tolist() == [True, False, True, False]
 
 
-def test_noisy_input_and_old_configs_have_no_pass_through():
+def test_the_noisy_input_has_no_pass_through():
     assert "pass_misses" not in compose_cfg("+experiment=noisy").method

@@ -1,0 +1,53 @@
+"""The output steps after a method's network (docs/method.md "Output", docs/baselines.md "Output"; not in
+the paper), the same for every method that sets them: ``method.mean_match``
+(:func:`mcd.models.mean_match.match_frame_mean`), then ``method.pass_misses``
+(:func:`mcd.models.misses.pass_misses`), both against the render the method denoised
+(:func:`denoised_render`). :func:`mcd.models.registry.build` adds them to every model it builds as one
+forward hook, so a model's parameters and checkpoints are the same with them and without them.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from omegaconf import DictConfig
+from torch import Tensor, nn
+
+from mcd.data.buffers import uniform_buffer
+from mcd.models.mean_match import match_frame_mean
+from mcd.models.misses import pass_misses
+
+
+def current_frame(buffer: Tensor, past: int) -> Tensor:
+    """``buffer`` ``[B, C, H, W]`` as it is, or frame ``past`` of a windowed ``[B, T, C, H, W]`` one."""
+    return buffer[:, past] if buffer.dim() == 5 else buffer
+
+
+def denoised_render(out: dict[str, Tensor], x: dict[str, Any], budget: float, past: int) -> Tensor:
+    """The render a method denoised, ``[B, 3, H, W]``: its output's ``adaptive`` image when it has one (the
+    samples an adaptive method paid for: rows B-M, DASR, NTASAD), else the current frame of the uniform
+    render ``c{budget}`` of its input ``x`` (row A and the uniform baselines; index ``past`` of a windowed
+    input)."""
+    render = out.get("adaptive")
+    return render if render is not None else current_frame(x[uniform_buffer(budget)], past)
+
+
+def attach_output_steps(module: nn.Module, method: DictConfig, budget: float) -> nn.Module:
+    """``module`` (a method's model: ``forward(x) -> {"output", ...}``) with the output steps ``method``
+    sets, applied to its ``output`` by one forward hook; ``module`` as it is when it sets none."""
+    mean, misses = bool(method.get("mean_match", False)), bool(method.get("pass_misses", False))
+    if not (mean or misses):
+        return module
+    past = int(getattr(module, "window", (0, 0))[0])
+
+    def hook(_: nn.Module, args: tuple[Any, ...], out: dict[str, Tensor]) -> dict[str, Tensor]:
+        x = args[0]
+        render = denoised_render(out, x, budget, past)
+        if mean:
+            out["output"] = match_frame_mean(out["output"], render)
+        if misses:
+            out["output"] = pass_misses(out["output"], render, current_frame(x["normal"], past))
+        return out
+
+    module.register_forward_hook(hook)
+    return module
