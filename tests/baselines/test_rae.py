@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from mcd.models.baselines.rae import RAE
+from mcd.models.baselines.rae import DEMOD_EPS, DEMOD_FULL, RAE, demodulation
 
 from .helpers import frame
 
@@ -69,3 +69,31 @@ def test_required_buffers_read_the_uniform_render_not_the_stack() -> None:
     assert RAE(8, **SMALL).required_buffers() == {"c8", "depth", "normal", "albedo"}
     with pytest.raises(ValueError, match="budget"):
         RAE(3, **SMALL)
+
+
+def test_demodulation_leaves_lights_alone_and_divides_lit_surfaces() -> None:
+    """An area light has albedo 0 in Mitsuba's AOV: its radiance enters the network as it is, not 100x
+    brighter; an albedo of at least DEMOD_FULL is divided out as ``albedo + DEMOD_EPS``; the divisor is
+    continuous and positive between the two."""
+    albedo = torch.tensor([0.0, 0.0, 0.0, 0.05, 0.02, 0.01, 0.5, 0.25, 0.1, 1.0, 1.0, 1.0]).view(4, 3, 1, 1)
+    d = demodulation(albedo)
+    assert torch.equal(d[0], torch.ones(3, 1, 1))
+    assert torch.allclose(d[2], albedo[2] + DEMOD_EPS) and torch.allclose(d[3], albedo[3] + DEMOD_EPS)
+    assert (d[1] > albedo[1] + DEMOD_EPS).all() and (d[1] < 1).all()
+    ramp = torch.linspace(0, 2 * DEMOD_FULL, 201).view(-1, 1, 1, 1).expand(-1, 3, 1, 1)
+    steps = demodulation(ramp).flatten().diff().abs()
+    assert steps.max() < 0.02 and (demodulation(ramp) > 0).all()
+
+
+@torch.no_grad()
+def test_light_with_zero_albedo_is_not_amplified(rae: RAE) -> None:
+    """The network's colour input on a light (albedo 0, radiance 65) is log1p(65), not log1p(6500)."""
+    x = frame(h=16, w=16)
+    x["c4"][:] = 65.0
+    x["albedo"][:] = 0.0
+    seen = {}
+    handle = rae.net.encoder[0].c1.register_forward_pre_hook(lambda m, a: seen.setdefault("in", a[0]))
+    rae(x)
+    handle.remove()
+    colour = seen["in"][:, :3, :16, :16]  # the input is padded to the network's stride
+    assert torch.allclose(colour, torch.log1p(torch.tensor(65.0)).expand(1, 3, 16, 16))

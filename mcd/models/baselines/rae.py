@@ -4,7 +4,8 @@ A U-Net of 3x3 convolutions and LeakyReLU(0.1): five encoder levels (full resolu
 between them) and a bottleneck at 1/32, each a recurrent block (conv -> concat with this block's own output
 at the previous frame -> conv -> conv; the output is the new hidden state, zero at a clip's start); a
 decoder of 2x nearest upsampling, concatenated skip and two convs, whose last level has its own widths.
-Colour is demodulated by albedo before the network and modulated back after it. The same U-Net without
+Colour is demodulated by albedo before the network and modulated back after it (:func:`demodulation`). The
+same U-Net without
 recurrence is DASR's sampler and denoiser (:mod:`mcd.models.baselines.dasr`)."""
 
 from __future__ import annotations
@@ -23,6 +24,23 @@ from mcd.models.registry import register, widths_of
 
 #: Albedo offset of the demodulation ``c / (albedo + eps)`` (black albedo stays finite).
 DEMOD_EPS = 1e-2
+#: A pixel whose largest albedo channel is at least this is demodulated by ``albedo + DEMOD_EPS``; below it
+#: the divisor blends linearly to 1 at albedo 0 (:func:`demodulation`).
+DEMOD_FULL = 0.1
+
+
+def demodulation(albedo: Tensor) -> Tensor:
+    """The divisor of RAE's demodulation, ``[B, 3, H, W]``: ``albedo + DEMOD_EPS`` where the largest albedo
+    channel is at least :data:`DEMOD_FULL`, blending linearly (in that channel) to 1 at albedo 0.
+
+    Mitsuba's albedo is 0 on an area light, so ``c / (albedo + eps)`` made every visible light 100x brighter
+    in the network's input (a light of radiance 65 entered as 6500, ``log1p`` 8.8 against 0.4-1.8 for lit
+    surfaces), and the trained RAE put 800-1275 on cornell-box-picture's light (docs/baselines.md, "Choices
+    the papers leave open"). Exactly invertible whatever the blend: the output is multiplied by the same
+    divisor."""
+    a = albedo.clamp_min(0)
+    t = (a.amax(dim=1, keepdim=True) / DEMOD_FULL).clamp(max=1.0)
+    return 1.0 + t * (a + DEMOD_EPS - 1.0)
 
 
 def conv(cin: int, cout: int) -> nn.Conv2d:
@@ -139,11 +157,11 @@ class RAE(nn.Module):
 
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         noisy = need(x, self.key, "rae")
-        albedo = need(x, "albedo", "rae").clamp_min(0) + DEMOD_EPS
+        divisor = demodulation(need(x, "albedo", "rae"))
         h, w = noisy.shape[-2:]
-        inp = torch.cat([compress(noisy / albedo), gbuffers(x, "rae")], 1)
+        inp = torch.cat([compress(noisy / divisor), gbuffers(x, "rae")], 1)
         y = crop(self.net(pad_to_multiple(inp, self.net.stride)), (h, w))
-        return {"output": expand(y) * albedo}
+        return {"output": expand(y) * divisor}
 
 
 @register("rae")
