@@ -16,6 +16,7 @@ import pandas as pd
 from mcd.data.buffers import UNIFORM_BUDGETS
 from mcd.reporting.runs import Run, display_name
 from mcd.reporting.select import pick, scene_mean, train_scenes
+from mcd.reporting.tables import TABLE1_VARIANTS
 
 #: Table 1's rows that are trained (OIDN comes pretrained, the noisy input is not a method).
 TRAINED_BASELINES = ("unet", "fastdvdnet", "rae", "dasr", "ntasad")
@@ -30,7 +31,7 @@ def baselines(t1: pd.DataFrame) -> list[str]:
         return []
     f = float(t.loc["F", "PSNR"])
     done = {e: float(t.loc[e, "PSNR"]) for e in t.index
-            if e in (*TRAINED_BASELINES, "A") and not pd.isna(t.loc[e, "PSNR"])}
+            if e in (*TRAINED_BASELINES, *TABLE1_VARIANTS, "A") and not pd.isna(t.loc[e, "PSNR"])}
     missing = [display_name(e) for e in TRAINED_BASELINES
                if e not in done and not (e == "unet" and "A" in done)]
     if not done:

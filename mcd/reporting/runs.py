@@ -30,6 +30,7 @@ DISPLAY_NAMES = {
     "fastdvdnet": "FastDVDnet",
     "rae": "RAE",
     "dasr": "DASR",
+    "dasr_paper_loss": "DASR (paper's loss)",
     "ntasad": "NTASAD",
     "oidn": "OIDN",
     "F": "Ours (F)",

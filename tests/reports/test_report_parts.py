@@ -276,6 +276,25 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
     assert "holds at every budget measured so far (not measured yet: 2, 8, 16, 32 spp)" in line
 
 
+def test_a_baseline_trained_with_the_papers_loss_is_a_row_after_its_own_only_where_it_ran(tmp_path):
+    from mcd.reporting import findings
+    from mcd.reporting.tables import table1
+
+    for exp, psnr in (("F", 25.0), ("dasr", 22.0)):
+        _job(tmp_path, exp, experiment=exp, sweep="baselines",
+             metrics={"psnr": psnr, "experiment": exp, "budget": 4})
+    rows = list(table1(find_runs([tmp_path]))["experiment"])
+    assert "dasr_paper_loss" not in rows
+    _job(tmp_path, "dasr_paper_loss", experiment="dasr_paper_loss", sweep="baselines",
+         metrics={"psnr": 26.0, "experiment": "dasr_paper_loss", "budget": 4})
+    t1 = table1(find_runs([tmp_path])).set_index("experiment")
+    assert list(t1.index).index("dasr_paper_loss") == list(t1.index).index("dasr") + 1
+    assert t1.loc["dasr_paper_loss", "method"] == "DASR (paper's loss)"
+    assert t1.loc["dasr_paper_loss", "PSNR paper"] == t1.loc["dasr", "PSNR paper"]
+    [line] = findings.baselines(t1.reset_index())
+    assert "does NOT hold: DASR (paper's loss) 26.00 dB (+1.00)" in line
+
+
 def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_job(tmp_path):
     from mcd.reporting.runs import find_sweeps
 
