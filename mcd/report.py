@@ -118,7 +118,7 @@ def write_readme(
         "## Findings (generated from the tables below)",
         "",
         *[f"- {line}" for line in _headline(results["table1"])],
-        *[f"- {line}" for line in findings.baselines(results["table1"])],
+        *[f"- {line}" for line in findings.baselines(results["table1"], results.get("seeds"))],
         *[f"- {line}" for line in findings.oidn_gap(runs)],
         *[f"- {line}" for line in findings.above_input(results["spp"])],
         *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],

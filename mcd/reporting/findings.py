@@ -24,8 +24,11 @@ TRAINED_BASELINES = ("unet", "fastdvdnet", "rae", "dasr", "ntasad")
 OIDN_AIM_DB = 1.0
 
 
-def baselines(t1: pd.DataFrame) -> list[str]:
-    """F against every trained baseline of Table 1 (a U-Net row stood in for by row A counts as the U-Net)."""
+def baselines(t1: pd.DataFrame, spread: pd.DataFrame | None = None) -> list[str]:
+    """F against every trained baseline of Table 1 (a U-Net row stood in for by row A counts as the U-Net).
+
+    With the seeds sweep's ``spread`` (:func:`mcd.reporting.seeds.spread`) holding F at Table 1's budget,
+    the line says how far F's PSNR moves between seeds next to the margin (the baselines ran one seed)."""
     t = t1.set_index("experiment")
     if "F" not in t.index or pd.isna(t.loc["F", "PSNR"]):
         return []
@@ -44,8 +47,15 @@ def baselines(t1: pd.DataFrame) -> list[str]:
         verdict = "holds" if not missing else "holds against those finished so far"
     rest = f" ({', '.join(missing)} not finished)" if missing else ""
     margin = f - max(done.values())
+    seeds = ""
+    if spread is not None and not spread.empty:
+        row = spread[(spread["row"] == "F") & (spread["spp"] == 4)]
+        if not row.empty and row.iloc[0]["n"] > 1:
+            r = row.iloc[0]
+            seeds = (f" Over {int(r['n'])} seeds F's PSNR has a standard deviation of {r['PSNR std']:.2f} dB "
+                     f"(range {r['PSNR min']:.2f}-{r['PSNR max']:.2f}); each baseline ran one seed.")
     return [f"F at or above every trained baseline at 4 spp: {verdict}; F {f:.2f} dB, {margin:+.2f} dB "
-            f"against the best of them{rest}."]
+            f"against the best of them{rest}.{seeds}"]
 
 
 def oidn_gap(runs: list[Run], budget: float = 4.0) -> list[str]:
