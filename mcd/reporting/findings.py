@@ -77,7 +77,7 @@ def oidn_gap(runs: list[Run], budget: float = 4.0) -> list[str]:
         scenes = ", ".join(f"{s} {per_f[s]['psnr'] - per_o[s]['psnr']:+.2f}" for s in per_f if s in per_o)
         lines.append(f"F - OIDN on the training scenes' test frames: {gap:+.2f} dB (F {fp:.2f}, "
                      f"OIDN {op:.2f}); the aim F >= OIDN - {OIDN_AIM_DB:g} dB is {verdict}. "
-                     f"Per scene: {scenes}.")
+                     f"Per test scene (the held-out ones too): {scenes}.")
     return lines
 
 
