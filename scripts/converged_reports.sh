@@ -34,7 +34,7 @@ sweep() {  # sweep <name> <experiments of process 1> <experiments of process 2> 
 stage() {
   case $1 in
     ablation) sweep ablation A,C,E B,D,F ;;                      # the component chain: the paper's two claims
-    baselines) sweep baselines rae,dasr,oidn fastdvdnet,ntasad,noisy ;;  # U-Net = row A (same network)
+    baselines) sweep baselines rae,dasr,dasr_paper_loss,oidn fastdvdnet,ntasad,noisy ;;  # U-Net = row A
     transfer) sweep transfer F A "transfer.init_from=$ROOT/ablation/small$TAG/\${experiment}_spp4" ;;
     seeds) sweep seeds A,F B,C seed=1,2,3,4 ;;                  # seed 0: the ablation jobs; A+F and B+C balance the two processes
     spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
