@@ -74,6 +74,12 @@ def _status(run: Run | None) -> str:
     return run.status if run.status == "ok" else f"{run.status}: {run.error_message}"
 
 
+def table1_experiments(ran: set[str]) -> list[str]:
+    """Table 1's experiments in order: :data:`TABLE1_ROWS`, each followed by its variants in ``ran``."""
+    return [e for row in TABLE1_ROWS
+            for e in (row, *(v for v, of in TABLE1_VARIANTS.items() if of == row and v in ran))]
+
+
 def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     """PSNR, SSIM x1e2, GMACs, M params at 4 spp per method, our value beside the paper's; PSNR also over the
     training scenes' test frames alone (``PSNR train scenes``: the paper's Table 1 protocol; the mean over all
@@ -82,9 +88,7 @@ def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     U-Net is row A's network (docs/baselines.md); when no `unet` job ran, row A's run stands in and says so.
     """
     rows = []
-    ran = {r.experiment for r in runs}
-    for exp in (e for row in TABLE1_ROWS for e in (row, *(v for v, of in TABLE1_VARIANTS.items()
-                                                           if of == row and v in ran))):
+    for exp in table1_experiments({r.experiment for r in runs}):
         run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
         source = exp
         if exp == "unet" and (run is None or run.status != "ok"):

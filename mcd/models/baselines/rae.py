@@ -5,8 +5,7 @@ between them) and a bottleneck at 1/32, each a recurrent block (conv -> concat w
 at the previous frame -> conv -> conv; the output is the new hidden state, zero at a clip's start); a
 decoder of 2x nearest upsampling, concatenated skip and two convs, whose last level has its own widths.
 Colour is demodulated by albedo before the network and modulated back after it (:func:`demodulation`). The
-same U-Net without
-recurrence is DASR's sampler and denoiser (:mod:`mcd.models.baselines.dasr`)."""
+same U-Net without recurrence is DASR's sampler and denoiser (:mod:`mcd.models.baselines.dasr`)."""
 
 from __future__ import annotations
 
