@@ -151,6 +151,37 @@ def test_seeds_table_gives_spread_and_differences_with_standard_errors(tmp_path)
     assert "Differences of mean PSNR" in md and (tmp_path / "seeds_differences.csv").is_file()
 
 
+def test_seeds_give_the_differences_over_the_training_scenes_too(tmp_path):
+    """The all-scene mean includes the held-out scene; the paper's protocol is the training scenes' test
+    frames. Here C - B is the largest step over all scenes only because of the held-out scene."""
+    from mcd.reporting import seeds
+
+    # (cbox, room0: training scenes; veach-ajar: held out) per row and seed
+    scores = {"A": [(20.0, 20.0, 10.0), (20.2, 20.2, 10.0)], "B": [(22.0, 22.0, 10.0), (22.4, 22.4, 10.0)],
+              "C": [(22.5, 22.5, 16.0), (22.7, 22.7, 16.0)]}
+    for exp, per_seed in scores.items():
+        for seed, (cbox, room0, veach) in enumerate(per_seed):
+            d = _seed_job(tmp_path, exp, seed, (cbox + room0 + veach) / 3)
+            metrics = json.loads((d / "metrics.json").read_text())
+            metrics["per_scene"] = {"cbox": {"psnr": cbox}, "room0": {"psnr": room0},
+                                    "veach-ajar": {"psnr": veach}}
+            (d / "metrics.json").write_text(json.dumps(metrics))
+            (d / ".hydra" / "config.yaml").write_text(
+                f"experiment: {exp}\nbudget: 4\nsweep_name: seeds\nseed: {seed}\n"
+                "data:\n  train_scenes: [cbox, room0]\n")
+    out = seeds.write(find_runs([tmp_path]), tmp_path)
+    table = out["seeds"].set_index("row")
+    assert table.loc["C", "PSNR train scenes mean"] == pytest.approx(22.6)
+    assert table.loc["B", "PSNR train scenes std"] == pytest.approx(math.sqrt(0.08))
+    diffs = out["seeds_differences"].set_index("difference")
+    assert diffs.loc["C - B", "train mean dB"] == pytest.approx(0.4)
+    assert diffs.loc["B - A", "train mean dB"] == pytest.approx(2.1)
+    [line] = seeds.checks(out["seeds_differences"])
+    assert "it is the largest of the 2 single-component steps" in line
+    assert "On the training scenes' test frames (the paper's protocol): +0.40 ± 0.22 dB." in line
+    assert line.endswith("It is NOT the largest step there (largest: B - A).")
+
+
 def test_repeatability_compares_a_seed_with_the_same_job_of_another_sweep(tmp_path):
     from mcd.reporting import seeds
 
