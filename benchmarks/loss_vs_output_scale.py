@@ -43,35 +43,31 @@ def probe(run_dir: Path, scales: list[float]) -> None:
     module = DenoiseModule(cfg, model, loss)
     print(f"run {run_dir} (loss {cfg.loss.name}), {device_name(torch.device('cpu'))}")
     clamp = mean_match.GAIN_MAX
-    variants = (("as tested", clamp, False), ("gain unclamped", 1e9, False), ("raw", 0, True))
-    for name, gain_max, raw in variants:
-        hooks = dict(model._forward_hooks)
-        if raw:
+    # (name, the mean match's gain limit, output steps on, scales of the output the loss is computed on)
+    variants = (("as tested", clamp, True, [1.0]), ("gain unclamped", 1e9, True, [1.0]),
+                ("raw", clamp, False, scales))
+    for name, gain_max, steps, factors in variants:
+        hooks = dict(model._forward_hooks)  # the output steps' hook (mcd.models.output_steps)
+        if not steps:
             model._forward_hooks.clear()
-        mean_match.GAIN_MAX = gain_max or clamp
-        sums: dict[str, float] = {}
+        mean_match.GAIN_MAX = gain_max
+        sums = dict.fromkeys(factors, 0.0)
         ratios = []
         try:
             with torch.no_grad():
                 for batch in datamodule.val_dataloader():
                     pred = module.run_clip(batch, with_ref=False)
                     ref = clip_buffers(batch)["ref"][:, -pred.shape[1]:]
-                    for scale in scales if raw else [1.0]:
-                        terms = loss(pred * scale, ref)
-                        for k, v in terms.items():
-                            key = f"{k} x{scale:g}" if raw else k
-                            sums[key] = sums.get(key, 0.0) + float(v)
+                    for f in factors:
+                        sums[f] += float(loss(pred * f, ref)["loss"])
                     ratios.append(pred[:, -1].mean((0, 2, 3)) / ref[:, -1].mean((0, 2, 3)).clamp_min(1e-12))
         finally:
             model._forward_hooks.update(hooks)
             mean_match.GAIN_MAX = clamp
-        n = len(ratios)
-        ratio = torch.stack(ratios).mean(0)
-        means = [round(float(r), 3) for r in ratio]
+        means = [round(float(r), 3) for r in torch.stack(ratios).mean(0)]
         print(f"\n{name}: output mean / reference mean per channel (x1) {means}")
-        for key, total in sums.items():
-            if key.startswith("loss"):
-                print(f"  {key}: {total / n:.4f}")
+        for f, total in sums.items():
+            print(f"  loss x{f:g}: {total / len(ratios):.4f}")
 
 
 def main(argv: list[str] | None = None) -> None:

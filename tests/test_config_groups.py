@@ -14,14 +14,13 @@ from mcd.losses import LOSSES, build_loss
 from mcd.models import METHODS
 from mcd.models.switches import SWITCHES
 from mcd.paper_numbers import COMPONENTS
+from mcd.reporting.tables import TABLE1_VARIANTS
 from tests.conftest import compose_cfg
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 EXPERIMENTS = sorted(p.stem for p in (CONF / "experiment").glob("*.yaml"))
 #: The baselines' own losses (docs/baselines.md); every other experiment trains with the paper's.
 OWN_LOSS = {"rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad"}
-#: Experiments that train a baseline with the paper's loss: their method.
-PAPER_LOSS_VARIANTS = {"dasr_paper_loss": "dasr"}
 
 
 def group_file(group: str, name: str) -> dict:
@@ -38,8 +37,8 @@ def test_experiment_composes_to_its_method_and_loss_files(experiment: str) -> No
     if experiment in COMPONENTS:  # rows A-M: the two-stage file with the row's switches
         expected = {**group_file("method", "two_stage"), **COMPONENTS[experiment]["switches"]}
     else:
-        expected = group_file("method", PAPER_LOSS_VARIANTS.get(experiment, experiment))
-        assert expected["name"] == PAPER_LOSS_VARIANTS.get(experiment, experiment)
+        expected = group_file("method", TABLE1_VARIANTS.get(experiment, experiment))
+        assert expected["name"] == TABLE1_VARIANTS.get(experiment, experiment)
     assert method == expected
     assert cfg.loss.name == OWN_LOSS.get(experiment, "paper")
     assert OmegaConf.to_container(cfg.loss) == group_file("loss", cfg.loss.name)

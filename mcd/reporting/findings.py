@@ -16,7 +16,7 @@ import pandas as pd
 from mcd.data.buffers import UNIFORM_BUDGETS
 from mcd.reporting.runs import Run, display_name
 from mcd.reporting.select import pick, scene_mean, train_scenes
-from mcd.reporting.tables import TABLE1_VARIANTS
+from mcd.reporting.tables import TABLE1_BUDGET, TABLE1_VARIANTS
 
 #: Table 1's rows that are trained (OIDN comes pretrained, the noisy input is not a method).
 TRAINED_BASELINES = ("unet", "fastdvdnet", "rae", "dasr", "ntasad")
@@ -49,7 +49,7 @@ def baselines(t1: pd.DataFrame, spread: pd.DataFrame | None = None) -> list[str]
     margin = f - max(done.values())
     seeds = ""
     if spread is not None and not spread.empty:
-        row = spread[(spread["row"] == "F") & (spread["spp"] == 4)]
+        row = spread[(spread["row"] == "F") & (spread["spp"] == TABLE1_BUDGET)]
         if not row.empty and row.iloc[0]["n"] > 1:
             r = row.iloc[0]
             seeds = (f" Over {int(r['n'])} seeds F's PSNR has a standard deviation of {r['PSNR std']:.2f} dB "
