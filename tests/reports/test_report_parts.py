@@ -324,11 +324,15 @@ def test_a_baseline_trained_with_the_papers_loss_is_a_row_after_its_own_only_whe
     assert t1.loc["dasr_paper_loss", "PSNR paper"] == t1.loc["dasr", "PSNR paper"]
     [line] = findings.baselines(t1.reset_index())
     assert "does NOT hold: DASR (paper's loss) 26.00 dB (+1.00)" in line and "seeds" not in line
-    spread = pd.DataFrame([{"row": "F", "spp": 4, "n": 3, "PSNR std": 0.4, "PSNR min": 24.6,
-                            "PSNR max": 25.4}])
+    spread = pd.DataFrame([{"row": "F", "spp": 4, "n": 3, "PSNR mean": 25.1, "PSNR std": 0.4,
+                            "PSNR min": 24.6, "PSNR max": 25.4}])
     [line] = findings.baselines(t1.reset_index(), spread)
-    assert line.endswith("Over 3 seeds F's PSNR has a standard deviation of 0.40 dB (range 24.60-25.40); "
-                         "each baseline ran one seed.")
+    assert line.endswith("Over 3 seeds F's PSNR has a mean of 25.10 dB (-0.90 against the best baseline) "
+                         "and a standard deviation of 0.40 dB (range 24.60-25.40); the best baseline's "
+                         "26.00 dB lies above F's whole range; each baseline ran one seed.")
+    spread["PSNR max"] = 26.2
+    [line] = findings.baselines(t1.reset_index(), spread)
+    assert "the best baseline's 26.00 dB lies within F's range" in line
 
 
 def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_job(tmp_path):
