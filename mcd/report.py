@@ -119,7 +119,7 @@ def write_readme(
         "",
         *[f"- {line}" for line in _headline(results["table1"])],
         *[f"- {line}" for line in findings.baselines(results["table1"], results.get("seeds"))],
-        *[f"- {line}" for line in findings.oidn_gap(runs)],
+        *[f"- {line}" for line in findings.oidn_gap(runs, spread=results.get("seeds"))],
         *[f"- {line}" for line in findings.above_input(results["spp"])],
         *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],
         *[f"- Over seeds, {line}" for line in seeds.checks(results.get("seeds_differences", pd.DataFrame()))],

@@ -298,6 +298,11 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
     assert gap[0].startswith("F - OIDN at 4 spp over all test scenes: -5.00 dB")
     assert "training scenes' test frames: -4.00 dB (F 27.50, OIDN 31.50)" in gap[1] and "is NOT met" in gap[1]
     assert "veach-ajar -7.00" in gap[1]
+    spread = pd.DataFrame([{"row": "F", "spp": 4, "n": 4, "PSNR train scenes mean": 30.75,
+                            "PSNR train scenes std": 0.3}])
+    assert findings.oidn_gap(runs, spread=spread)[2] == (
+        "Over 4 seeds of F: -0.75 dB on the training scenes' test frames (F's mean 30.75, standard deviation "
+        "0.30 dB); the aim is met by the mean.")
     [line] = findings.above_input(spp_frame(runs))
     assert "does NOT hold at 32 spp (-1.00 dB) (not measured yet: 2, 8, 16 spp)" in line
     assert "4 spp +8.00" in line
