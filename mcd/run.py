@@ -28,6 +28,7 @@ import platform
 import subprocess
 import time
 import traceback
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -234,7 +235,14 @@ def fit(job: Job) -> Fitted:
                      job.cfg.method.name)
         return Fitted(checkpoint=None, best_val_psnr=None, stop_reason="not trained",
                       seconds=time.perf_counter() - t0)
-    trainer.fit(job.module, datamodule=job.datamodule, ckpt_path=job.resume, weights_only=True)
+    with warnings.catch_warnings():
+        # Two of Lightning's warnings that do not apply here: metrics are logged every log_every_n_steps
+        # optimiser steps counted over epochs, so an epoch shorter than that interval still logs; and a run
+        # resumed from a last.ckpt written mid-epoch (after a validation every train.val_every_steps) draws
+        # fresh random crops for the rest of that epoch, which is all a resumable loader would give
+        warnings.filterwarnings("ignore", message=r".*smaller than the logging interval")
+        warnings.filterwarnings("ignore", message=r".*resuming from a checkpoint that ended before the epoch")
+        trainer.fit(job.module, datamodule=job.datamodule, ckpt_path=job.resume, weights_only=True)
     budget.finish(trainer, job.module, job.datamodule, job.best, job.curve)
     path, score = agreed_best(trainer, job.best)
     tested = path or str(job.out_dir / "checkpoints" / "last.ckpt")
