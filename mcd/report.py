@@ -121,6 +121,7 @@ def write_readme(
         *[f"- {line}" for line in findings.baselines(results["table1"], results.get("seeds"))],
         *[f"- {line}" for line in findings.oidn_gap(runs, spread=results.get("seeds"))],
         *[f"- {line}" for line in findings.above_input(results["spp"])],
+        *[f"- {line}" for line in findings.against_budgets(results["spp"])],
         *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],
         *[f"- Over seeds, {line}" for line in seeds.checks(results.get("seeds_differences", pd.DataFrame()))],
         *[f"- {line}" for line in seeds.reproducibility(runs)],

@@ -4,7 +4,8 @@ plainly from the tables, whether they hold or not:
 - F at or above every trained baseline of Table 1 at 4 spp;
 - the F-OIDN gap at 4 spp, over all test scenes and over the training scenes' test frames (aim: F >= OIDN - 1
   dB on the training scenes);
-- F above the noisy input at every budget of the spp sweep.
+- F above the noisy input at every budget of the spp sweep;
+- F against the best other trained method and OIDN at each budget of the spp sweep.
 """
 
 from __future__ import annotations
@@ -116,3 +117,26 @@ def above_input(spp_df: pd.DataFrame) -> list[str]:
         verdict += f" (not measured yet: {', '.join(missing)} spp)"
     each = ", ".join(f"{b:g} spp {g:+.2f}" for b, g in gains.items())
     return [f"F above its noisy input at every budget: {verdict}. F - noisy per budget: {each} dB."]
+
+
+def against_budgets(spp_df: pd.DataFrame) -> list[str]:
+    """F against the best other trained method (the trained baselines and the U-Net's row A) and against OIDN
+    at each budget where F and one of them finished: whether F's margin holds as the budget grows."""
+    ok = spp_df[spp_df["status"] == "ok"]
+    f = ok[ok["experiment"] == "F"].set_index("budget")["psnr"]
+    trained = ok[ok["experiment"].isin((*TRAINED_BASELINES, *TABLE1_VARIANTS, "A"))]
+    parts, oidn_parts = [], []
+    for b in sorted(f.index):
+        at = trained[trained["budget"] == b]
+        if not at.empty:
+            best = at.loc[at["psnr"].idxmax()]
+            parts.append(f"{b:g} spp {f[b] - best['psnr']:+.2f} ({best['method']})")
+        oidn = ok[(ok["experiment"] == "oidn") & (ok["budget"] == b)]
+        if not oidn.empty:
+            oidn_parts.append(f"{b:g} spp {f[b] - float(oidn['psnr'].iloc[0]):+.2f}")
+    lines = []
+    if parts:
+        lines.append(f"F - the best other trained method per budget (one seed each): {', '.join(parts)} dB.")
+    if oidn_parts:
+        lines.append("F - OIDN per budget: " + ", ".join(oidn_parts) + " dB.")
+    return lines

@@ -310,6 +310,10 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
     only4 = spp_frame(runs)
     [line] = findings.above_input(only4[only4["budget"] == 4])
     assert "holds at every budget measured so far (not measured yet: 2, 8, 16, 32 spp)" in line
+    # per budget, the best other trained method (here RAE at 4 spp only) and OIDN where they ran
+    assert findings.against_budgets(spp_frame(runs)) == [
+        "F - the best other trained method per budget (one seed each): 4 spp -0.50 (RAE) dB.",
+        "F - OIDN per budget: 4 spp -5.00 dB."]
 
 
 def test_a_baseline_trained_with_the_papers_loss_is_a_row_after_its_own_only_where_it_ran(tmp_path):
