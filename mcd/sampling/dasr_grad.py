@@ -5,7 +5,11 @@ Rounding the map and picking renders by the bits of ``m`` have no useful derivat
 change of a pixel's ``1 + m`` sample average with one more sample by ``(ref - i) / (1 + m)`` (the expected
 step towards the converged value), so in backward ``dL/dm_p = sum_c dL/di_p,c * (ref_p,c - i_p,c) / (1 +
 m_p)``; ``m = p * N * (s - 1)`` before rounding gives ``dL/dp = dL/dm * N * (s - 1)``, and autograd takes it
-through the softmax to the logits. ``ref`` is read only here. The map itself is returned as a
+through the softmax to the logits. A pixel at the per-pixel cap gets ``dL/dm_p = 0``: ``m = min(lam p, cap)``
+does not grow with its share there. DASR's estimate, ``(ref - i) / (1 + m)``, says one more sample helps
+whether or not the pixel can take it, so without the cap's zero derivative a capped pixel's logit is pushed
+up at every step for nothing; where the cap binds (at 32 spp it is only 2x the mean) the logits then drift
+apart without bound and the softmax ends one-hot (docs/method.md "Adaptive sampling", step 4). ``ref`` is read only here. The map itself is returned as a
 non-differentiable output: feeding it to the denoiser sends no gradient back to the sampler (the paper's
 gradient is the only path).
 """
@@ -31,7 +35,7 @@ class AdaptiveRender(torch.autograd.Function):
             m = normalise_map(p, budget, cap)
         i = blend_with_c1(c1.float(), m.float(), stack.float())
         ctx.mark_non_differentiable(m)
-        ctx.budget = budget
+        ctx.budget, ctx.cap = budget, cap
         ctx.save_for_backward(i, m, ref)
         return i, m
 
@@ -42,6 +46,7 @@ class AdaptiveRender(torch.autograd.Function):
             raise RuntimeError("the adaptive render's gradient (DASR) needs the reference: pass x['ref'] "
                                "during training (it may be None only when no gradient is taken)")
         dm = (grad_i.float() * (ref.float() - i) / (1 + m)).sum(1, keepdim=True)
+        dm = dm.masked_fill(m >= ctx.cap, 0.0)  # the cap's derivative: a capped pixel gains no sample
         n = m[0].numel()
         dp = dm * float(frame_budget(n, ctx.budget))
         return dp, None, None, None, None
