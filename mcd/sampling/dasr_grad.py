@@ -9,9 +9,9 @@ through the softmax to the logits. A pixel at the per-pixel cap gets ``dL/dm_p =
 does not grow with its share there. DASR's estimate, ``(ref - i) / (1 + m)``, says one more sample helps
 whether or not the pixel can take it, so without the cap's zero derivative a capped pixel's logit is pushed
 up at every step for nothing; where the cap binds (at 32 spp it is only 2x the mean) the logits then drift
-apart without bound and the softmax ends one-hot (docs/method.md "Adaptive sampling", step 4). ``ref`` is read only here. The map itself is returned as a
-non-differentiable output: feeding it to the denoiser sends no gradient back to the sampler (the paper's
-gradient is the only path).
+apart without bound and the softmax ends one-hot (docs/method.md "Adaptive sampling", step 4). ``ref`` is
+read only here. The map itself is returned as a non-differentiable output: feeding it to the denoiser sends
+no gradient back to the sampler (the paper's gradient is the only path).
 """
 
 from __future__ import annotations
