@@ -48,7 +48,7 @@ stage() {
         "$PY" -m mcd.edge_effect "${todo[@]}" || echo "edge effect: some jobs not measured (above)" >&2
       fi
       "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
-        --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh). Output steps, not in the paper, the same for every method (docs/method.md 'Output', docs/baselines.md 'Output'): every learned method matches the frame mean of the render it denoised, and every method but the noisy input keeps the render's value where the G-buffer saw no geometry; the two-stage rows' F_d is residual." ;;
+        --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh). Output steps, not in the paper, the same for every method (docs/method.md 'Output', docs/baselines.md 'Output'): every learned method matches the frame mean of the render it denoised, and every method but the noisy input keeps the render's value where the G-buffer saw no geometry; the two-stage rows' F_d is residual. Jobs from commit a81b678 on give a pixel at the sampling map's per-pixel cap no DASR gradient (docs/method.md 'Adaptive sampling', step 4); the cap binds mainly at 32 spp, and the 32-spp jobs of adaptive methods were rerun with it (the earlier ones are in multirun/retired/)." ;;
     *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest report)" >&2; exit 2 ;;
   esac
 }
