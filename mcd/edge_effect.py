@@ -47,7 +47,7 @@ if TYPE_CHECKING:
 
 #: Pixels cut off each side of a frame for its inset crop (more than the ``BORDER`` frame that is compared).
 MARGIN = 16
-#: How far the whole frames' PSNR here may be from the run's own (fp32 here, the run's precision there).
+#: How far the whole frames' PSNR here may be from the run's own (measured under the run's precision).
 PSNR_AGREEMENT_DB = 0.1
 #: What :func:`map_border` reports, where a model has the maps.
 MAP_KEYS = ("map_border_ratio", "index_border", "index_interior")
@@ -74,17 +74,21 @@ def inset_batch(batch: dict[str, object], margin: int = MARGIN) -> dict[str, obj
 
 
 def measure(module: DenoiseModule, batches: Iterable[dict[str, object]], margin: int = MARGIN,
-            width: int = BORDER) -> list[dict[str, object]]:
+            width: int = BORDER, precision: str = "32-true") -> list[dict[str, object]]:
     """Per test frame (the datamodule's test batches, in order): scene, frame, the whole frame's PSNR, its
     noisy input's and its colour shift, and the edge effect (module docstring) with ``margin`` and ``width``.
 
     The whole frames run first, then the crops (``DenoiseModule.test_step`` resets a temporal model at each
-    sequence start), so neither run sees the other's temporal state."""
+    sequence start), so neither run sees the other's temporal state. ``precision="bf16-mixed"`` runs them
+    under bf16 autocast on the CPU, as a run with that precision tested: an adaptive model's integer sampling
+    map rounds from its logits, so fp32 and bf16 logits can draw different samples (0.1 dB apart on the
+    converged F at 32 spp)."""
     from mcd.lit.test_recorder import hwc
 
     module.eval()
     batches = list(batches)
-    with torch.inference_mode():
+    bf16 = precision.startswith("bf16")
+    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
         whole = [module.test_step(b, i) for i, b in enumerate(batches)]
         crops = [module.test_step(inset_batch(b, margin), i) for i, b in enumerate(batches)]
     rows: list[dict[str, object]] = []
@@ -157,7 +161,8 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
     store.ensure(buffers, progress=False)
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
     datamodule.setup("test")
-    rows = measure(DenoiseModule(cfg, model, None), datamodule.test_dataloader(), margin)
+    rows = measure(DenoiseModule(cfg, model, None), datamodule.test_dataloader(), margin,
+                   precision=str(run_metrics.get("precision", "32-true")))
     averages = aggregate(rows, ("edge_effect", "psnr", "colour_shift", *MAP_KEYS))
     if abs(averages["psnr"] - float(run_metrics["psnr"])) > PSNR_AGREEMENT_DB:
         raise RuntimeError(f"{run_dir}: the whole frames score {averages['psnr']:.3f} dB here but "

@@ -52,6 +52,37 @@ def test_the_input_has_no_edge_effect_and_a_dark_border_has_one(cbox_store):
     assert all(r["edge_effect"] < -3.0 for r in rows), [r["edge_effect"] for r in rows]
 
 
+class AutocastProbe(nn.Module):
+    """The noisy input, recording whether each call ran under CPU bf16 autocast."""
+
+    def __init__(self, inner: nn.Module) -> None:
+        super().__init__()
+        self.inner, self.window, self.seen = inner, inner.window, []
+
+    def reset(self) -> None:
+        self.inner.reset()
+
+    def forward(self, x: dict[str, torch.Tensor | None]) -> dict[str, torch.Tensor]:
+        bf16 = torch.get_autocast_dtype("cpu") == torch.bfloat16
+        self.seen.append(torch.is_autocast_enabled("cpu") and bf16)
+        return self.inner(x)
+
+
+def test_measure_runs_under_the_precision_the_run_tested_with(cbox_store):
+    """A bf16-mixed run tested under bf16 autocast: an adaptive model's integer map rounds from its logits, so
+    its frames are re-scored the same way (fp32 and bf16 logits can draw different samples)."""
+    store = cbox_store[1]
+    cfg = compose_cfg(*store32_overrides(store.data_dir), "+experiment=noisy")
+    noisy = build(cfg).eval()
+    datamodule = MCDDataModule(cfg, store, run_buffers(noisy.required_buffers(), cfg.budget), noisy.window)
+    datamodule.setup("test")
+    batches = list(datamodule.test_dataloader())[:1]
+    for precision, expected in (("bf16-mixed", True), ("32-true", False)):
+        probe = AutocastProbe(noisy)
+        measure(DenoiseModule(cfg, probe, None), batches, margin=8, precision=precision)
+        assert probe.seen == [expected, expected]  # the whole frame, then its crop
+
+
 def test_inset_batch_cuts_every_image_buffer_and_refuses_too_small_frames():
     batch = {"c4": torch.zeros(1, 2, 3, 40, 30), "scene": ["cbox"], "frame": torch.zeros(1, 2)}
     cut = inset_batch(batch, 8)
