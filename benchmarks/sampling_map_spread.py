@@ -22,11 +22,12 @@ import pandas as pd
 from omegaconf import OmegaConf
 
 from mcd.data.exr import read_exr
+from mcd.sampling.normalise import cap_for_levels
 
 
 def spread(run: Path) -> pd.DataFrame:
     cfg = OmegaConf.load(run / "resolved_config.yaml")
-    cap = 2 ** (int(cfg.method.sampling.levels) + 1) - 1
+    cap = cap_for_levels(int(cfg.method.sampling.levels))
     frames = pd.read_csv(run / "frames.csv")
     rows = []
     for scene_dir in sorted(p for p in (run / "samples").iterdir() if p.is_dir()):

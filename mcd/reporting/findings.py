@@ -25,6 +25,15 @@ TRAINED_BASELINES = ("unet", "fastdvdnet", "rae", "dasr", "ntasad")
 OIDN_AIM_DB = 1.0
 
 
+def _f_over_seeds(spread: pd.DataFrame | None, budget: float) -> pd.Series | None:
+    """Row F's line of the seeds sweep's ``spread`` (:func:`mcd.reporting.seeds.spread`) at ``budget``, where
+    more than one seed finished."""
+    if spread is None or spread.empty:
+        return None
+    row = spread[(spread["row"] == "F") & (spread["spp"] == budget)]
+    return row.iloc[0] if not row.empty and row.iloc[0]["n"] > 1 else None
+
+
 def baselines(t1: pd.DataFrame, spread: pd.DataFrame | None = None) -> list[str]:
     """F against every trained baseline of Table 1 (a U-Net row stood in for by row A counts as the U-Net).
 
@@ -48,20 +57,17 @@ def baselines(t1: pd.DataFrame, spread: pd.DataFrame | None = None) -> list[str]
     else:
         verdict = "holds" if not missing else "holds against those finished so far"
     rest = f" ({', '.join(missing)} not finished)" if missing else ""
-    margin = f - max(done.values())
+    best = max(done.values())
     seeds = ""
-    if spread is not None and not spread.empty:
-        row = spread[(spread["row"] == "F") & (spread["spp"] == TABLE1_BUDGET)]
-        if not row.empty and row.iloc[0]["n"] > 1:
-            r = row.iloc[0]
-            best = max(done.values())
-            where = ("above F's whole range" if best > r["PSNR max"] else
-                     "below F's whole range" if best < r["PSNR min"] else "within F's range")
-            seeds = (f" Over {int(r['n'])} seeds F's PSNR has a mean of {r['PSNR mean']:.2f} dB "
-                     f"({r['PSNR mean'] - best:+.2f} against the best baseline) and a standard deviation of "
-                     f"{r['PSNR std']:.2f} dB (range {r['PSNR min']:.2f}-{r['PSNR max']:.2f}); the best "
-                     f"baseline's {best:.2f} dB lies {where}; each baseline ran one seed.")
-    return [f"F at or above every trained baseline at 4 spp: {verdict}; F {f:.2f} dB, {margin:+.2f} dB "
+    r = _f_over_seeds(spread, TABLE1_BUDGET)
+    if r is not None:
+        where = ("above F's whole range" if best > r["PSNR max"] else
+                 "below F's whole range" if best < r["PSNR min"] else "within F's range")
+        seeds = (f" Over {int(r['n'])} seeds F's PSNR has a mean of {r['PSNR mean']:.2f} dB "
+                 f"({r['PSNR mean'] - best:+.2f} against the best baseline) and a standard deviation of "
+                 f"{r['PSNR std']:.2f} dB (range {r['PSNR min']:.2f}-{r['PSNR max']:.2f}); the best "
+                 f"baseline's {best:.2f} dB lies {where}; each baseline ran one seed.")
+    return [f"F at or above every trained baseline at 4 spp: {verdict}; F {f:.2f} dB, {f - best:+.2f} dB "
             f"against the best of them{rest}.{seeds}"]
 
 
@@ -86,15 +92,13 @@ def oidn_gap(runs: list[Run], budget: float = 4.0, spread: pd.DataFrame | None =
         lines.append(f"F - OIDN on the training scenes' test frames: {gap:+.2f} dB (F {fp:.2f}, "
                      f"OIDN {op:.2f}); the aim F >= OIDN - {OIDN_AIM_DB:g} dB is {verdict}. "
                      f"Per test scene (the held-out ones too): {scenes}.")
-        if spread is not None and not spread.empty:
-            row = spread[(spread["row"] == "F") & (spread["spp"] == budget)]
-            if not row.empty and row.iloc[0]["n"] > 1:
-                r = row.iloc[0]
-                mean = r["PSNR train scenes mean"]
-                verdict = "met" if mean - op >= -OIDN_AIM_DB else "NOT met"
-                lines.append(f"Over {int(r['n'])} seeds of F: {mean - op:+.2f} dB on the training scenes' "
-                             f"test frames (F's mean {mean:.2f}, standard deviation "
-                             f"{r['PSNR train scenes std']:.2f} dB); the aim is {verdict} by the mean.")
+        r = _f_over_seeds(spread, budget)
+        if r is not None:
+            mean = r["PSNR train scenes mean"]
+            verdict = "met" if mean - op >= -OIDN_AIM_DB else "NOT met"
+            lines.append(f"Over {int(r['n'])} seeds of F: {mean - op:+.2f} dB on the training scenes' "
+                         f"test frames (F's mean {mean:.2f}, standard deviation "
+                         f"{r['PSNR train scenes std']:.2f} dB); the aim is {verdict} by the mean.")
     return lines
 
 
