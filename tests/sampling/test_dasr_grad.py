@@ -116,7 +116,7 @@ def test_a_capped_pixel_gets_no_gradient_and_logits_stay_bounded_where_the_cap_b
     sits at the cap. DASR's estimate says one more sample would still help there; the cap's zero derivative
     keeps that from pushing the capped pixels' logits up at every step. Without it their logits drifted
     apart without bound (spread 7.6 after 100 Adam steps, 9.1 after 400 and growing), the failure the
-    converged 32-spp runs showed as logits of +-100 and a one-hot softmax."""
+    converged 32-spp F showed as logits spanning -98..+31 on one test frame and a one-hot softmax."""
     h = w = 8
     ref = torch.full((1, 3, h, w), 0.5)
     error = torch.full((1, 6, 3, h, w), 0.1)
