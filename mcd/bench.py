@@ -40,7 +40,6 @@ import csv
 import ctypes
 import logging
 import math
-import platform
 import statistics
 import sys
 import time
@@ -57,6 +56,7 @@ from torch import Tensor, nn
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import cpu_bf16_supported
+from mcd.machine import device_name
 
 log = logging.getLogger("mcd.bench")
 
@@ -172,17 +172,6 @@ def store_frame(data: str | None, scene: str | None, frame: int = 0) -> StoreFra
         raise ValueError(f"--scene {scene!r} is not a scene of data profile {store.profile!r} "
                          f"(conf/data/{store.profile}.yaml has {sorted(store.specs)})")
     return StoreFrame(store, scene, frame)
-
-
-def device_name(device: torch.device) -> str:
-    """A readable name of the device (GPU model, or the CPU and its thread count)."""
-    if device.type == "cuda":
-        return torch.cuda.get_device_name(device)
-    cpu = platform.processor() or platform.machine()
-    with contextlib.suppress(OSError):
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-        cpu = next((ln.split(":", 1)[1].strip() for ln in lines if ln.startswith("model name")), cpu)
-    return f"{cpu} ({torch.get_num_threads()} threads)"
 
 
 def parse_size(size: str) -> tuple[int, int]:

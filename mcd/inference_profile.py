@@ -28,7 +28,6 @@ from mcd.bench import (
     InferencePath,
     _autocast,
     compose_cfg,
-    device_name,
     frame_buffers,
     model_inputs,
     parse_size,
@@ -36,6 +35,7 @@ from mcd.bench import (
 )
 from mcd.complexity import dummy_batch, flop_counter_mode
 from mcd.lit.precision import cpu_bf16_supported
+from mcd.machine import device_name
 from mcd.models.position_pooling import PositionAwarePool
 from mcd.models.semantic_alignment import SemanticAlignment
 from mcd.models.two_stage import STAGES, TwoStage

@@ -109,8 +109,11 @@ def write_readme(
         f"- Training: {prov.training}",
         f"- Commit(s) of the runs: {prov.commits}",
         f"- Device(s): {prov.devices}",
-        f"- Wall time: {prov.wall_s / 60:.1f} min summed over {n_ok} finished runs "
-        f"(as each run's metrics.json records it); this report took {report_s:.1f} s",
+        f"- Resumed runs (trained in more than one process; metrics.json `segments`, else the excess of "
+        f"curve.csv's clock over the last process's training time): {prov.resumed}",
+        f"- Wall time: {prov.wall_s / 60:.1f} min summed over {n_ok} finished runs (each run's `wall_s`, "
+        f"plus {prov.earlier_s / 60:.1f} min of resumed runs' earlier processes); this report took "
+        f"{report_s:.1f} s",
         f"- Jobs: {len(runs)} found, {n_ok} finished, {int((fails['status'] == 'failed').sum())} failed, "
         f"{int((fails['status'] == 'incomplete').sum())} incomplete",
         *[f"- Note: {n}" for n in notes],

@@ -23,8 +23,6 @@ import functools
 import json
 import logging
 import math
-import os
-import platform
 import subprocess
 import time
 import traceback
@@ -44,8 +42,10 @@ from torch import nn
 
 from mcd.data import MCDDataModule
 from mcd.lit import DenoiseModule, budget
+from mcd.lit.segments import TrainingSegments
 from mcd.lit.test_recorder import TestRecorder
 from mcd.losses import build_loss
+from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, is_complete
@@ -68,21 +68,6 @@ def git_commit() -> dict[str, object]:
     except (OSError, subprocess.CalledProcessError):
         return {"commit": "unknown", "dirty": None}
     return {"commit": commit, "dirty": bool(status.strip())}
-
-
-def device_name(device: torch.device) -> str:
-    """GPU name, or the CPU model and the threads torch uses."""
-    if device.type == "cuda":
-        return torch.cuda.get_device_name(device)
-    model = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"CPU {model} ({torch.get_num_threads()} threads, {os.cpu_count()} cores)"
 
 
 def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseException) -> Path:
@@ -110,6 +95,7 @@ class Job:
     trainer: L.Trainer
     best: ModelCheckpoint  # the best validation checkpoint
     curve: budget.LearningCurve
+    segments: TrainingSegments  # which code trained which steps (mcd/lit/segments.py)
     recorder: TestRecorder
     trainable: bool  # False: the method is tested as built (or as transferred, without fine-tuning)
     resume: str | None  # ckpt_path: the checkpoint training resumes from
@@ -127,6 +113,7 @@ class Fitted:
     best_val_psnr: float | None
     stop_reason: str
     seconds: float
+    segments: list[dict[str, Any]]  # the training segments (mcd/lit/segments.py), read before testing
 
 
 def resume_checkpoint(ckpt_path: str | None, out_dir: Path) -> str | None:
@@ -188,10 +175,11 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
     last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
                            enable_version_counter=False)
     curve = budget.LearningCurve(out_dir / "curve.csv")
+    segments = TrainingSegments(git_commit())
     recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
     trainer_kwargs = budget.trainer_kwargs(cfg)
     trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
-                        callbacks=[best, last, curve, recorder, *budget.callbacks(cfg.train)],
+                        callbacks=[best, last, curve, segments, recorder, *budget.callbacks(cfg.train)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
@@ -199,8 +187,8 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
         raise ValueError(f"method.name={cfg.method.name!r} has no trainable parameters: set "
                          "method.trainable=false to test it without training")
     return Job(cfg=cfg, out_dir=out_dir, model=model, datamodule=datamodule, module=module, trainer=trainer,
-               best=best, curve=curve, recorder=recorder, trainable=trainable, resume=resume or None,
-               transfer=transfer_info, data_report=report, data_s=data_s,
+               best=best, curve=curve, segments=segments, recorder=recorder, trainable=trainable,
+               resume=resume or None, transfer=transfer_info, data_report=report, data_s=data_s,
                precision=str(trainer_kwargs["precision"]))
 
 
@@ -234,7 +222,7 @@ def fit(job: Job) -> Fitted:
             log.info("method %s is not trained (method.trainable=false): testing it as built",
                      job.cfg.method.name)
         return Fitted(checkpoint=None, best_val_psnr=None, stop_reason="not trained",
-                      seconds=time.perf_counter() - t0)
+                      seconds=time.perf_counter() - t0, segments=[])
     with warnings.catch_warnings():
         # Two of Lightning's warnings that do not apply here: metrics are logged every log_every_n_steps
         # optimiser steps counted over epochs, so an epoch shorter than that interval still logs; and a run
@@ -249,8 +237,10 @@ def fit(job: Job) -> Fitted:
     log.info("testing checkpoint %s (best val/psnr %s)", tested,
              "none" if score is None else f"{score:.2f} dB")
     seconds = time.perf_counter() - t0
+    # read now: testing a checkpoint restores the callbacks' state saved in it, this one's included
     return Fitted(checkpoint=tested, best_val_psnr=score,
-                  stop_reason=budget.stop_reason(trainer, job.cfg.train, seconds), seconds=seconds)
+                  stop_reason=budget.stop_reason(trainer, job.cfg.train, seconds), seconds=seconds,
+                  segments=job.segments.records())
 
 
 def run_test(job: Job, checkpoint: str | None) -> float:
@@ -306,6 +296,7 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
         best_val_psnr=fitted.best_val_psnr,
         train_steps=int(trainer.global_step),
         stop_reason=fitted.stop_reason,
+        segments=fitted.segments,
         epochs=int(trainer.current_epoch),
         data_s=job.data_s,
         train_s=fitted.seconds,

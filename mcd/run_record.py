@@ -63,6 +63,9 @@ class RunRecord:
     best_val_psnr: float | None
     train_steps: int
     stop_reason: str  # why training ended (mcd.lit.budget.stop_reason)
+    #: per process that trained, oldest first: commit, dirty, device, start_step, end_step, seconds
+    #: (mcd/lit/segments.py); one for a run trained in one go, several for a resumed one, [] if untrained
+    segments: list[dict[str, Any]]
     epochs: int
     data_s: float  # seconds spent rendering or checking the store, training, testing, and in all
     train_s: float

@@ -66,13 +66,42 @@ class Provenance:
 
     @property
     def commits(self) -> str:
-        return _distinct(
-            [
-                f"{r.metrics.get('commit')}{'+dirty' if r.metrics.get('dirty') else ''}"
-                for r in self._ok()
-                if r.metrics.get("commit")
-            ]
-        )
+        """Every commit that trained or tested a finished run: each run's own and those of the earlier
+        processes of a resumed run (``Run.segments``)."""
+        seen = [
+            f"{c['commit']}{'+dirty' if c.get('dirty') else ''}"
+            for r in self._ok()
+            for c in [r.metrics, *r.segments]
+            if c.get("commit")
+        ]
+        return _distinct(seen)  # type: ignore[arg-type]
+
+    @property
+    def resumed(self) -> str:
+        """The finished runs trained in more than one process, with the code behind each stretch of steps
+        (``Run.segments``); "none" when every run trained in one go."""
+        parts = []
+        for r in self._ok():
+            segments = r.segments
+            if len(segments) < 2:
+                continue
+
+            def one(seg: dict) -> str:
+                steps = ("" if seg.get("start_step") is None or seg.get("end_step") is None
+                         else f"steps {seg['start_step']}-{seg['end_step']} ")
+                code = (f"at {str(seg['commit'])[:7]}{'+dirty' if seg.get('dirty') else ''}"
+                        if seg.get("commit") else "code not recorded")
+                minutes = "" if seg.get("seconds") is None else f", {float(seg['seconds']) / 60:.0f} min"
+                return f"{steps}{code}{minutes}"
+
+            parts.append(f"`{r.path.name}` ({'; '.join(one(seg) for seg in segments)})")
+        return "; ".join(parts) if parts else "none"
+
+    @property
+    def earlier_s(self) -> float:
+        """Training seconds of the finished runs' earlier processes (every segment but the last, where
+        recorded): wall time that no ``wall_s`` holds."""
+        return float(sum(float(seg.get("seconds") or 0.0) for r in self._ok() for seg in r.segments[:-1]))
 
     @property
     def devices(self) -> str:
@@ -90,8 +119,9 @@ class Provenance:
 
     @property
     def wall_s(self) -> float:
-        """Total wall time of the finished runs, seconds (as each run's metrics.json recorded it)."""
-        return float(sum(float(r.metrics.get("wall_s") or 0.0) for r in self._ok()))
+        """Total wall time of the finished runs, seconds: each run's ``wall_s`` (its last process) plus the
+        training time of a resumed run's earlier processes (:attr:`earlier_s`)."""
+        return float(sum(float(r.metrics.get("wall_s") or 0.0) for r in self._ok())) + self.earlier_s
 
     @property
     def training(self) -> str:

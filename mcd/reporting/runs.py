@@ -62,6 +62,13 @@ def _load_yaml(path: Path) -> dict[str, Any]:
         return OmegaConf.to_container(cfg, resolve=False)  # type: ignore[return-value]
 
 
+#: Seconds by which a run's learning-curve clock may exceed its last process's training time before the run
+#: counts as resumed (``Run.segments``). In a run trained in one go the clock's last row comes within a second
+#: of ``train_s``, which starts earlier; the resumed runs of ``multirun/*/small_converged`` exceed it by 84 s
+#: to 45 min.
+RESUMED_SLACK_S = 30.0
+
+
 @dataclass
 class Run:
     """One job of a sweep: its directory, the config it ran with, and its metrics or its error."""
@@ -159,6 +166,29 @@ class Run:
     def curve(self) -> pd.DataFrame | None:
         """curve.csv (step, seconds, val_psnr, ... per validation; mcd.lit.budget), or None."""
         return self._csv("curve.csv")
+
+    @property
+    def segments(self) -> list[dict[str, Any]]:
+        """Which code trained which steps (metrics.json ``segments``, mcd/lit/segments.py), oldest first.
+
+        A run from before those records that was nevertheless resumed shows it in ``curve.csv``, whose clock
+        goes on across processes: when its last ``seconds`` exceed the finishing process's ``train_s`` by
+        more than :data:`RESUMED_SLACK_S`, the earlier processes stand as one segment whose ``commit`` and
+        steps are null and whose ``seconds`` is that excess."""
+        if self.metrics is None:
+            return []
+        recorded = self.metrics.get("segments")
+        if isinstance(recorded, list):
+            return recorded
+        curve, train_s = self.curve, self.metrics.get("train_s")
+        if curve is None or curve.empty or "seconds" not in curve or not train_s:
+            return []
+        earlier = float(curve["seconds"].iloc[-1]) - float(train_s)
+        if earlier <= RESUMED_SLACK_S:
+            return []
+        last = {"commit": self.metrics.get("commit"), "dirty": self.metrics.get("dirty"), "start_step": None,
+                "end_step": self.metrics.get("train_steps"), "seconds": float(train_s)}
+        return [{"commit": None, "dirty": None, "start_step": 0, "end_step": None, "seconds": earlier}, last]
 
     @property
     def error_message(self) -> str:

@@ -370,3 +370,24 @@ def test_a_corrupt_multirun_yaml_leaves_out_its_command_not_its_runs(tmp_path, c
     assert find_sweeps([tmp_path]) == []
     assert "unreadable" in caplog.text and "multirun.yaml" in caplog.text
     assert [r.status for r in find_runs([tmp_path])] == ["ok"]
+
+
+def test_a_resumed_run_from_before_the_segment_records_is_found_by_its_curve_clock(tmp_path):
+    """Runs without metrics.json ``segments``: curve.csv's clock goes on across processes, so a clock beyond
+    the last process's ``train_s`` (by more than the slack) means earlier processes trained too."""
+    from mcd.reporting.provenance import Provenance
+    from mcd.reporting.runs import RESUMED_SLACK_S
+
+    base = {"psnr": 30.0, "experiment": "F", "budget": 4, "commit": "c" * 40, "train_steps": 3000}
+    one_go = _job(tmp_path, "one_go", metrics={**base, "train_s": 500.0, "wall_s": 510.0})
+    resumed = _job(tmp_path, "resumed", metrics={**base, "train_s": 400.0, "wall_s": 410.0})
+    for d, clock in ((one_go, 499.5), (resumed, 400.0 + RESUMED_SLACK_S + 1500.0)):
+        (d / "curve.csv").write_text(f"step,seconds,val_psnr\n1500,{clock / 2},28.0\n3000,{clock},29.0\n")
+    runs = {r.path.name: r for r in find_runs([tmp_path])}
+    assert runs["one_go"].segments == []
+    earlier, last = runs["resumed"].segments
+    assert earlier["commit"] is None and earlier["seconds"] == pytest.approx(1530.0)
+    assert last["commit"] == "c" * 40 and last["seconds"] == 400.0
+    prov = Provenance.gather([], list(runs.values()), command="test")
+    assert prov.resumed == "`resumed` (code not recorded, 26 min; at ccccccc, 7 min)"
+    assert prov.wall_s == pytest.approx(510.0 + 410.0 + 1530.0)

@@ -1,0 +1,63 @@
+"""Which code trained which steps of a run (docs/architecture.md, "Run directory": ``segments``).
+
+A run killed mid-training resumes from its ``last.ckpt`` (``ckpt_path=auto``, mcd.run), possibly in a later
+process running later code. ``metrics.json``'s ``commit`` names the code of the process that finished the run;
+:class:`TrainingSegments` keeps, in every checkpoint it saves (Lightning's callback state), one record per
+process that trained: the commit and dirty flag of its code, its device, the optimiser steps it started and
+ended at, and its seconds of training. A resumed run reads them back and appends its own, so ``segments``
+names the code behind every step. A checkpoint from before these records, resumed at step ``n > 0``, gives a
+first segment ``0 .. n`` whose ``commit`` is null (not recorded).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import lightning as L
+from lightning.pytorch.callbacks import Callback
+
+from mcd.machine import device_name
+
+
+class TrainingSegments(Callback):
+    """Records the training segments of a run (see the module docstring); :meth:`records` lists them."""
+
+    def __init__(self, code: dict[str, object]) -> None:
+        self.code = {"commit": code.get("commit"), "dirty": code.get("dirty")}
+        self.device: str | None = None  # named when training starts, on the device it runs on
+        self.earlier: list[dict[str, Any]] = []  # the segments read back from the resumed checkpoint
+        self.start_step: int | None = None  # None until this process trains
+        self.end_step = 0
+        self.started = 0.0
+
+    @property
+    def state_key(self) -> str:
+        return "TrainingSegments"
+
+    def load_state_dict(self, state_dict: dict[str, Any]) -> None:
+        self.earlier = [dict(s) for s in state_dict.get("segments", [])]
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"segments": self.records()}
+
+    def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        self.start_step = self.end_step = int(trainer.global_step)
+        self.device = device_name(pl_module.device)
+        self.started = time.perf_counter()
+        recorded = self.earlier[-1]["end_step"] if self.earlier else 0
+        if self.start_step > recorded:  # a checkpoint from before these records (or one that lost them)
+            self.earlier.append({"commit": None, "dirty": None, "device": None, "start_step": recorded,
+                                 "end_step": self.start_step, "seconds": None})
+
+    def on_train_batch_end(self, trainer: L.Trainer, pl_module: L.LightningModule, outputs: object,
+                           batch: object, batch_idx: int) -> None:
+        self.end_step = int(trainer.global_step)
+
+    def records(self) -> list[dict[str, Any]]:
+        """The segments so far, oldest first: the resumed checkpoint's, then this process's if it trained."""
+        if self.start_step is None:
+            return list(self.earlier)
+        ours = {**self.code, "device": self.device, "start_step": self.start_step, "end_step": self.end_step,
+                "seconds": round(time.perf_counter() - self.started, 3)}
+        return [*self.earlier, ours]

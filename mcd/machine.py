@@ -1,0 +1,22 @@
+"""The machine a run or benchmark ran on, as every record names it (docs/benchmark.md, "Reports": each
+figure names its machine): the GPU's name, or the CPU model with the threads torch uses and the cores."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import platform
+from pathlib import Path
+
+import torch
+
+
+def device_name(device: torch.device) -> str:
+    """GPU name, or ``CPU <model> (<threads> threads, <cores> cores)``."""
+    if device.type == "cuda":
+        return torch.cuda.get_device_name(device)
+    model = platform.processor() or platform.machine()
+    with contextlib.suppress(OSError):
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+        model = next((ln.split(":", 1)[1].strip() for ln in lines if ln.startswith("model name")), model)
+    return f"CPU {model} ({torch.get_num_threads()} threads, {os.cpu_count()} cores)"
