@@ -2,9 +2,12 @@
 # The converged reports of issue 12 (docs/benchmark.md "Reports"): every trained job of data=small under one
 # budget, train=plateau (3000 steps, cosine to lr_min; docs/training.md "Budgets"), then `python -m mcd.report`.
 #
-#   scripts/converged_reports.sh [stage ...]     # stages: ablation baselines transfer spp seeds rest report
+#   scripts/converged_reports.sh [stage ...]     # stages: ablation baselines transfer spp seeds rest budget report
 #
-# Job directories go to <MULTIRUN>/<sweep>/small_converged, the report to reports/small_converged. The first pass,
+# Job directories go to <MULTIRUN>/<sweep>/small_converged, the report to reports/small_converged. The budget
+# stage asks whether that budget is enough: F and NTASAD (the best trained baseline) again with twice the steps
+# (train.max_steps=6000, the cosine schedule spanning them), in <MULTIRUN>/baselines/small_converged_s6000,
+# reported in reports/small_converged_s6000. The first pass,
 # multirun/*/small_plateau and reports/small_plateau (same budget), ran before the baselines took the output
 # steps of rows A-M and before pixels without geometry kept the render's value (docs/baselines.md "Output").
 #
@@ -17,17 +20,18 @@ cd "$(dirname "$0")/.."
 PY=${PY:-.venv/bin/python}
 ROOT=$(realpath -m "${MULTIRUN:-multirun}")
 TAG=_converged
-COMMON=(data=small train=plateau "sweep_tag=$TAG" trainer.enable_progress_bar=false)
+COMMON=(data=small train=plateau trainer.enable_progress_bar=false)
 export OMP_NUM_THREADS=1
 
-sweep() {  # sweep <name> <experiments of process 1> <experiments of process 2> [overrides...]
+sweep() {  # [SUFFIX=<tag suffix>] sweep <name> <experiments of process 1> <experiments of process 2> [overrides...]
   local name=$1 a=$2 b=$3; shift 3
-  local dir="hydra.sweep.dir=$ROOT/$name/small$TAG"
-  "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$a" "${COMMON[@]}" "$dir" "$@" &
+  local tag=$TAG${SUFFIX:-}
+  local dir="hydra.sweep.dir=$ROOT/$name/small$tag"
+  "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$a" "${COMMON[@]}" "sweep_tag=$tag" "$dir" "$@" &
   local p1=$!
   # the second process starts later: Hydra writes the sweep directory's multirun.yaml as a process starts, and
   # two writes at once leave it corrupt
-  if [ -n "$b" ]; then sleep 15; "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$b" "${COMMON[@]}" "$dir" "$@"; fi
+  if [ -n "$b" ]; then sleep 15; "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$b" "${COMMON[@]}" "sweep_tag=$tag" "$dir" "$@"; fi
   wait "$p1"
 }
 
@@ -39,20 +43,25 @@ stage() {
     seeds) sweep seeds A,F B,C seed=1,2,3,4 ;;                  # seed 0: the ablation jobs; A+F and B+C balance the two processes
     spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
     rest) sweep ablation G,I,K,M H,J,L ;;
+    budget) SUFFIX=_s6000 sweep baselines F ntasad train.max_steps=6000 ;;  # is 3000 steps enough?
     report)
       local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/edge_effect.py)
-      for d in "$ROOT"/*/small$TAG/*/; do
+      for d in "$ROOT"/*/small$TAG/*/ "$ROOT"/baselines/small${TAG}_s6000/*/; do
         if [ -f "$d/metrics.json" ] && [ "$d/metrics.json" -nt "$d/edges.json" ]; then todo+=("$d"); fi
       done
       if [ ${#todo[@]} -gt 0 ]; then  # a job it cannot measure keeps an empty cell; the report still runs
         "$PY" -m mcd.edge_effect "${todo[@]}" || echo "edge effect: some jobs not measured (above)" >&2
       fi
       "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
-        --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh). Output steps, not in the paper, the same for every method (docs/method.md 'Output', docs/baselines.md 'Output'): every learned method matches the frame mean of the render it denoised, and every method but the noisy input keeps the render's value where the G-buffer saw no geometry; the two-stage rows' F_d is residual. Jobs from commit a81b678 on give a pixel at the sampling map's per-pixel cap no DASR gradient (docs/method.md 'Adaptive sampling', step 4); the cap binds mainly at 32 spp, and the 32-spp jobs of adaptive methods were rerun with it (the earlier ones are in multirun/retired/). Resumed runs name each process's commit from commit 4aeff82 on; of the earlier ones, the session notes have the first process of F_spp4_seed3 (45 of its 52 min) at e32c668, before the cap rule, and that of ntasad_spp32 (37 of 43 min) at a81b678, with it." ;;
-    *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest report)" >&2; exit 2 ;;
+        --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh). Output steps, not in the paper, the same for every method (docs/method.md 'Output', docs/baselines.md 'Output'): every learned method matches the frame mean of the render it denoised, and every method but the noisy input keeps the render's value where the G-buffer saw no geometry; the two-stage rows' F_d is residual. Jobs from commit a81b678 on give a pixel at the sampling map's per-pixel cap no DASR gradient (docs/method.md 'Adaptive sampling', step 4); the cap binds mainly at 32 spp, and the 32-spp jobs of adaptive methods were rerun with it (the earlier ones are in multirun/retired/). Resumed runs name each process's commit from commit 4aeff82 on; of the earlier ones, the session notes have the first process of F_spp4_seed3 (45 of its 52 min) at e32c668, before the cap rule, and that of ntasad_spp32 (37 of 43 min) at a81b678, with it."
+      if compgen -G "$ROOT/baselines/small${TAG}_s6000/*/metrics.json" > /dev/null; then
+        "$PY" -m mcd.report "$ROOT/baselines/small${TAG}_s6000" --name "small${TAG}_s6000" \
+          --note "Budget: train=plateau with train.max_steps=6000 (twice the steps of reports/small_converged, the cosine schedule to lr_min spanning them) on data=small, model=cpu, OMP_NUM_THREADS=1, beside other jobs (scripts/converged_reports.sh, stage budget): whether F and NTASAD, the best trained baseline at 4 spp, gain from more training than the converged pass gave them. Same data, seed (0), budget (4 spp) and output steps as reports/small_converged; compare each method with its own row there."
+      fi ;;
+    *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest budget report)" >&2; exit 2 ;;
   esac
 }
 
-for s in "${@:-ablation baselines transfer spp seeds rest report}"; do
+for s in "${@:-ablation baselines transfer spp seeds rest budget report}"; do
   for t in $s; do stage "$t"; done
 done
