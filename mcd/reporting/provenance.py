@@ -39,6 +39,16 @@ def _distinct(values: list[object]) -> str:
     return ", ".join(seen) if seen else "unknown"
 
 
+def _segment_text(seg: dict) -> str:
+    """One training segment (mcd/lit/segments.py) as the report prints it: steps, commit, minutes."""
+    steps = ("" if seg.get("start_step") is None or seg.get("end_step") is None
+             else f"steps {seg['start_step']}-{seg['end_step']} ")
+    code = (f"at {str(seg['commit'])[:7]}{'+dirty' if seg.get('dirty') else ''}"
+            if seg.get("commit") else "code not recorded")
+    minutes = "" if seg.get("seconds") is None else f", {float(seg['seconds']) / 60:.0f} min"
+    return f"{steps}{code}{minutes}"
+
+
 @dataclass
 class Provenance:
     """What produced a report: the sweep commands and what the runs recorded about themselves."""
@@ -80,21 +90,8 @@ class Provenance:
     def resumed(self) -> str:
         """The finished runs trained in more than one process, with the code behind each stretch of steps
         (``Run.segments``); "none" when every run trained in one go."""
-        parts = []
-        for r in self._ok():
-            segments = r.segments
-            if len(segments) < 2:
-                continue
-
-            def one(seg: dict) -> str:
-                steps = ("" if seg.get("start_step") is None or seg.get("end_step") is None
-                         else f"steps {seg['start_step']}-{seg['end_step']} ")
-                code = (f"at {str(seg['commit'])[:7]}{'+dirty' if seg.get('dirty') else ''}"
-                        if seg.get("commit") else "code not recorded")
-                minutes = "" if seg.get("seconds") is None else f", {float(seg['seconds']) / 60:.0f} min"
-                return f"{steps}{code}{minutes}"
-
-            parts.append(f"`{r.path.name}` ({'; '.join(one(seg) for seg in segments)})")
+        parts = [f"`{r.path.name}` ({'; '.join(_segment_text(seg) for seg in r.segments)})"
+                 for r in self._ok() if len(r.segments) > 1]
         return "; ".join(parts) if parts else "none"
 
     @property

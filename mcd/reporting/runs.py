@@ -167,7 +167,7 @@ class Run:
         """curve.csv (step, seconds, val_psnr, ... per validation; mcd.lit.budget), or None."""
         return self._csv("curve.csv")
 
-    @property
+    @cached_property
     def segments(self) -> list[dict[str, Any]]:
         """Which code trained which steps (metrics.json ``segments``, mcd/lit/segments.py), oldest first.
 
