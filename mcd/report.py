@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from mcd.reporting import curves, findings, frames, seeds, speed, spp, strips, tables
+from mcd.reporting import curves, findings, frames, records, seeds, speed, spp, strips, tables
 from mcd.reporting.provenance import Provenance
 from mcd.reporting.runs import Run, Sweep, display_name, find_runs, find_sweeps
 from mcd.reporting.select import to_markdown
@@ -71,6 +71,14 @@ def _headline(t1: pd.DataFrame) -> list[str]:
     return lines
 
 
+def _regenerate_command(out_dir: Path, name: str, root: Path) -> str:
+    """The command that regenerates the report at `out_dir` from its run records (mcd.reporting.records)."""
+    where = out_dir.resolve()
+    where = where.relative_to(root) if where.is_relative_to(root) else where
+    out = "" if where.parent == Path("reports") else f" --out {where.parent}"
+    return f"python -m mcd.report {where / records.RECORDS_DIR} --name {name}{out}"
+
+
 def write_readme(
     out_dir: Path,
     name: str,
@@ -114,6 +122,10 @@ def write_readme(
         f"- Wall time: {prov.wall_s / 60:.1f} min summed over {n_ok} finished runs (each run's `wall_s`, "
         f"plus {prov.earlier_s / 60:.1f} min of resumed runs' earlier processes); this report took "
         f"{report_s:.1f} s",
+        f"- Run records: [{records.RECORDS_DIR}/]({records.RECORDS_DIR}/) holds each run's `metrics.json`, "
+        "`curve.csv`, `frames.csv`, `edges.json` and `.hydra/` config, and each sweep's `multirun.yaml`: "
+        f"`{_regenerate_command(out_dir, name, root)}` regenerates every table, "
+        "finding and curve from them (not the strips, which need the runs' `samples/`)",
         f"- Jobs: {len(runs)} found, {n_ok} finished, {int((fails['status'] == 'failed').sum())} failed, "
         f"{int((fails['status'] == 'incomplete').sum())} incomplete",
         *[f"- Note: {n}" for n in notes],
@@ -183,6 +195,7 @@ def make_report(
     strip_files = strips.write(runs, out_dir, prov)
     frame_files = frames.write(runs, out_dir, prov)
     curve_files = curves.write(runs, out_dir, prov)
+    records.keep(runs, sweeps, out_dir)
 
     files = [out_dir / f for f in ("table1.md", "table1.csv", "components.md", "components.csv")]
     if "transfer" in results:

@@ -199,3 +199,28 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     assert f"paper: F above A holds (F {paper_f:.2f} dB vs A {paper_a:.2f} dB" in readme
     assert "ours: cannot check the step claims, rows B, C, D, E have no PSNR." in readme
     assert "identity share" in readme
+
+    # the report keeps its runs' records (no checkpoints, no samples) and regenerates from them alone,
+    # elsewhere, once the run directories are gone
+    records = report / "runs"
+    assert (records / "ablation" / "tiny" / "F_spp4" / "metrics.json").is_file()
+    assert (records / "ablation" / "tiny" / "F_spp4" / "edges.json").is_file()
+    assert (records / "ablation" / "tiny" / "multirun.yaml").is_file()
+    assert (records / "transfer" / "tiny" / "F_spp4_ft1" / "curve.csv").is_file()
+    assert not list(records.rglob("*.ckpt")) and not list(records.rglob("*.exr"))
+    assert "python -m mcd.report reports/t32/runs --name t32" in readme
+    moved = tmp_path / "elsewhere"
+    shutil.copytree(report, moved / "reports" / "t32")
+    shutil.rmtree(tmp_path / "multirun")
+    _run(["-m", "mcd.report", "reports/t32/runs", "--name", "t32", "--bench", str(bench_csv)], moved)
+    again = moved / "reports" / "t32"
+    for name in ("components.csv", "table1.csv", "transfer.csv", "spp.csv", "curves.csv"):
+        pd.testing.assert_frame_equal(
+            pd.read_csv(again / name).drop(columns=["run"], errors="ignore"),
+            pd.read_csv(report / name).drop(columns=["run"], errors="ignore"),
+            obj=name,
+        )
+    again_readme = (again / "README.md").read_text()
+    assert "python -m mcd.run -m +sweep=ablation +experiment=A,F" in again_readme
+    assert "C_spp4" in again_readme and "failed" in again_readme
+    assert (again / "runs" / "ablation" / "tiny" / "F_spp4" / "metrics.json").is_file()  # kept, not wiped

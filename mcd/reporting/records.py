@@ -1,0 +1,73 @@
+"""The run records a report keeps beside its tables (docs/benchmark.md "Reports", "Run records").
+
+Run directories live under ``multirun/``, which git ignores: they hold checkpoints and sample EXRs, too large
+to commit, and they do not outlive the machine that trained them. A report therefore copies each run's
+*records* (:data:`RECORD_FILES`: the text files every table, finding and provenance line is computed from)
+and each sweep's ``multirun.yaml`` into ``reports/<name>/runs/``, under the run's last three path parts
+(``<sweep>/<data profile><tag>/<job>``). ``python -m mcd.report reports/<name>/runs --name <name>`` then
+regenerates every table, finding and curve from the repository alone; only the strips, which need
+``samples/``, and the edge effect, which needs the checkpoint, are not re-measured (``edges.json`` is kept
+as measured).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from mcd.edge_effect import EDGES_FILE
+from mcd.reporting.runs import Run, Sweep
+
+#: What a run directory's records are: every file the report reads apart from ``samples/``.
+RECORD_FILES = (
+    "metrics.json",
+    EDGES_FILE,
+    "error.json",
+    "frames.csv",
+    "curve.csv",
+    "resolved_config.yaml",
+    ".hydra/config.yaml",
+    ".hydra/overrides.yaml",
+    ".hydra/hydra.yaml",
+)
+#: The folder of a report that holds its runs' records.
+RECORDS_DIR = "runs"
+
+
+def _key(path: Path) -> Path:
+    """Where a run directory (or a sweep's ``multirun.yaml``) goes under ``runs/``: its last 3 path parts."""
+    return Path(*path.parts[-3:])
+
+
+def keep(runs: list[Run], sweeps: list[Sweep], out_dir: Path) -> Path:
+    """Copy the records of `runs` and the ``multirun.yaml`` of `sweeps` into ``out_dir/runs/``, replacing what
+    an earlier report left there; returns that folder. The copies are made in a folder beside it first, so a
+    report generated from its own ``runs/`` (or from it and new sweeps) reads every record before any is
+    replaced."""
+    dest = out_dir.resolve() / RECORDS_DIR
+    keys = [_key(r.path) for r in runs]
+    clashes = sorted({str(k) for k in keys if keys.count(k) > 1})
+    if clashes:
+        raise ValueError(
+            f"runs from different places share the record folder(s) {', '.join(clashes)} under {dest}: "
+            "report them separately (--name), or rename one sweep's directory"
+        )
+    staging = dest.with_name(RECORDS_DIR + ".new")
+    shutil.rmtree(staging, ignore_errors=True)
+    for run, key in zip(runs, keys, strict=True):
+        for name in RECORD_FILES:
+            src = run.path / name
+            if src.is_file():
+                target = staging / key / name
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(src, target)
+    for sweep in sweeps:
+        src = sweep.path / "multirun.yaml"
+        if src.is_file():
+            target = staging / _key(sweep.path / "multirun.yaml").parent
+            target.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, target / "multirun.yaml")
+    shutil.rmtree(dest, ignore_errors=True)
+    staging.mkdir(parents=True, exist_ok=True)  # no run had a record file: an empty folder still replaces
+    staging.rename(dest)
+    return dest
