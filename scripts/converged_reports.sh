@@ -2,12 +2,16 @@
 # The converged reports of issue 12 (docs/benchmark.md "Reports"): every trained job of data=small under one
 # budget, train=plateau (3000 steps, cosine to lr_min; docs/training.md "Budgets"), then `python -m mcd.report`.
 #
-#   scripts/converged_reports.sh [stage ...]     # stages: ablation baselines transfer spp seeds rest budget report
+#   scripts/converged_reports.sh [stage ...]  # stages: ablation baselines transfer spp seeds rest budget part2 report
 #
 # Job directories go to <MULTIRUN>/<sweep>/small_converged, the report to reports/small_converged. The budget
 # stage asks whether that budget is enough: F and NTASAD (the best trained baseline) again with twice the steps
 # (train.max_steps=6000, the cosine schedule spanning them), in <MULTIRUN>/baselines/small_converged_s6000,
-# reported in reports/small_converged_s6000. The first pass,
+# reported in reports/small_converged_s6000. The part2 stage (not in the default list) runs the component rows
+# the first machine left unfinished (I, K, L, M) on a second one, with the noisy input and OIDN to compare its
+# re-rendered store with the first, into <MULTIRUN>/*/small_converged_part2 and reports/small_converged_part2:
+# the first machine's run directories were lost with it, before reports kept their runs' records
+# (mcd/reporting/records.py). The first pass,
 # multirun/*/small_plateau and reports/small_plateau (same budget), ran before the baselines took the output
 # steps of rows A-M and before pixels without geometry kept the render's value (docs/baselines.md "Output").
 #
@@ -44,21 +48,32 @@ stage() {
     spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
     rest) sweep ablation G,I,K,M H,J,L ;;
     budget) SUFFIX=_s6000 sweep baselines F ntasad train.max_steps=6000 ;;  # is 3000 steps enough?
+    part2)  # the rows the first machine did not finish, with the noisy input and OIDN to check the store matches
+      SUFFIX=_part2 sweep baselines noisy oidn
+      SUFFIX=_part2 sweep ablation I,K L,M ;;
     report)
       local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/edge_effect.py)
-      for d in "$ROOT"/*/small$TAG/*/ "$ROOT"/baselines/small${TAG}_s6000/*/; do
+      for d in "$ROOT"/*/small$TAG/*/ "$ROOT"/*/small${TAG}_s6000/*/ "$ROOT"/*/small${TAG}_part2/*/; do
         if [ -f "$d/metrics.json" ] && [ "$d/metrics.json" -nt "$d/edges.json" ]; then todo+=("$d"); fi
       done
       if [ ${#todo[@]} -gt 0 ]; then  # a job it cannot measure keeps an empty cell; the report still runs
         "$PY" -m mcd.edge_effect "${todo[@]}" || echo "edge effect: some jobs not measured (above)" >&2
       fi
+      # reports/small_converged was generated from run directories that were lost with the first machine (its
+      # multirun/ is not in git); on a machine without F's finished job it is left as committed
+      if [ -f "$ROOT/ablation/small$TAG/F_spp4/metrics.json" ]; then
       "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
         --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh). Output steps, not in the paper, the same for every method (docs/method.md 'Output', docs/baselines.md 'Output'): every learned method matches the frame mean of the render it denoised, and every method but the noisy input keeps the render's value where the G-buffer saw no geometry; the two-stage rows' F_d is residual. Jobs from commit a81b678 on give a pixel at the sampling map's per-pixel cap no DASR gradient (docs/method.md 'Adaptive sampling', step 4); the cap binds mainly at 32 spp, and the 32-spp jobs of adaptive methods were rerun with it (the earlier ones are in multirun/retired/). Resumed runs name each process's commit from commit 4aeff82 on; of the earlier ones, the session notes have the first process of F_spp4_seed3 (45 of its 52 min) at e32c668, before the cap rule, and that of ntasad_spp32 (37 of 43 min) at a81b678, with it."
+      else echo "no $ROOT/ablation/small$TAG/F_spp4/metrics.json: reports/small$TAG left as it is" >&2; fi
+      if compgen -G "$ROOT/*/small${TAG}_part2/*/metrics.json" > /dev/null; then
+        "$PY" -m mcd.report "$ROOT"/*/small${TAG}_part2 --name "small${TAG}_part2" \
+          --note "Part 2 of the converged pass (reports/small_converged): the rows of the component study the first machine did not finish, under the same budget (train=plateau: 3000 optimiser steps, cosine schedule to lr_min) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh, stage part2). The first machine's run directories were lost with it, so these rows could not join that report: they ran on a second machine, on a store rendered again from the same profile and code; the noisy input and OIDN (no training) are here to show whether that store is the same as the first: compare their rows with reports/small_converged's."
+      fi
       if compgen -G "$ROOT/baselines/small${TAG}_s6000/*/metrics.json" > /dev/null; then
         "$PY" -m mcd.report "$ROOT/baselines/small${TAG}_s6000" --name "small${TAG}_s6000" \
           --note "Budget: train=plateau with train.max_steps=6000 (twice the steps of reports/small_converged, the cosine schedule to lr_min spanning them) on data=small, model=cpu, OMP_NUM_THREADS=1, beside other jobs (scripts/converged_reports.sh, stage budget): whether F and NTASAD, the best trained baseline at 4 spp, gain from more training than the converged pass gave them. Same data, seed (0), budget (4 spp) and output steps as reports/small_converged; compare each method with its own row there."
       fi ;;
-    *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest budget report)" >&2; exit 2 ;;
+    *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest budget part2 report)" >&2; exit 2 ;;
   esac
 }
 
