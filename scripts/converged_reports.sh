@@ -71,7 +71,7 @@ stage() {
       fi
       if compgen -G "$ROOT/baselines/small${TAG}_s6000/*/metrics.json" > /dev/null; then
         "$PY" -m mcd.report "$ROOT/baselines/small${TAG}_s6000" --name "small${TAG}_s6000" \
-          --note "Budget: train=plateau with train.max_steps=6000 (twice the steps of reports/small_converged, the cosine schedule to lr_min spanning them) on data=small, model=cpu, OMP_NUM_THREADS=1, beside other jobs (scripts/converged_reports.sh, stage budget): whether F and NTASAD, the best trained baseline at 4 spp, gain from more training than the converged pass gave them. Same data, seed (0), budget (4 spp) and output steps as reports/small_converged; compare each method with its own row there."
+          --note "Budget: train=plateau with train.max_steps=6000 (twice the steps of reports/small_converged, the cosine schedule to lr_min spanning them) on data=small, model=cpu, OMP_NUM_THREADS=1, beside other jobs (scripts/converged_reports.sh, stage budget): whether F and NTASAD, the best trained baseline at 4 spp, gain from more training than the converged pass gave them. Same data, seed (0), budget (4 spp) and output steps as reports/small_converged; compare each method with its own row there. A method that has no row here has not been trained with 6000 steps yet; rows from a second machine compare with reports/small_converged only through its noisy input and OIDN (reports/small_converged_part2, benchmarks/report_agreement.py)."
       fi ;;
     *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest budget part2 report)" >&2; exit 2 ;;
   esac
