@@ -179,6 +179,7 @@ def make_report(
             f"no run directories (metrics.json / error.json / .hydra) under "
             f"{', '.join(map(str, dirs))}: pass the multirun dirs of `mcd.run -m`"
         )
+    records.keys(runs)  # two runs that would share a record folder: refused before anything is written
     sweeps = find_sweeps(dirs)
     if name is None:
         profiles = sorted({r.data_profile for r in runs})

@@ -39,22 +39,28 @@ def _key(path: Path) -> Path:
     return Path(*path.parts[-3:])
 
 
+def keys(runs: list[Run]) -> list[Path]:
+    """Each run's folder under ``runs/``; ValueError, naming them, when two runs from different places would
+    share one (:func:`mcd.report.make_report` asks before it writes anything)."""
+    found = [_key(r.path) for r in runs]
+    clashes = sorted({str(k) for k in found if found.count(k) > 1})
+    if clashes:
+        raise ValueError(
+            f"runs from different places would share the record folder(s) {', '.join(clashes)} under "
+            f"{RECORDS_DIR}/: report them separately (--name), or rename one sweep's directory"
+        )
+    return found
+
+
 def keep(runs: list[Run], sweeps: list[Sweep], out_dir: Path) -> Path:
     """Copy the records of `runs` and the ``multirun.yaml`` of `sweeps` into ``out_dir/runs/``, replacing what
     an earlier report left there; returns that folder. The copies are made in a folder beside it first, so a
     report generated from its own ``runs/`` (or from it and new sweeps) reads every record before any is
     replaced."""
     dest = out_dir.resolve() / RECORDS_DIR
-    keys = [_key(r.path) for r in runs]
-    clashes = sorted({str(k) for k in keys if keys.count(k) > 1})
-    if clashes:
-        raise ValueError(
-            f"runs from different places share the record folder(s) {', '.join(clashes)} under {dest}: "
-            "report them separately (--name), or rename one sweep's directory"
-        )
     staging = dest.with_name(RECORDS_DIR + ".new")
     shutil.rmtree(staging, ignore_errors=True)
-    for run, key in zip(runs, keys, strict=True):
+    for run, key in zip(runs, keys(runs), strict=True):
         for name in RECORD_FILES:
             src = run.path / name
             if src.is_file():

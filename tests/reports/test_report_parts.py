@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mcd.report import make_report
 from mcd.reporting.runs import find_runs
 from mcd.reporting.select import pick, to_markdown
 from mcd.reporting.strips import crop_box
@@ -391,3 +392,12 @@ def test_a_resumed_run_from_before_the_segment_records_is_found_by_its_curve_clo
     prov = Provenance.gather([], list(runs.values()), command="test")
     assert prov.resumed == "`resumed` (code not recorded, 26 min; at ccccccc, 7 min)"
     assert prov.wall_s == pytest.approx(510.0 + 410.0 + 1530.0)
+
+
+def test_runs_that_would_share_a_record_folder_are_refused_before_anything_is_written(tmp_path):
+    for machine in ("first", "second"):
+        _job(tmp_path / machine / "ablation" / "small", "F_spp4", metrics={"psnr": 30.0, "experiment": "F",
+                                                                           "budget": 4})
+    with pytest.raises(ValueError, match="ablation/small/F_spp4"):
+        make_report([tmp_path / "first", tmp_path / "second"], tmp_path / "reports", name="both", bench=None)
+    assert not (tmp_path / "reports").exists()
