@@ -5,9 +5,9 @@
 #   scripts/converged_reports.sh [stage ...]  # stages: ablation baselines transfer spp seeds rest budget part2 report
 #
 # Job directories go to <MULTIRUN>/<sweep>/small_converged, the report to reports/small_converged. The budget
-# stage asks whether that budget is enough: F and NTASAD (the best trained baseline) again with twice the steps
-# (train.max_steps=6000, the cosine schedule spanning them), in <MULTIRUN>/baselines/small_converged_s6000,
-# reported in reports/small_converged_s6000. The part2 stage (not in the default list) runs the component rows
+# stage asks whether that budget is enough: F and NTASAD (the best trained baseline) again with more steps
+# (train.max_steps=$BUDGET_STEPS, default 6000, the cosine schedule spanning them), in
+# <MULTIRUN>/baselines/small_converged_s<steps>, reported in reports/small_converged_s<steps>. The part2 stage (not in the default list) runs the component rows
 # the first machine left unfinished (I, K, L, M) on a second one, with the noisy input and OIDN to compare its
 # re-rendered store with the first, into <MULTIRUN>/*/small_converged_part2 and reports/small_converged_part2:
 # the first machine's run directories were lost with it, before reports kept their runs' records
@@ -24,6 +24,7 @@ cd "$(dirname "$0")/.."
 PY=${PY:-.venv/bin/python}
 ROOT=$(realpath -m "${MULTIRUN:-multirun}")
 TAG=_converged
+STEPS=${BUDGET_STEPS:-6000}  # the budget stage's steps
 COMMON=(data=small train=plateau trainer.enable_progress_bar=false)
 export OMP_NUM_THREADS=1
 
@@ -47,13 +48,13 @@ stage() {
     seeds) sweep seeds A,F B,C seed=1,2,3,4 ;;                  # seed 0: the ablation jobs; A+F and B+C balance the two processes
     spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
     rest) sweep ablation G,I,K,M H,J,L ;;
-    budget) SUFFIX=_s6000 sweep baselines F ntasad train.max_steps=6000 ;;  # is 3000 steps enough?
+    budget) SUFFIX=_s$STEPS sweep baselines F ntasad "train.max_steps=$STEPS" ;;  # is 3000 steps enough?
     part2)  # the rows the first machine did not finish, with the noisy input and OIDN to check the store matches
       SUFFIX=_part2 sweep baselines noisy oidn
       SUFFIX=_part2 sweep ablation I,K L,M ;;
     report)
       local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/edge_effect.py)
-      for d in "$ROOT"/*/small$TAG/*/ "$ROOT"/*/small${TAG}_s6000/*/ "$ROOT"/*/small${TAG}_part2/*/; do
+      for d in "$ROOT"/*/small$TAG/*/ "$ROOT"/*/small${TAG}_s[0-9]*/*/ "$ROOT"/*/small${TAG}_part2/*/; do
         if [ -f "$d/metrics.json" ] && [ "$d/metrics.json" -nt "$d/edges.json" ]; then todo+=("$d"); fi
       done
       if [ ${#todo[@]} -gt 0 ]; then  # a job it cannot measure keeps an empty cell; the report still runs
@@ -69,10 +70,13 @@ stage() {
         "$PY" -m mcd.report "$ROOT"/*/small${TAG}_part2 --name "small${TAG}_part2" \
           --note "Part 2 of the converged pass (reports/small_converged): the rows of the component study the first machine did not finish, under the same budget (train=plateau: 3000 optimiser steps, cosine schedule to lr_min) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh, stage part2). The first machine's run directories were lost with it, so these rows could not join that report: they ran on a second machine, on a store rendered again from the same profile and code; the noisy input and OIDN (no training) are here to show whether that store is the same as the first: compare their rows with reports/small_converged's."
       fi
-      if compgen -G "$ROOT/baselines/small${TAG}_s6000/*/metrics.json" > /dev/null; then
-        "$PY" -m mcd.report "$ROOT/baselines/small${TAG}_s6000" --name "small${TAG}_s6000" \
-          --note "Budget: train=plateau with train.max_steps=6000 (twice the steps of reports/small_converged, the cosine schedule to lr_min spanning them) on data=small, model=cpu, OMP_NUM_THREADS=1, beside other jobs (scripts/converged_reports.sh, stage budget): whether F and NTASAD, the best trained baseline at 4 spp, gain from more training than the converged pass gave them. Same data, seed (0), budget (4 spp) and output steps as reports/small_converged; compare each method with its own row there. A method that has no row here has not been trained with 6000 steps yet; rows from a second machine compare with reports/small_converged only through its noisy input and OIDN (reports/small_converged_part2, benchmarks/report_agreement.py)."
-      fi ;;
+      local b n
+      for b in "$ROOT"/baselines/small${TAG}_s[0-9]*; do
+        compgen -G "$b/*/metrics.json" > /dev/null || continue
+        n=${b##*_s}
+        "$PY" -m mcd.report "$b" --name "small${TAG}_s$n" \
+          --note "Budget: train=plateau with train.max_steps=$n (against the 3000 steps of reports/small_converged, the cosine schedule to lr_min spanning them) on data=small, model=cpu, threads as in the Device(s) line (scripts/converged_reports.sh, stage budget with BUDGET_STEPS=$n): whether F and NTASAD, the best trained baseline at 4 spp, gain from more training than the converged pass gave them. Same data, seed (0), budget (4 spp) and output steps as reports/small_converged; compare each method with its own row there. A method that has no row here has not been trained with $n steps yet; rows from a second machine compare with reports/small_converged only through its noisy input and OIDN (reports/small_converged_part2, benchmarks/report_agreement.py)."
+      done ;;
     *) echo "unknown stage $1 (ablation baselines transfer spp seeds rest budget part2 report)" >&2; exit 2 ;;
   esac
 }
