@@ -141,7 +141,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             x["motion"] = _tensor(mv, device)
         prev_cam = cam
         row: dict[str, Any] = {"frame": f}
-        with torch.no_grad():
+        with torch.inference_mode():
             if loaded_model.adaptive:
                 placeholders = {k: torch.zeros_like(x["c1_in"]) for k in stack_names(levels)}
                 render = AdaptiveRender(scene.scene, r.sensor, derive_seed(seed, "adaptive", f), exposure)
@@ -161,7 +161,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             row.update(psnr_input=psnr(hwc(noisy), ref), psnr_real=psnr(hwc(out["output"]), ref))
             if sim_model is not None:
                 stack = {k: _tensor(colour(2 ** j, k, f), device) for j, k in enumerate(stack_names(levels))}
-                with torch.no_grad():
+                with torch.inference_mode():
                     sim = sim_model({**x, **stack})
                 row["psnr_simulated"] = psnr(hwc(sim["output"]), ref)
                 row["psnr_real_minus_simulated"] = row["psnr_real"] - row["psnr_simulated"]

@@ -75,7 +75,7 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
     t0 = time.perf_counter()
     tiled.reset()
     bar = tqdm(range(len(seq)), desc="denoise", unit="frame", disable=not progress)
-    with torch.no_grad():
+    with torch.inference_mode():
         for i in bar:
             out = tiled(inputs(i))
             write_frame(out_dir, paths[i].stem, out, seq.exposure)

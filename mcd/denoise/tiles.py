@@ -21,7 +21,7 @@ PROBE = 64
 MULTIPLE = 16
 
 
-@torch.no_grad()
+@torch.inference_mode()
 def bytes_per_pixel(model: nn.Module, x: dict[str, Tensor | None]) -> float:
     """Bytes of module outputs per input pixel of one forward pass of ``model`` on ``x`` (module docstring).
 
@@ -100,7 +100,7 @@ class TiledModel:
         for m in {id(m): m for m in self.models}.values():
             m.reset()
 
-    @torch.no_grad()
+    @torch.inference_mode()
     def __call__(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         if len(self.tiles) == 1:
             return self.models[0](x)

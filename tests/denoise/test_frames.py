@@ -79,3 +79,24 @@ def test_fastdvdnet_reads_its_window_of_neighbours(sequence, tmp_path):
     fdv = untrained_bundle(tmp_path, "fastdvdnet", "+experiment=fastdvdnet", "model=cpu")
     report = run([str(folder), "-o", str(tmp_path / "out"), "--checkpoint", str(fdv), "--no-progress"])
     assert report["frames"] == 4 and all((tmp_path / "out" / f"cbox_{f:04d}.exr").is_file() for f in range(4))
+
+
+def test_models_run_under_inference_mode_where_the_cpu_fast_paths_apply(sequence, tmp_path, monkeypatch):
+    """The CPU fast paths of mcd/models/ghost_conv.py apply only under torch.inference_mode
+    (docs/inference.md); under no_grad F's forward took 1.8x as long (docs/denoise.md)."""
+    import torch
+
+    from mcd.denoise import weights
+
+    modes: list[bool] = []
+    real_load = weights.load
+
+    def load(*args, **kwargs):
+        loaded = real_load(*args, **kwargs)
+        loaded.model.register_forward_pre_hook(lambda *_: modes.append(torch.is_inference_mode_enabled()))
+        return loaded
+
+    monkeypatch.setattr(weights, "load", load)
+    folder, _ = sequence
+    run([str(folder), "-o", str(tmp_path / "out"), "--checkpoint", "unet-cpu-small", "--no-progress"])
+    assert modes and all(modes), modes
