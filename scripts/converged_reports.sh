@@ -7,11 +7,11 @@
 # Job directories go to <MULTIRUN>/<sweep>/small_converged, the report to reports/small_converged. The budget
 # stage asks whether that budget is enough: F and NTASAD (the best trained baseline) again with more steps
 # (train.max_steps=$BUDGET_STEPS, default 6000, the cosine schedule spanning them), in
-# <MULTIRUN>/baselines/small_converged_s<steps>, reported in reports/small_converged_s<steps>. The part2 stage (not in the default list) runs the component rows
-# the first machine left unfinished (I, K, L, M) on a second one, with the noisy input and OIDN to compare its
-# re-rendered store with the first, into <MULTIRUN>/*/small_converged_part2 and reports/small_converged_part2:
-# the first machine's run directories were lost with it, before reports kept their runs' records
-# (mcd/reporting/records.py). The first pass,
+# <MULTIRUN>/baselines/small_converged_s<steps>, reported in reports/small_converged_s<steps>. The part2
+# stage (not in the default list) runs the component rows the first machine left unfinished (I, K, L, M) on a
+# second one, with the noisy input and OIDN to compare its re-rendered store with the first, into
+# <MULTIRUN>/*/small_converged_part2 and reports/small_converged_part2: the first machine's run directories
+# were lost with it, before reports kept their runs' records (mcd/reporting/records.py). The first pass,
 # multirun/*/small_plateau and reports/small_plateau (same budget), ran before the baselines took the output
 # steps of rows A-M and before pixels without geometry kept the render's value (docs/baselines.md "Output").
 #
@@ -63,8 +63,8 @@ stage() {
       # reports/small_converged was generated from run directories that were lost with the first machine (its
       # multirun/ is not in git); on a machine without F's finished job it is left as committed
       if [ -f "$ROOT/ablation/small$TAG/F_spp4/metrics.json" ]; then
-      "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
-        --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh). Output steps, not in the paper, the same for every method (docs/method.md 'Output', docs/baselines.md 'Output'): every learned method matches the frame mean of the render it denoised, and every method but the noisy input keeps the render's value where the G-buffer saw no geometry; the two-stage rows' F_d is residual. Jobs from commit a81b678 on give a pixel at the sampling map's per-pixel cap no DASR gradient (docs/method.md 'Adaptive sampling', step 4); the cap binds mainly at 32 spp, and the 32-spp jobs of adaptive methods were rerun with it (the earlier ones are in multirun/retired/). Resumed runs name each process's commit from commit 4aeff82 on; of the earlier ones, the session notes have the first process of F_spp4_seed3 (45 of its 52 min) at e32c668, before the cap rule, and that of ntasad_spp32 (37 of 43 min) at a81b678, with it."
+        "$PY" -m mcd.report "$ROOT"/*/small$TAG --name small$TAG \
+          --note "Budget: train=plateau (3000 optimiser steps, cosine schedule to lr_min, no wall-clock limit) on data=small, model=cpu, two jobs at a time with OMP_NUM_THREADS=1 (scripts/converged_reports.sh). Output steps, not in the paper, the same for every method (docs/method.md 'Output', docs/baselines.md 'Output'): every learned method matches the frame mean of the render it denoised, and every method but the noisy input keeps the render's value where the G-buffer saw no geometry; the two-stage rows' F_d is residual. Jobs from commit a81b678 on give a pixel at the sampling map's per-pixel cap no DASR gradient (docs/method.md 'Adaptive sampling', step 4); the cap binds mainly at 32 spp, and the 32-spp jobs of adaptive methods were rerun with it (the earlier ones are in multirun/retired/). Resumed runs name each process's commit from commit 4aeff82 on; of the earlier ones, the session notes have the first process of F_spp4_seed3 (45 of its 52 min) at e32c668, before the cap rule, and that of ntasad_spp32 (37 of 43 min) at a81b678, with it."
       else echo "no $ROOT/ablation/small$TAG/F_spp4/metrics.json: reports/small$TAG left as it is" >&2; fi
       if compgen -G "$ROOT/*/small${TAG}_part2/*/metrics.json" > /dev/null; then
         "$PY" -m mcd.report "$ROOT"/*/small${TAG}_part2 --name "small${TAG}_part2" \

@@ -83,7 +83,7 @@ def test_fastdvdnet_reads_its_window_of_neighbours(sequence, tmp_path):
 
 def test_models_run_under_inference_mode_where_the_cpu_fast_paths_apply(sequence, tmp_path, monkeypatch):
     """The CPU fast paths of mcd/models/ghost_conv.py apply only under torch.inference_mode
-    (docs/inference.md); under no_grad F's forward took 1.8x as long (docs/denoise.md)."""
+    (docs/inference.md); docs/denoise.md "Speed" has what no_grad cost F."""
     import torch
 
     from mcd.denoise import weights
