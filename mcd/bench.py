@@ -16,11 +16,12 @@ Timing: one output frame per call (batch 1, under ``torch.inference_mode``) in s
 keep their state from frame to frame; ``reset()`` once before warm-up), ``--warmup`` calls first, then
 ``--reps`` timed calls, each closed by ``torch.cuda.synchronize()`` on CUDA; the median and frames/s are
 written. CPU at 1080p is slow: it uses ``--cpu-1080p-reps`` (default 2) after one warm-up, and the CSV's
-``reps`` column states it. Beside the time: the method's MACs at that size (``mcd.complexity``; empty for
-OIDN, whose network torch cannot see) and the achieved GMAC/s, the torch thread count (OIDN runs its own
-threads, one per core), and on CPU the process's peak resident memory during that path's calls (``VmHWM`` of
-``/proc/self/status``, reset before the path after handing freed heap back to the OS; it includes the Python
-process, the model and the inputs).
+``reps`` column states it. Beside the time: the method's MACs at that size (``mcd.complexity``; for OIDN,
+whose network torch cannot see, those of its network's shape: mcd/models/baselines/oidn_network.py) and the
+achieved GMAC/s, the torch thread count (OIDN runs its own threads, one per core), and on CPU the process's
+peak resident memory during that path's calls (``VmHWM`` of ``/proc/self/status``, reset before the path
+after handing freed heap back to the OS; it includes the Python process, the model and the inputs). The README
+also gives each device's dense matmul rate (:func:`matmul_ceilings`), the ceiling to read GMAC/s against.
 
 Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.StoreReader.load`:
 exposure applied, depth scaled, sanitised, as the models see it; ``--data <profile>``, ``--scene``; default
@@ -408,6 +409,30 @@ def run(
     return rows
 
 
+def matmul_rate(device: torch.device, dtype: torch.dtype, n: int = 2048, reps: int = 5) -> float:
+    """GMAC/s of the best of ``reps`` dense ``n x n`` matrix products (``torch.mm``, ``dtype`` inputs) on
+    ``device`` with this process's threads: the rate this machine's BLAS reaches on the best-shaped work, a
+    ceiling to read the methods' GMAC/s against (docs/inference.md "OIDN's MACs")."""
+    a = torch.randn(n, n, device=device).to(dtype)
+    b = torch.randn(n, n, device=device).to(dtype)
+    with torch.inference_mode():
+        times = time_calls(lambda: torch.mm(a, b), device, warmup=2, reps=reps)
+    return n**3 / 1e9 / (min(times) / 1e3)
+
+
+def matmul_ceilings(devices: list[str]) -> dict[str, float]:
+    """:func:`matmul_rate` per available device and dtype of its inference paths (``"cpu fp32"``: GMAC/s)."""
+    out: dict[str, float] = {}
+    for name in devices:
+        device = torch.device(name)
+        if device.type == "cuda" and not torch.cuda.is_available():
+            continue
+        dtypes = {p.dtype_name: p.dtype or torch.float32 for p in inference_paths(device, cpu_compile=False)}
+        for dname, dtype in dtypes.items():
+            out[f"{device.type} {dname}"] = matmul_rate(device, dtype)
+    return out
+
+
 def _fmt(value: float | None, spec: str) -> str:
     return "" if value is None else format(value, spec)
 
@@ -430,9 +455,11 @@ def write_csv(rows: list[Row], path: Path) -> None:
 MEMORY_LIMIT_GB = 8.0
 
 
-def summary(rows: list[Row]) -> list[str]:
+def summary(rows: list[Row], ceilings: dict[str, float] | None = None) -> list[str]:
     """Markdown lines: the fastest path per method, device and size (time, GMAC/s, peak memory), F's latency
-    as a ratio to OIDN's, F's GMAC/s as a ratio to the U-Net's, and the largest peak memory per size."""
+    as a ratio to OIDN's (split into the ratio of their MACs and of their GMAC/s, and the GMAC/s F would need
+    to match OIDN, beside the device's dense matmul ``ceilings`` from :func:`matmul_ceilings`), F's GMAC/s as
+    a ratio to the U-Net's, and the largest peak memory per size."""
     best: dict[tuple[str, str, int, int], Row] = {}
     for r in rows:
         key = (r.method, r.device, r.height, r.width)
@@ -464,6 +491,17 @@ def summary(rows: list[Row]) -> list[str]:
                 f"- F / OIDN latency on {device} at {w}x{h} (fastest path of each): "
                 f"{r.ms_median:.2f} / {oidn.ms_median:.2f} ms = {r.ms_median / oidn.ms_median:.2f}x"
             )
+            if r.gmacs and oidn.gmacs and r.gmac_per_s and oidn.gmac_per_s:
+                need = r.gmacs / oidn.ms_median * 1e3
+                tops = [f"{k.split(' ', 1)[1]} {v:.1f}" for k, v in sorted((ceilings or {}).items())
+                        if k.startswith(f"{device} ")]
+                lines.append(
+                    f"  - = MACs {r.gmacs:.1f} / {oidn.gmacs:.1f} GMACs ({r.gmacs / oidn.gmacs:.2f}x) "
+                    f"x GMAC/s {oidn.gmac_per_s:.1f} / {r.gmac_per_s:.1f} "
+                    f"({oidn.gmac_per_s / r.gmac_per_s:.2f}x); "
+                    f"to match OIDN's latency F would need {need:.1f} GMAC/s"
+                    + (f" (dense matmul here: {', '.join(tops)} GMAC/s)" if tops else "")
+                )
         if method == "F" and unet is not None and r.gmac_per_s and unet.gmac_per_s:
             lines.append(
                 f"- F / U-Net achieved GMAC/s on {device} at {w}x{h} (fastest path of each): "
@@ -482,9 +520,10 @@ def summary(rows: list[Row]) -> list[str]:
     return lines
 
 
-def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str) -> Path:
+def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str,
+                 ceilings: dict[str, float] | None = None) -> Path:
     """README.md beside the CSV: provenance (command, ``commit`` as it was when the run started, device,
-    torch) and :func:`summary`."""
+    torch), the dense matmul ``ceilings`` and :func:`summary`."""
     devices = sorted({f"{r.device}: {r.device_name}" for r in rows})
     inputs = sorted({r.inputs for r in rows if r.inputs})
     reps = sorted({f"{r.device} {r.width}x{r.height}: {r.warmup} warm-up + {r.reps} timed" for r in rows})
@@ -498,8 +537,10 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
         f"- Inputs: {', '.join(inputs) or 'none'}",
         f"- Repetitions (median of the timed calls): {'; '.join(reps)}",
         f"- Data: [{csv_path.name}]({csv_path.name})",
+        *(["- Dense matmul ceiling (torch.mm 2048x2048, best of 5, same threads): "
+           + ", ".join(f"{k} {v:.1f} GMAC/s" for k, v in sorted(ceilings.items()))] if ceilings else []),
         "",
-        *summary(rows),
+        *summary(rows, ceilings),
     ]
     path = csv_path.parent / "README.md"
     path.write_text("\n".join(lines) + "\n")
@@ -565,9 +606,12 @@ def main(argv: list[str] | None = None) -> None:
         args.cpu_compile,
         None if args.synthetic else store_frame(args.data, args.scene),
     )
+    ceilings = matmul_ceilings([d for d in args.devices.split(",") if d])
+    for name, rate in sorted(ceilings.items()):
+        log.info("dense matmul ceiling %s: %.1f GMAC/s", name, rate)
     write_csv(rows, args.out)
     command = "python -m mcd.bench " + " ".join(argv)
-    write_readme(rows, args.out, command, time.perf_counter() - started, commit)
+    write_readme(rows, args.out, command, time.perf_counter() - started, commit, ceilings)
     print(f"{len(rows)} rows -> {args.out}")
 
 

@@ -50,7 +50,10 @@ def dummy_batch(model: nn.Module, height: int, width: int, device: torch.device 
 
 
 def count_params(model: nn.Module) -> int:
-    """Trainable parameters."""
+    """Trainable parameters; for a method that runs a network torch does not hold (OIDN), that network's
+    (``model.network_params()``)."""
+    if hasattr(model, "network_params"):
+        return int(model.network_params())
     return sum(p.numel() for p in model.parameters() if p.requires_grad)
 
 
@@ -68,14 +71,11 @@ def count_macs(model: nn.Module, height: int = 1080, width: int = 1920, device: 
 
 
 def complexity(cfg, height: int = 1080, width: int = 1920, device: str = "meta") -> tuple[float, float]:
-    """``(params in M, GMACs)`` of the method ``cfg`` describes, built on ``device``; GMACs is NaN for a
-    model that sets ``macs_countable = False`` (one whose network torch cannot see, e.g. OIDN)."""
+    """``(params in M, GMACs)`` of the method ``cfg`` describes, built on ``device``."""
     from mcd.models import build
 
     with torch.device(device):
         model = build(cfg)
-    if not getattr(model, "macs_countable", True):
-        return count_params(model) / 1e6, math.nan
     return count_params(model) / 1e6, count_macs(model, height, width, device) / 1e9
 
 

@@ -259,8 +259,7 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
 
     cfg, model, trainer, averages = job.cfg, job.model, job.trainer, job.recorder.averages
     assert averages is not None, "run_record needs the test's averages (global rank 0, after test)"
-    # a network torch cannot see (OIDN) has unknown parameters, not zero
-    params_m = count_params(model) / 1e6 if getattr(model, "macs_countable", True) else None
+    params_m = count_params(model) / 1e6
     try:
         macs_g: float | None = complexity(cfg)[1]
     except (NotImplementedError, RuntimeError) as err:

@@ -59,11 +59,3 @@ def test_missing_pyoidn_names_the_install_command(monkeypatch: pytest.MonkeyPatc
     with pytest.raises(ImportError, match=r"pip install 'mcd\[oidn\]'"):
         OIDN(4)
 
-
-@pytest.mark.skipif(not HAS_PYOIDN, reason="pyoidn is not installed (optional: pip install 'mcd[oidn]')")
-def test_meta_device_says_macs_are_unknown() -> None:
-    from mcd.models.baselines.oidn import OIDN
-
-    x = {k: torch.empty(1, 3, 8, 8, device="meta") for k in ("c4", "albedo", "normal")}
-    with pytest.raises(NotImplementedError, match="MACs"):
-        OIDN(4)(x)

@@ -107,6 +107,20 @@ def test_ratio_line_compares_f_with_oidn():
         bench.Row(method="oidn", dtype="fp32", ms_median=4.0, fps=250.0, **common),
     ]
     assert any("= 2.00x" in line for line in bench.summary(rows))
+    # with MACs, the ratio splits into MACs x GMAC/s, and the rate F would need is set beside the ceiling
+    rows[0].gmacs, rows[0].gmac_per_s = 400.0, 50.0
+    rows[1].gmacs, rows[1].gmac_per_s = 200.0, 50.0
+    lines = bench.summary(rows, {"cuda fp16": 300.0, "cpu fp32": 99.0})
+    split = next(line for line in lines if "= MACs" in line)
+    assert "(2.00x) x GMAC/s 50.0 / 50.0 (1.00x)" in split
+    assert "would need 100000.0 GMAC/s" in split  # 400 GMACs in 4 ms
+    assert "dense matmul here: fp16 300.0 GMAC/s" in split and "99.0" not in split
+
+
+def test_matmul_ceiling_is_a_measured_rate():
+    ceilings = bench.matmul_ceilings(["cpu"])
+    assert set(ceilings) == {f"cpu {p.dtype_name}" for p in bench.inference_paths(torch.device("cpu"), False)}
+    assert all(0.1 < rate < 1e5 for rate in ceilings.values())
 
 
 def test_cpu_paths_respect_cpu_support():

@@ -16,6 +16,7 @@ import torch
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.models.baselines.oidn_network import MODEL_OF_QUALITY, OIDNUNet
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import need
 from mcd.models.registry import register
@@ -37,14 +38,25 @@ class OIDN(nn.Module):
 
     window = (0, 0)
     temporal_state = False  # single-frame
-    #: Its network is OIDN's own, not torch: FlopCounterMode cannot count its MACs (report them as unknown).
-    macs_countable = False
 
     def __init__(self, budget: int, quality: str = "high") -> None:
         super().__init__()
+        if quality not in MODEL_OF_QUALITY:
+            raise ValueError(f"method.quality={quality!r}: OIDN's quality is one of "
+                             f"{sorted(MODEL_OF_QUALITY)}")
         self.pyoidn = import_pyoidn()
         self.key = uniform_key(budget, "oidn")
         self.quality = quality
+
+    def network(self) -> OIDNUNet:
+        """The shape of the network OIDN runs at this quality, on the ``meta`` device (no weights): what
+        :mod:`mcd.complexity` counts (mcd/models/baselines/oidn_network.py)."""
+        with torch.device("meta"):
+            return OIDNUNet(MODEL_OF_QUALITY[self.quality])
+
+    def network_params(self) -> int:
+        """Parameters of OIDN's own network (trained by OIDN's authors, fixed here)."""
+        return sum(p.numel() for p in self.network().parameters())
 
     def required_buffers(self) -> set[str]:
         return {self.key, "normal", "albedo"}
@@ -59,11 +71,10 @@ class OIDN(nn.Module):
     @torch.no_grad()
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         noisy = need(x, self.key, "oidn")
-        if noisy.device.type == "meta":
-            raise NotImplementedError("OIDN runs its own (non-torch) network: its MACs cannot be counted on "
-                                      "the meta device; report them as unknown")
         albedo = need(x, "albedo", "oidn").clamp(0, 1)
         normal = need(x, "normal", "oidn").clamp(-1, 1)
+        if noisy.device.type == "meta":  # counting MACs (mcd.complexity): OIDN's network in shape only
+            return {"output": self.network()(torch.cat((noisy, albedo, normal), 1))}
         out = [self.pyoidn.denoise(self._hwc(c.clamp_min(0)), albedo=self._hwc(a), normal=self._hwc(n),
                                    hdr=True, quality=self.quality)
                for c, a, n in zip(noisy, albedo, normal, strict=True)]
