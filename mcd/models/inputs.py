@@ -87,8 +87,8 @@ def cat_channels(tensors: Sequence[Tensor]) -> Tensor:
 
     ``torch.cat`` keeps channels-last only when every input suggests it, and a one-channel tensor (depth, a
     grey image) suggests the contiguous format, so every convolution that read the concatenation would first
-    reorder it (docs/inference.md, "Channels-last inputs"). ``torch.cat(out=...)`` has no gradient, so with
-    gradients recorded this is ``torch.cat`` itself."""
+    reorder it (docs/inference.md, "Channels-last concatenations"). ``torch.cat(out=...)`` has no gradient,
+    so with gradients recorded this is ``torch.cat`` itself."""
     cl = torch.channels_last
     if torch.is_grad_enabled() or not any(t.dim() == 4 and t.shape[1] > 1
                                           and t.is_contiguous(memory_format=cl) for t in tensors):
