@@ -44,7 +44,7 @@ import math
 import statistics
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -56,7 +56,7 @@ from torch import Tensor, nn
 
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
-from mcd.lit.precision import cpu_bf16_supported
+from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
 
 log = logging.getLogger("mcd.bench")
@@ -228,15 +228,6 @@ def _sync(device: torch.device) -> None:
         torch.cuda.synchronize(device)
 
 
-@contextlib.contextmanager
-def _autocast(device: torch.device, dtype: torch.dtype | None) -> Iterator[None]:
-    if dtype is None:
-        yield
-    else:
-        with torch.autocast(device_type=device.type, dtype=dtype):
-            yield
-
-
 def reset_peak_rss() -> None:
     """Hand freed heap back to the OS (glibc ``malloc_trim``, so memory an earlier method freed does not
     count) and restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
@@ -290,7 +281,7 @@ def bench_one(
     outputs: list[dict[str, Tensor]] = []
 
     def call() -> None:
-        with torch.inference_mode(), _autocast(device, path.dtype):
+        with torch.inference_mode(), autocast_to(device, path.dtype):
             outputs[:] = [fn(x)]
 
     if hasattr(model, "reset"):

@@ -26,7 +26,6 @@ from torch.profiler import ProfilerActivity, profile
 
 from mcd.bench import (
     InferencePath,
-    _autocast,
     compose_cfg,
     frame_buffers,
     model_inputs,
@@ -34,7 +33,7 @@ from mcd.bench import (
     store_frame,
 )
 from mcd.complexity import dummy_batch, flop_counter_mode
-from mcd.lit.precision import cpu_bf16_supported
+from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
 from mcd.models.position_pooling import PositionAwarePool
 from mcd.models.semantic_alignment import SemanticAlignment
@@ -156,7 +155,7 @@ def main(argv: list[str] | None = None) -> None:
     model.reset()
 
     def call() -> None:
-        with torch.inference_mode(), _autocast(device, path.dtype):
+        with torch.inference_mode(), autocast_to(device, path.dtype):
             model(x)
 
     for _ in range(args.warmup):

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import torch
 
-from mcd.denoise import weights
+from mcd.denoise import precision, weights
+from mcd.denoise.precision import PRECISIONS
 
 log = logging.getLogger("mcd.denoise")
 
@@ -43,6 +44,9 @@ def parser() -> argparse.ArgumentParser:
                    help="also render a reference at this spp and print PSNRs, simulated vs real (input b)")
     p.add_argument("--seed", type=int, default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
+    p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
+                   help="network precision: fp32 (default); bf16 (a CPU with native bf16, or a GPU) or fp16 "
+                   "(GPU) run under autocast, channels-last (docs/denoise.md 'Speed')")
     p.add_argument("--max-memory-mb", type=float, default=4096,
                    help="memory cap of one network pass; larger frames go in overlapping tiles (input a)")
     p.add_argument("--overlap", type=int, default=32, help="tile overlap in pixels (input a)")
@@ -83,6 +87,7 @@ def run(argv: list[str] | None = None) -> dict:
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     try:
         device = pick_device(args.device)
+        dtype = precision.check(args.precision, device)
         loaded = load_model(args)
         log.info("model: %s, experiment %s, budget %s", loaded.source, loaded.experiment, loaded.cfg.budget)
         if args.scene is not None:
@@ -92,7 +97,7 @@ def run(argv: list[str] | None = None) -> dict:
 
             report = denoise_scene(loaded, args.scene, args.output, device, args.width, args.height,
                                    args.frames, args.gbuffer_spp, args.seed, args.reference_spp,
-                                   progress=not args.no_progress)
+                                   progress=not args.no_progress, dtype=dtype)
             for row in report["frames"]:
                 line = f"frame {row['frame']}: {row['samples']} colour samples, N*s = {row['budget_samples']}"
                 if "psnr_real" in row:
@@ -108,7 +113,7 @@ def run(argv: list[str] | None = None) -> dict:
             from mcd.denoise.sequence import denoise_frames
 
             report = denoise_frames(loaded, find_frames(args.inputs), args.output, device, args.max_memory_mb,
-                                    args.overlap, progress=not args.no_progress)
+                                    args.overlap, progress=not args.no_progress, dtype=dtype)
             bad = sum(report["sanitised"].values())
             if bad:
                 print(f"sanitised: {bad} NaN/Inf/negative input values replaced by 0 "
@@ -117,7 +122,8 @@ def run(argv: list[str] | None = None) -> dict:
     except (ValueError, FileNotFoundError, RuntimeError) as err:
         print(f"mcd-denoise: error: {err}", file=sys.stderr)
         raise SystemExit(2) from err
-    report.update(checkpoint=loaded.source, experiment=loaded.experiment, provenance=loaded.provenance)
+    report.update(checkpoint=loaded.source, experiment=loaded.experiment, provenance=loaded.provenance,
+                  precision=args.precision, device=str(device))
     args.output.mkdir(parents=True, exist_ok=True)
     (args.output / "denoise.json").write_text(json.dumps(report, indent=1, default=str))
     return report

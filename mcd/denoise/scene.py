@@ -33,6 +33,7 @@ from mcd.data.exposure import auto_exposure, depth_scale, normalise
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
 from mcd.denoise.output import hwc, write_frame
+from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.weights import Loaded
 from mcd.metrics import psnr
 from mcd.sampling import real_renderer, stack_names
@@ -88,14 +89,16 @@ class AdaptiveRender:
 
 def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch.device, width: int,
                   height: int, frames: int = 1, gbuffer_spp: int = 16, seed: int = 0,
-                  reference_spp: int = 0, progress: bool = True) -> dict[str, Any]:
-    """Render and denoise ``path`` (module docstring); returns a summary with per-frame samples and PSNRs."""
+                  reference_spp: int = 0, progress: bool = True,
+                  dtype: torch.dtype | None = None) -> dict[str, Any]:
+    """Render and denoise ``path`` (module docstring) with autocast to ``dtype`` (None: fp32;
+    mcd/denoise/precision.py); returns a summary with per-frame samples and PSNRs."""
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
 
     select_variant("auto")
     cfg = loaded_model.cfg
-    model = loaded_model.model.to(device)
+    model = prepare(loaded_model.model.to(device), dtype)
     budget = int(cfg.budget)
     levels = int((cfg.method.get("sampling", None) or {}).get("levels", 5))
     reads = set(model.required_buffers())
@@ -134,14 +137,15 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             scale = depth_scale(gb["depth"])
         x: dict[str, torch.Tensor | None] = {}
         for name, img in {**raw, **{b: gb[b] for b in GBUFFERS if b in reads}}.items():
-            x[name] = _tensor(normalise(img, name, exposure, scale, colour=name not in GBUFFERS)[0], device)
+            x[name] = layout(_tensor(normalise(img, name, exposure, scale, colour=name not in GBUFFERS)[0],
+                                     device), dtype)
         if "motion" in reads:
             mv = (np.zeros((height, width, 2), np.float32) if prev_cam is None
                   else backward_motion(gb["depth"], cam, prev_cam))
-            x["motion"] = _tensor(mv, device)
+            x["motion"] = layout(_tensor(mv, device), dtype)
         prev_cam = cam
         row: dict[str, Any] = {"frame": f}
-        with torch.inference_mode():
+        with running(device, dtype):
             if loaded_model.adaptive:
                 placeholders = {k: torch.zeros_like(x["c1_in"]) for k in stack_names(levels)}
                 render = AdaptiveRender(scene.scene, r.sensor, derive_seed(seed, "adaptive", f), exposure)
@@ -160,8 +164,9 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             noisy = out["adaptive"] if "adaptive" in out else x[uniform]
             row.update(psnr_input=psnr(hwc(noisy), ref), psnr_real=psnr(hwc(out["output"]), ref))
             if sim_model is not None:
-                stack = {k: _tensor(colour(2 ** j, k, f), device) for j, k in enumerate(stack_names(levels))}
-                with torch.inference_mode():
+                stack = {k: layout(_tensor(colour(2 ** j, k, f), device), dtype)
+                         for j, k in enumerate(stack_names(levels))}
+                with running(device, dtype):
                     sim = sim_model({**x, **stack})
                 row["psnr_simulated"] = psnr(hwc(sim["output"]), ref)
                 row["psnr_real_minus_simulated"] = row["psnr_real"] - row["psnr_simulated"]

@@ -20,6 +20,7 @@ from tqdm import tqdm
 
 from mcd.denoise.frames import LAYERS, FrameError, FrameSequence
 from mcd.denoise.output import write_frame
+from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.tiles import PROBE, TiledModel, bytes_per_pixel, tile_size
 from mcd.denoise.weights import Loaded
 
@@ -43,9 +44,11 @@ def to_tensor(img: np.ndarray, device: torch.device) -> torch.Tensor:
 
 
 def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: torch.device,
-                   max_memory_mb: float, overlap: int, progress: bool = True) -> dict[str, Any]:
-    """Denoise ``paths`` (one sequence) into ``out_dir``; returns a summary (frames, tiles, sanitised, s)."""
-    model = loaded.model.to(device)
+                   max_memory_mb: float, overlap: int, progress: bool = True,
+                   dtype: torch.dtype | None = None) -> dict[str, Any]:
+    """Denoise ``paths`` (one sequence) into ``out_dir`` with autocast to ``dtype`` (None: fp32;
+    mcd/denoise/precision.py); returns a summary (frames, tiles, sanitised, s)."""
+    model = prepare(loaded.model.to(device), dtype)
     key = colour_key(loaded)
     want = set(model.required_buffers()) & set(LAYERS)
     seq = FrameSequence(paths, want, key, float(loaded.cfg.data.get("exposure_target", 0.5)))
@@ -55,7 +58,7 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
     def frame(i: int) -> dict[str, torch.Tensor]:
         i = min(max(i, 0), len(seq) - 1)
         if i not in cache:
-            cache[i] = {k: to_tensor(v, device) for k, v in seq.load(i).items()}
+            cache[i] = {k: layout(to_tensor(v, device), dtype) for k, v in seq.load(i).items()}
         return cache[i]
 
     def inputs(i: int) -> dict[str, torch.Tensor | None]:
@@ -66,7 +69,8 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
 
     h, w = seq.size
     probe = {k: v[..., :PROBE, :PROBE] for k, v in inputs(0).items()}
-    per_pixel = bytes_per_pixel(model, probe)
+    with running(device, dtype):
+        per_pixel = bytes_per_pixel(model, probe)
     side = tile_size(per_pixel, max_memory_mb, overlap)
     tiled = TiledModel(model, h, w, side, overlap)
     log.info("%d frames of %dx%d from %s: %s reads %s as %s; exposure x%.4g; %d tile(s) (%.0f bytes/pixel, "
@@ -75,7 +79,7 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
     t0 = time.perf_counter()
     tiled.reset()
     bar = tqdm(range(len(seq)), desc="denoise", unit="frame", disable=not progress)
-    with torch.inference_mode():
+    with running(device, dtype):
         for i in bar:
             out = tiled(inputs(i))
             write_frame(out_dir, paths[i].stem, out, seq.exposure)

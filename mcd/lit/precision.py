@@ -9,7 +9,9 @@ Any other value of ``trainer.precision`` is Lightning's and passes through uncha
 
 from __future__ import annotations
 
+import contextlib
 import logging
+from collections.abc import Iterator
 
 import torch
 
@@ -24,6 +26,16 @@ def cpu_bf16_supported() -> bool:
     """Whether this CPU computes bf16 natively (AVX512-BF16 or AMX); emulated bf16 is slower than fp32."""
     checks = ("_is_avx512_bf16_supported", "_is_amx_tile_supported")
     return any(bool(getattr(torch.cpu, c, lambda: False)()) for c in checks)
+
+
+@contextlib.contextmanager
+def autocast_to(device: torch.device, dtype: torch.dtype | None) -> Iterator[None]:
+    """``torch.autocast`` to ``dtype`` on ``device``'s type; nothing for ``None`` (fp32)."""
+    if dtype is None:
+        yield
+    else:
+        with torch.autocast(device_type=device.type, dtype=dtype):
+            yield
 
 
 def on_cpu(accelerator: str) -> bool:
