@@ -22,6 +22,9 @@ achieved GMAC/s, the torch thread count (OIDN runs its own threads, one per core
 peak resident memory during that path's calls (``VmHWM`` of ``/proc/self/status``, reset before the path
 after handing freed heap back to the OS; it includes the Python process, the model and the inputs). The README
 also gives each device's dense matmul rate (:func:`matmul_ceilings`), the ceiling to read GMAC/s against.
+``--allocator keep`` (the default) has glibc keep freed memory for reuse (:mod:`mcd.allocator`: without it
+every full-frame tensor faults in fresh pages, half of a 1080p frame's time on the project's CPU);
+``--allocator system`` measures glibc's default; the ``allocator`` column says which ran.
 
 Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.StoreReader.load`:
 exposure applied, depth scaled, sanitised, as the models see it; ``--data <profile>``, ``--scene``; default
@@ -54,6 +57,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd import allocator
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
@@ -85,6 +89,7 @@ COLUMNS = (
     "gmacs",
     "gmac_per_s",
     "peak_rss_gb",
+    "allocator",
 )
 
 
@@ -111,6 +116,7 @@ class Row:
     gmacs: float | None
     gmac_per_s: float | None = None
     peak_rss_gb: float | None = None
+    allocator: str = ""
 
 
 @dataclass(frozen=True)
@@ -334,6 +340,7 @@ def run(
                     model=profile,
                     device_name=dname,
                     threads=torch.get_num_threads(),
+                    allocator=allocator.policy(),
                 )
                 try:
                     cfg = compose_cfg(method, overrides)
@@ -527,6 +534,7 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
         f"- Capacity profile: {', '.join(sorted({r.model for r in rows}))}; batch 1, one frame per call",
         f"- Inputs: {', '.join(inputs) or 'none'}",
         f"- Repetitions (median of the timed calls): {'; '.join(reps)}",
+        f"- Allocator: {', '.join(sorted({r.allocator for r in rows})) or 'none'} (mcd/allocator.py)",
         f"- Data: [{csv_path.name}]({csv_path.name})",
         *(["- Dense matmul ceiling (torch.mm 2048x2048, best of 5, same threads): "
            + ", ".join(f"{k} {v:.1f} GMAC/s" for k, v in sorted(ceilings.items()))] if ceilings else []),
@@ -571,8 +579,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
     parser.add_argument("--out", type=Path, default=Path("reports/bench/bench.csv"))
+    allocator.add_option(parser)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
+    log.info("allocator: %s", allocator.apply(args.allocator))
     overrides = list(args.overrides)
     if not any(o.startswith("model=") for o in overrides):
         overrides.append("model=paper")

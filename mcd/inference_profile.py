@@ -24,6 +24,7 @@ import torch
 from torch import nn
 from torch.profiler import ProfilerActivity, profile
 
+from mcd import allocator
 from mcd.bench import (
     InferencePath,
     compose_cfg,
@@ -130,7 +131,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
     parser.add_argument("--out", type=Path, help="also write the table (markdown) here")
+    allocator.add_option(parser)
     args = parser.parse_args(argv)
+    memory = allocator.apply(args.allocator)
     overrides = list(args.overrides)
     if not any(o.startswith("model=") for o in overrides):
         overrides.append("model=paper")
@@ -168,6 +171,7 @@ def main(argv: list[str] | None = None) -> None:
         f"- Device: {device_name(device)}; torch {torch.__version__}; path {dtype} channels-last, "
         "inference mode",
         f"- Inputs: {inputs}; {args.warmup} warm-up call(s), then one profiled call",
+        f"- Allocator: {memory} (mcd/allocator.py)",
         "",
         *table(ms, total, gmacs),
     ]

@@ -40,6 +40,7 @@ from lightning.pytorch.callbacks import ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
+from mcd import allocator
 from mcd.data import MCDDataModule
 from mcd.lit import DenoiseModule, budget
 from mcd.lit.segments import TrainingSegments
@@ -287,6 +288,7 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
         device=device_name(job.module.device),
         precision=job.precision,
         torch=torch.__version__,
+        allocator=allocator.policy(),
         config=str(job.out_dir / "resolved_config.yaml"),
         data=job.data_report,
         trained=job.trainable,
@@ -328,6 +330,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
     started = time.perf_counter()
+    allocator.keep_freed_memory()  # training steps and full test frames reuse freed pages (mcd/allocator.py)
     hydra_cfg = HydraConfig.get()
     out_dir = Path(hydra_cfg.runtime.output_dir)
     choices = dict(hydra_cfg.runtime.choices)

@@ -55,6 +55,7 @@ class RunRecord:
     device: str  # GPU name, or CPU model and threads (mcd.run.device_name)
     precision: str  # the Lightning precision the run trained and tested in
     torch: str  # torch version
+    allocator: str  # the process's allocator setting (mcd/allocator.py; older records lack the key)
     config: str  # path of resolved_config.yaml
     data: dict[str, Any]  # the store's report of what it rendered and reused
     trained: bool

@@ -52,7 +52,7 @@ METHODS = ("A", "C", "F", "rae", "fastdvdnet", "dasr", "ntasad")
 PATHS = ("today", "default", "default-fp32", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
          "bf16+channels-last", "compile")
 COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss_mb", "threads", "cpu",
-           "steps_per_cpu_s")
+           "steps_per_cpu_s", "allocator")
 
 
 def path_overrides(path: str) -> list[str]:
@@ -75,16 +75,19 @@ def path_overrides(path: str) -> list[str]:
 
 
 def measure(method: str, profile: str, path: str, steps: int, warmup: int, threads: int,
-            extra: list[str]) -> dict[str, object]:
-    """One (method, profile, path) in this process: steps/s of a Lightning fit after ``warmup`` steps."""
+            extra: list[str], memory: str) -> dict[str, object]:
+    """One (method, profile, path) in this process, with ``--allocator`` ``memory``
+    (:func:`mcd.allocator.apply`): steps/s of a Lightning fit after ``warmup`` steps."""
     import lightning as L
 
+    from mcd import allocator
     from mcd.bench import compose_cfg, device_name
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.lit import DenoiseModule, budget
     from mcd.losses import build_loss
 
+    policy = allocator.apply(memory)
     torch.set_num_threads(threads)
     cfg = compose_cfg(method, [f"data={profile}", *path_overrides(path), *extra,
                                f"train.max_steps={steps + warmup}", "train.max_minutes=null"])
@@ -126,7 +129,7 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
             "pixels_per_s": rate * int(cfg.train.batch_size) * crop * crop * (sum(frames[warmup:]) / steps),
             "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "threads": threads,
             "cpu": device_name(torch.device("cpu")).rsplit(" (", 1)[0],
-            "steps_per_cpu_s": steps / cpu_seconds}
+            "steps_per_cpu_s": steps / cpu_seconds, "allocator": policy}
 
 
 def applicable(method: str, path: str) -> str | None:
@@ -166,12 +169,18 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--pair", action="store_true", help="also two concurrent 1-thread fp32 jobs")
     ap.add_argument("--out", type=Path, default=REPO / "reports/bench/train.csv")
+    ap.add_argument("--allocators", default="keep",
+                    help="comma-separated: keep (mcd.run's setting, mcd/allocator.py) and/or system "
+                         "(glibc's default)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    if args.child:  # one measurement: method profile path steps warmup threads, overrides
+    if args.child:  # one measurement: method profile path steps warmup threads allocator, overrides
         print(json.dumps(measure(args.methods, args.profiles, args.paths, args.steps, args.warmup,
-                                 args.threads, args.overrides)))
+                                 args.threads, args.overrides, args.allocators)))
         return
+    allocators = [a for a in args.allocators.split(",") if a]
+    if not allocators or set(allocators) - {"keep", "system"}:
+        ap.error(f"--allocators {args.allocators!r}: give keep and/or system")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     rows: list[dict[str, object]] = []
     failed: list[str] = []
@@ -184,18 +193,22 @@ def main(argv: list[str] | None = None) -> None:
                 if why:
                     log.info("%s %s %s: skipped (%s)", method, profile, path, why)
                     continue
-                try:
-                    row = child([f"--methods={method}", f"--profiles={profile}", f"--paths={path}",
-                                 f"--threads={args.threads}", *common])
-                except RuntimeError as err:  # one path failing (e.g. a compiler error) loses no other row
-                    failed.append(f"{method} {profile} {path}: {str(err).strip().splitlines()[-1]}")
-                    log.warning("%s", err)
-                    continue
-                rows.append(row)
-                log.info("%s %s %-13s %.2f steps/s", method, profile, path, row["steps_per_s"])
+                for memory in allocators:
+                    try:
+                        row = child([f"--methods={method}", f"--profiles={profile}", f"--paths={path}",
+                                     f"--threads={args.threads}", f"--allocators={memory}", *common])
+                    except RuntimeError as err:  # one path failing (e.g. a compiler error) loses no other
+                        failed.append(f"{method} {profile} {path} {memory}: "
+                                      f"{str(err).strip().splitlines()[-1]}")
+                        log.warning("%s", err)
+                        continue
+                    rows.append(row)
+                    log.info("%s %s %-13s %-6s %.2f steps/s", method, profile, path, memory,
+                             row["steps_per_s"])
             if args.pair:
                 cmd = [sys.executable, "-m", "mcd.train_bench", "--child", f"--methods={method}",
-                       f"--profiles={profile}", "--paths=fp32", "--threads=1", *common]
+                       f"--profiles={profile}", "--paths=fp32", "--threads=1",
+                       f"--allocators={allocators[0]}", *common]
                 procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=REPO) for _ in range(2)]
                 pair = [json.loads(p.communicate()[0].strip().splitlines()[-1]) for p in procs]
                 rows.append({**pair[0], "path": "fp32 x2 jobs", "threads": 1,
@@ -209,15 +222,15 @@ def main(argv: list[str] | None = None) -> None:
         writer.writeheader()
         writer.writerows({k: r[k] for k in COLUMNS} for r in rows)
     print(f"{'method':10} {'profile':7} {'path':20} {'steps/s':>8} {'x today':>8} {'steps/cpu-s':>11} "
-          f"{'x today':>8} {'Mpix/s':>7} {'RSS MB':>7}")
+          f"{'x today':>8} {'Mpix/s':>7} {'RSS MB':>7}  allocator")
     for r in rows:
         today = next((t for t in rows if t["path"] == "today" and t["method"] == r["method"]
-                      and t["profile"] == r["profile"]), None)
+                      and t["profile"] == r["profile"] and t["allocator"] == r["allocator"]), None)
         ratio, cpu_ratio = ((r[k] / today[k] if today else float("nan"))
                             for k in ("steps_per_s", "steps_per_cpu_s"))
         print(f"{r['method']:10} {r['profile']:7} {r['path']:20} {r['steps_per_s']:8.2f} {ratio:8.2f} "
               f"{r['steps_per_cpu_s']:11.2f} {cpu_ratio:8.2f} {r['pixels_per_s'] / 1e6:7.2f} "
-              f"{r['peak_rss_mb']:7.0f}")
+              f"{r['peak_rss_mb']:7.0f}  {r['allocator']}")
     print(f"{len(rows)} rows -> {args.out}")
     for line in failed:
         print(f"failed: {line}")

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import torch
 
+from mcd import allocator
 from mcd.denoise import precision, weights
 from mcd.denoise.precision import PRECISIONS
 
@@ -85,6 +86,7 @@ def run(argv: list[str] | None = None) -> dict:
     with the message on stderr."""
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    allocator.keep_freed_memory()           # full frames reuse freed pages (mcd/allocator.py)
     try:
         device = pick_device(args.device)
         dtype = precision.check(args.precision, device)
@@ -123,7 +125,7 @@ def run(argv: list[str] | None = None) -> dict:
         print(f"mcd-denoise: error: {err}", file=sys.stderr)
         raise SystemExit(2) from err
     report.update(checkpoint=loaded.source, experiment=loaded.experiment, provenance=loaded.provenance,
-                  precision=args.precision, device=str(device))
+                  precision=args.precision, device=str(device), allocator=allocator.policy())
     args.output.mkdir(parents=True, exist_ok=True)
     (args.output / "denoise.json").write_text(json.dumps(report, indent=1, default=str))
     return report

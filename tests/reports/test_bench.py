@@ -8,7 +8,7 @@ import csv
 import pytest
 import torch
 
-from mcd import bench
+from mcd import allocator, bench
 
 INTERFACE = ["method", "device", "dtype", "compiled", "height", "width", "ms_median", "fps"]
 
@@ -30,11 +30,14 @@ def test_bench_cpu_writes_the_interface_columns(tmp_path):
             "--out",
             str(out),
             "--synthetic",
+            "--allocator",
+            "system",
             "model=cpu",
         ]
     )
     rows = list(csv.DictReader(out.open()))
     assert list(rows[0])[:8] == INTERFACE
+    assert {r["allocator"] for r in rows} == {allocator.SYSTEM}
     assert {r["method"] for r in rows} == {"F", "A"}
     for r in rows:
         assert r["status"] == "ok", r
