@@ -15,8 +15,9 @@ device (CPU; CUDA when present), resolution (1920x1080 and 256x256 by default) a
 Timing: one output frame per call (batch 1, under ``torch.inference_mode``) in steady state (temporal methods
 keep their state from frame to frame; ``reset()`` once before warm-up), ``--warmup`` calls first, then
 ``--reps`` timed calls, each closed by ``torch.cuda.synchronize()`` on CUDA; the median and frames/s are
-written. CPU at 1080p is slow: it uses ``--cpu-1080p-reps`` (default 2) after one warm-up, and the CSV's
-``reps`` column states it. Beside the time: the method's MACs at that size (``mcd.complexity``; for OIDN,
+written. CPU at 1080p is slow: it uses ``--cpu-1080p-reps`` (default 2) after ``--cpu-1080p-warmup``
+(default 2: with freed memory kept, the heap settles over the first calls), and the CSV's ``warmup`` and
+``reps`` columns state them. Beside the time: the method's MACs at that size (``mcd.complexity``; for OIDN,
 whose network torch cannot see, those of its network's shape: mcd/models/baselines/oidn_network.py) and the
 achieved GMAC/s, the torch thread count (OIDN runs its own threads, one per core), and on CPU the process's
 peak resident memory during that path's calls (``VmHWM`` of ``/proc/self/status``, reset before the path
@@ -311,6 +312,7 @@ def run(
     cpu_1080p_reps: int,
     cpu_compile: bool,
     source: StoreFrame | None,
+    cpu_1080p_warmup: int = 2,
 ) -> list[Row]:
     """Every (method, device, size, path) measurement (see the module docstring)."""
     from mcd.complexity import complexity
@@ -328,7 +330,7 @@ def run(
         for size in sizes:
             h, w = parse_size(size)
             slow = device.type == "cpu" and h * w >= 1080 * 1920
-            n_warm, n_reps = (1, cpu_1080p_reps) if slow else (warmup, reps)
+            n_warm, n_reps = (cpu_1080p_warmup, cpu_1080p_reps) if slow else (warmup, reps)
             for method in methods:
                 base = dict(
                     method=method,
@@ -572,6 +574,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--warmup", type=int, default=3)
     parser.add_argument("--reps", type=int, default=10)
     parser.add_argument("--cpu-1080p-reps", type=int, default=2, help="timed calls on CPU at 1080p (slow)")
+    parser.add_argument("--cpu-1080p-warmup", type=int, default=2,
+                        help="warm-up calls on CPU at 1080p (a kept heap settles over the first calls)")
     parser.add_argument(
         "--cpu-compile", action="store_true", help="also torch.compile on CPU (slow to build)"
     )
@@ -606,6 +610,7 @@ def main(argv: list[str] | None = None) -> None:
         args.cpu_1080p_reps,
         args.cpu_compile,
         None if args.synthetic else store_frame(args.data, args.scene),
+        args.cpu_1080p_warmup,
     )
     ceilings = matmul_ceilings([d for d in args.devices.split(",") if d])
     for name, rate in sorted(ceilings.items()):
