@@ -21,9 +21,12 @@ crops), with the validation cadence of the path (validation time counts: it is p
 - ``compile``: ``default`` with ``train.compile=true`` (``torch.compile``, inductor; compilation happens
   in the warm-up steps, recompilation for validation counts).
 
+``--allocators keep,system``: each path once per allocator setting (:mod:`mcd.allocator`; ``keep``, the
+default, is what ``mcd.run`` sets; ``system`` is glibc's default); the ``allocator`` column says which ran.
 ``--pair``: also ``fp32`` as two concurrent jobs of one thread each (``x2 jobs``; steps/s summed) beside one
 job on ``--threads`` threads, the question of docs/training.md "CPU threads".
-Columns: ``method, profile, path, steps_per_s, pixels_per_s, peak_rss_mb, threads, cpu, steps_per_cpu_s``
+Columns: ``method, profile, path, steps_per_s, pixels_per_s, peak_rss_mb, threads, cpu, steps_per_cpu_s,
+allocator``
 (pixels/s: crop pixels of the frames the network runs, times the batch, per second; steps per CPU-second of
 the process, which other work on a shared machine disturbs far less than steps per second when the job runs
 one thread: ``--threads 1``).
