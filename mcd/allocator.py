@@ -15,6 +15,7 @@ performance guide recommends preloading jemalloc or tcmalloc for the same reason
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ctypes
 import platform
 
@@ -22,6 +23,8 @@ import platform
 M_TRIM_THRESHOLD = -1
 M_MMAP_MAX = -4
 
+#: ``--allocator`` choices: keep freed memory (:func:`keep_freed_memory`), or glibc's default.
+CHOICES = ("keep", "system")
 #: The allocator setting a process runs with, as records name it.
 SYSTEM = "system"
 KEEP = "glibc, freed memory kept (no mmap, no trim)"
@@ -45,6 +48,13 @@ def keep_freed_memory() -> bool:
     return True
 
 
+def hand_back() -> None:
+    """Hand the heap's freed memory back to the OS now (glibc ``malloc_trim``; nothing elsewhere), whatever
+    the setting."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+
+
 def policy() -> str:
     """The setting this process runs with: :data:`KEEP` once :func:`keep_freed_memory` succeeded, else
     :data:`SYSTEM`."""
@@ -53,7 +63,7 @@ def policy() -> str:
 
 def add_option(parser: argparse.ArgumentParser) -> None:
     """``--allocator keep|system`` (default ``keep``) on a benchmark's command line."""
-    parser.add_argument("--allocator", choices=("keep", "system"), default="keep",
+    parser.add_argument("--allocator", choices=CHOICES, default="keep",
                         help="keep: glibc keeps freed memory for reuse (mcd/allocator.py); "
                              "system: glibc's default")
 

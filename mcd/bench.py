@@ -42,7 +42,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
-import ctypes
 import logging
 import math
 import statistics
@@ -236,10 +235,9 @@ def _sync(device: torch.device) -> None:
 
 
 def reset_peak_rss() -> None:
-    """Hand freed heap back to the OS (glibc ``malloc_trim``, so memory an earlier method freed does not
-    count) and restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    """Hand freed heap back to the OS (:func:`mcd.allocator.hand_back`, so memory an earlier method freed does
+    not count) and restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
+    allocator.hand_back()
     with contextlib.suppress(OSError):
         Path("/proc/self/clear_refs").write_text("5")
 
@@ -309,10 +307,10 @@ def run(
     overrides: list[str],
     warmup: int,
     reps: int,
+    cpu_1080p_warmup: int,
     cpu_1080p_reps: int,
     cpu_compile: bool,
     source: StoreFrame | None,
-    cpu_1080p_warmup: int = 2,
 ) -> list[Row]:
     """Every (method, device, size, path) measurement (see the module docstring)."""
     from mcd.complexity import complexity
@@ -607,10 +605,10 @@ def main(argv: list[str] | None = None) -> None:
         overrides,
         args.warmup,
         args.reps,
+        args.cpu_1080p_warmup,
         args.cpu_1080p_reps,
         args.cpu_compile,
         None if args.synthetic else store_frame(args.data, args.scene),
-        args.cpu_1080p_warmup,
     )
     ceilings = matmul_ceilings([d for d in args.devices.split(",") if d])
     for name, rate in sorted(ceilings.items()):

@@ -48,6 +48,8 @@ from pathlib import Path
 
 import torch
 
+from mcd import allocator
+
 log = logging.getLogger("mcd.train_bench")
 
 REPO = Path(__file__).resolve().parent.parent
@@ -83,7 +85,6 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
     (:func:`mcd.allocator.apply`): steps/s of a Lightning fit after ``warmup`` steps."""
     import lightning as L
 
-    from mcd import allocator
     from mcd.bench import compose_cfg, device_name
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
@@ -182,8 +183,8 @@ def main(argv: list[str] | None = None) -> None:
                                  args.threads, args.overrides, args.allocators)))
         return
     allocators = [a for a in args.allocators.split(",") if a]
-    if not allocators or set(allocators) - {"keep", "system"}:
-        ap.error(f"--allocators {args.allocators!r}: give keep and/or system")
+    if not allocators or set(allocators) - set(allocator.CHOICES):
+        ap.error(f"--allocators {args.allocators!r}: give one or more of {', '.join(allocator.CHOICES)}")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     rows: list[dict[str, object]] = []
     failed: list[str] = []

@@ -55,7 +55,7 @@ def test_bench_cpu_writes_the_interface_columns(tmp_path):
 
 
 def test_unknown_method_is_a_row_not_a_crash(tmp_path):
-    rows = bench.run(["no_such_method"], ["32x32"], ["cpu"], ["model=cpu"], 0, 1, 1, False, None)
+    rows = bench.run(["no_such_method"], ["32x32"], ["cpu"], ["model=cpu"], 0, 1, 1, 1, False, None)
     assert len(rows) == 1 and rows[0].ms_median is None and rows[0].status.startswith("failed to build")
 
 
@@ -77,7 +77,7 @@ def test_store_frames_are_read_through_the_store_and_tiled(cbox_store):
 
 def test_rows_carry_macs_throughput_memory_and_threads(cbox_store):
     _, store = cbox_store
-    rows = bench.run(["F", "unet"], ["32x32"], ["cpu"], ["model=cpu"], 1, 1, 1, False,
+    rows = bench.run(["F", "unet"], ["32x32"], ["cpu"], ["model=cpu"], 1, 1, 1, 1, False,
                      bench.StoreFrame(store, "cbox"))
     for r in rows:
         assert r.status == "ok", r
