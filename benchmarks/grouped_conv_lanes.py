@@ -29,13 +29,13 @@ import torch.nn.functional as F
 from mcd.bench import compose_cfg, device_name
 from mcd.models import build
 from mcd.models.ghost_conv import (
-    broadcast,
     group_then_point,
     lane_filled_conv,
     lane_stride,
     split_depthwise_point,
     splits,
 )
+from mcd.models.inputs import broadcast
 
 CL = torch.channels_last
 

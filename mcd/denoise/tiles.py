@@ -21,12 +21,20 @@ PROBE = 64
 MULTIPLE = 16
 
 
-@torch.inference_mode()
 def bytes_per_pixel(model: nn.Module, x: dict[str, Tensor | None]) -> float:
     """Bytes of module outputs per input pixel of one forward pass of ``model`` on ``x`` (module docstring).
 
     ``x`` holds a small crop of real inputs; the model is reset before and after (its state is not kept).
+    The pass runs under plain ``no_grad`` even where the caller is in ``inference_mode``: the CPU inference
+    fast paths (docs/inference.md) call fused operators in place of some submodules, whose outputs the hooks
+    would then not see.
     """
+    with torch.inference_mode(False), torch.no_grad():
+        plain = {k: None if v is None else v.clone() for k, v in x.items()}          # not inference tensors
+        return _module_output_bytes_per_pixel(model, plain)
+
+
+def _module_output_bytes_per_pixel(model: nn.Module, x: dict[str, Tensor | None]) -> float:
     total = 0
 
     def hook(_m: nn.Module, _i: object, out: object) -> None:

@@ -1,4 +1,6 @@
-"""The basic building block of both networks: a 3x3 convolution followed by ReLU (paper Sec. 4)."""
+"""The basic building block of both networks: a 3x3 convolution followed by ReLU (paper Sec. 4); in CPU
+inference mode with the ReLU and a decoder block's concatenation fused into the convolution
+(:mod:`mcd.models.fused_conv`, docs/inference.md)."""
 
 from __future__ import annotations
 
@@ -6,6 +8,9 @@ from collections.abc import Callable, Sequence
 
 import torch
 from torch import Tensor, nn
+
+from mcd.models import fused_conv
+from mcd.models.inputs import broadcast
 
 #: ``block(in_channels, out_channels) -> module`` builds one conv block of a U-Net.
 BlockFactory = Callable[[int, int], nn.Module]
@@ -20,7 +25,18 @@ class ConvReLU(nn.Module):
         self.act = nn.ReLU(inplace=True)
 
     def forward(self, x: Tensor) -> Tensor:
+        if fused_conv.applies(self.conv.weight, [x]):
+            return fused_conv.conv2d(x, self.conv.weight, self.conv.bias, self.conv.padding, relu=True)
         return self.act(self.conv(x))
+
+    def forward_parts(self, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
+        """The block on the channel concatenation of ``parts`` and of ``constant`` ``[B, D]`` broadcast over
+        the image; in CPU inference mode without building the concatenation
+        (:func:`mcd.models.fused_conv.conv_on_parts`)."""
+        whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
+        if fused_conv.applies(self.conv.weight, whole):
+            return fused_conv.conv_on_parts(self.conv, whole, relu=True)
+        return self.act(self.conv(torch.cat(whole, 1) if len(whole) > 1 else whole[0]))
 
 
 def on_parts(block: nn.Module, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
@@ -30,8 +46,6 @@ def on_parts(block: nn.Module, parts: Sequence[Tensor], constant: Tensor | None 
     forward_parts = getattr(block, "forward_parts", None)
     if callable(forward_parts):
         return forward_parts(parts, constant)
-    like = parts[0]
-    whole = list(parts)
-    if constant is not None:
-        whole.append(constant[:, :, None, None].expand(like.shape[0], -1, *like.shape[-2:]).to(like.dtype))
+    whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
     return block(torch.cat(whole, 1))
+

@@ -37,7 +37,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from mcd.models.inputs import cat_channels
+from mcd.models import fused_conv
+from mcd.models.inputs import broadcast, cat_channels
 
 
 class FastGhostConv(nn.Module):
@@ -69,11 +70,28 @@ class FastGhostConv(nn.Module):
         head the kernel descriptor)."""
         if fast_path_applies(self.group, parts):
             primary = group_then_point(self.group, self.point, parts, constant)
+            if fused_conv.applies(self.ghost.weight, [primary]):
+                return primary_and_ghost(primary, self.ghost)
         else:
             whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
             x = torch.cat(whole, 1) if len(whole) > 1 else whole[0]
             primary = self.point(grouped_conv(self.group, x))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
+
+
+def primary_and_ghost(primary: Tensor, ghost: nn.Conv2d) -> Tensor:
+    """``relu(cat([primary, ghost(primary)]))``, the end of a Fast GhostConv block, written straight into
+    the block's output: the ghost conv with its ReLU fused (:mod:`mcd.models.fused_conv`) and ``primary``
+    clamped, each into its half, so neither the concatenation nor the ReLU is a pass of its own (CPU
+    inference, where :func:`mcd.models.fused_conv.applies`)."""
+    b, half, h, w = primary.shape
+    g = fused_conv.conv2d(primary, ghost.weight, ghost.bias, ghost.padding, groups=ghost.groups, relu=True)
+    cl = primary.is_contiguous(memory_format=torch.channels_last)
+    out = torch.empty(b, 2 * half, h, w, dtype=primary.dtype, device=primary.device,
+                      memory_format=torch.channels_last if cl else torch.contiguous_format)
+    out[:, half:].copy_(g)
+    torch.clamp_min(primary, 0, out=out[:, :half])
+    return out
 
 
 #: Output channels oneDNN's CPU convolutions compute together (one AVX-512 register of fp32, or of bf16
@@ -190,13 +208,12 @@ def group_then_point(group: nn.Conv2d, point: nn.Conv2d, parts: Sequence[Tensor]
             if not single:
                 y.add_(inside[:, :, None, None].to(y.dtype))
             add_border_correction(y, taps, group.padding)
-            y = F.conv2d(y, pw, pb)
+            out = point_into(y, pw, pb, out)
         elif splits(x.shape[1], cout_g):
-            y = split_depthwise(x, weight, bias, n, group.padding, pw, pb)
+            out = split_depthwise(x, weight, bias, n, group.padding, pw, pb, out)
         else:
-            y = F.conv2d(lane_filled(x, weight, bias, n, group.padding, lane_stride(cin_g, cout_g, kw)),
-                         pw, pb)
-        out = y if out is None else out.add_(y)
+            y = lane_filled(x, weight, bias, n, group.padding, lane_stride(cin_g, cout_g, kw))
+            out = point_into(y, pw, pb, out)
     if out is None:
         raise ValueError("group_then_point needs at least one part")
     return out
@@ -266,26 +283,29 @@ def add_border_correction(y: Tensor, taps: Tensor, padding: tuple[int, ...]) -> 
     fix(slice(top.stop, bottom.start), right)
 
 
-def broadcast(constant: Tensor, like: Tensor) -> Tensor:
-    """``constant`` ``[B, D]`` as ``D`` channels over ``like``'s image, in its dtype."""
-    b, _, h, w = like.shape
-    return constant[:, :, None, None].expand(b, constant.shape[1], h, w).to(like.dtype)
-
-
 def split_depthwise_point(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:
     """``point(group(x))`` computed by :func:`split_depthwise`."""
     return split_depthwise(x, group.weight, group.bias, group.groups, group.padding, point.weight, point.bias)
 
 
+def point_into(y: Tensor, weight: Tensor, bias: Tensor | None, out: Tensor | None) -> Tensor:
+    """The 1x1 conv ``F.conv2d(y, weight, bias)``, added in place to ``out`` when given (returned); in CPU
+    inference the add is a post-op of the conv (:mod:`mcd.models.fused_conv`)."""
+    if fused_conv.applies(weight, [y]):
+        return fused_conv.conv2d(y, weight, bias, add_to=out)
+    z = F.conv2d(y, weight, bias)
+    return z if out is None else out.add_(z)
+
+
 def split_depthwise(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int, padding: tuple[int, ...],
-                    point_weight: Tensor, point_bias: Tensor | None) -> Tensor:
+                    point_weight: Tensor, point_bias: Tensor | None, out: Tensor | None = None) -> Tensor:
     """A stride-1 zero-padded group conv (``weight``, ``bias``, ``groups``) followed by a 1x1 conv
     (``point_weight``, ``point_bias``), computed per output ``o`` of a group as a depth-wise conv of ``x``
     (input channel ``c`` of group ``j`` with the kernel ``weight[j, o, c]``; oneDNN vectorises it over the
     input channels, so no lane is empty) and a 1x1 conv of that whose weight repeats the point-wise column of
-    ``(j, o)`` over the group's inputs, which sums them; the results are added in place. Same function: the
-    group conv's bias moves into the point-wise bias. Same MACs in the depth-wise convs as in the group
-    conv."""
+    ``(j, o)`` over the group's inputs, which sums them; the results are added in place (to ``out`` too,
+    when given: :func:`point_into`). Same function: the group conv's bias moves into the point-wise bias.
+    Same MACs in the depth-wise convs as in the group conv."""
     g = groups
     cout, cin_g, kh, kw = weight.shape
     cout_g, cin = cout // g, cin_g * g
@@ -295,13 +315,13 @@ def split_depthwise(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int,
     if point_bias is not None:
         folded = point_bias if folded is None else folded + point_bias
 
-    def part(o: int, b: Tensor | None) -> Tensor:
+    def part(o: int, b: Tensor | None, into: Tensor | None) -> Tensor:
         y = F.conv2d(x, depthwise[o], padding=padding, groups=cin)
-        return F.conv2d(y, mix[:, :, o].expand(-1, g, cin_g).reshape(-1, cin, 1, 1), b)
+        return point_into(y, mix[:, :, o].expand(-1, g, cin_g).reshape(-1, cin, 1, 1), b, into)
 
-    out = part(0, folded)
+    out = part(0, folded, out)
     for o in range(1, cout_g):
-        out.add_(part(o, None))
+        part(o, None, out)
     return out
 
 

@@ -98,3 +98,9 @@ def cat_channels(tensors: Sequence[Tensor]) -> Tensor:
     out = torch.empty(b, sum(t.shape[1] for t in tensors), h, w, dtype=dtype, device=tensors[0].device,
                       memory_format=cl)
     return torch.cat(list(tensors), 1, out=out)
+
+
+def broadcast(constant: Tensor, like: Tensor) -> Tensor:
+    """``constant`` ``[B, D]`` as ``D`` channels over ``like``'s image, in its dtype."""
+    b, _, h, w = like.shape
+    return constant[:, :, None, None].expand(b, constant.shape[1], h, w).to(like.dtype)

@@ -1,6 +1,7 @@
 """CPU inference fast paths (docs/inference.md) against fp32 eager reference formulations: lane-filled group
-convolutions, in-place kernel application, position-aware pooling without temporaries, sort-free map
-normalisation, and the whole row F along the bench's fastest path against fp32 eager."""
+convolutions, oneDNN post-ops (fused ReLU, in-place sums, decoder blocks on parts), in-place kernel
+application, position-aware pooling without temporaries, sort-free map normalisation, whole rows in fp32, and
+the whole row F along the bench's fastest path against fp32 eager."""
 
 from __future__ import annotations
 
@@ -9,13 +10,16 @@ import torch
 import torch.nn.functional as F
 
 from mcd.lit.precision import cpu_bf16_supported
-from mcd.models import build
+from mcd.models import build, fused_conv
+from mcd.models.blocks import ConvReLU
 from mcd.models.ghost_conv import (
     FastGhostConv,
     fast_path_applies,
     group_then_point,
     lane_filled_conv,
     lane_stride,
+    primary_and_ghost,
+    split_depthwise,
     split_depthwise_point,
     splits,
 )
@@ -156,6 +160,95 @@ def test_fast_ghost_conv_in_inference_mode_is_the_block(cin, cout):
     with torch.inference_mode():
         for fmt in (torch.contiguous_format, torch.channels_last):
             torch.testing.assert_close(block(x.contiguous(memory_format=fmt)), ref, rtol=1e-5, atol=1e-4)
+
+
+@pytest.mark.parametrize("fmt", [torch.contiguous_format, torch.channels_last])
+@pytest.mark.parametrize("size", [(13, 7), (1, 1)])
+def test_conv_relu_block_with_fused_post_ops_is_the_block(fmt, size):
+    """ConvReLU in inference mode (fused ReLU; on parts: one conv per part summed in place, the broadcast
+    constant as a part) against the conv of the concatenation and a ReLU, HDR-sized inputs."""
+    torch.manual_seed(size[0])
+    block = ConvReLU(24, 8).eval()
+    parts = [(torch.randn(2, c, *size) * 1e5).contiguous(memory_format=fmt) for c in (16, 5)]
+    constant = torch.randn(2, 3)
+    whole = torch.cat([*parts, constant[:, :, None, None].expand(2, 3, *size)], 1)
+    with torch.no_grad():
+        ref = F.relu(block.conv(whole))
+    with torch.inference_mode():
+        assert fused_conv.applies(block.conv.weight, parts)
+        on_parts = block.forward_parts(parts, constant)
+        single = block(whole.contiguous(memory_format=fmt))
+    scale = float(ref.abs().max())
+    torch.testing.assert_close(on_parts, ref, rtol=1e-5, atol=1e-5 * scale)
+    torch.testing.assert_close(single, ref, rtol=1e-5, atol=1e-5 * scale)
+    assert on_parts.is_contiguous(memory_format=fmt) and bool((on_parts >= 0).all())
+
+
+def test_fused_conv_adds_in_place_and_applies_only_to_plain_cpu_inference():
+    torch.manual_seed(3)
+    x, w, b = torch.randn(1, 6, 9, 11), torch.randn(4, 6, 3, 3), torch.randn(4)
+    acc = torch.randn(1, 4, 9, 11)
+    with torch.no_grad():
+        ref = F.relu(F.conv2d(x, w, b, padding=1) + acc)
+        assert not fused_conv.applies(w, [x])                                 # autograd-capable mode
+    with torch.inference_mode():
+        out = fused_conv.conv2d(x, w, b, (1, 1), relu=True, add_to=acc)
+        assert out is acc
+        torch.testing.assert_close(acc, ref)
+        assert not fused_conv.applies(w, [x.double()])                        # another dtype
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            assert not fused_conv.applies(w, [x])                             # autocast's casts
+        with pytest.raises(ValueError, match="parts have"):
+            fused_conv.conv_on_parts(torch.nn.Conv2d(8, 4, 3, padding=1), [x], relu=True)
+        with pytest.raises(ValueError, match="dense, stride-1"):
+            fused_conv.conv_on_parts(torch.nn.Conv2d(6, 4, 3, padding=1, groups=2), [x], relu=True)
+
+
+@pytest.mark.parametrize("fmt", [torch.contiguous_format, torch.channels_last])
+def test_primary_and_ghost_writes_the_blocks_output(fmt):
+    torch.manual_seed(4)
+    ghost = torch.nn.Conv2d(5, 5, 3, padding=1, groups=5)
+    primary = torch.randn(2, 5, 7, 10).contiguous(memory_format=fmt)
+    with torch.no_grad():
+        ref = F.relu(torch.cat([primary, ghost(primary)], 1))
+    with torch.inference_mode():
+        out = primary_and_ghost(primary, ghost)
+    torch.testing.assert_close(out, ref)
+    assert out.is_contiguous(memory_format=fmt)
+
+
+def test_split_depthwise_adds_into_a_given_output():
+    torch.manual_seed(5)
+    group = torch.nn.Conv2d(16, 8, 7, padding=3, groups=4)
+    point = torch.nn.Conv2d(8, 6, 1)
+    x = torch.rand(1, 16, 9, 12)
+    acc = torch.randn(1, 6, 9, 12)
+    with torch.no_grad():
+        ref = acc + point(group(x))
+    for mode in (torch.no_grad, torch.inference_mode):                     # plain add_, fused post-op
+        with mode():
+            out = split_depthwise(x, group.weight, group.bias, 4, group.padding, point.weight, point.bias,
+                                  acc.clone())
+        torch.testing.assert_close(out, ref, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("row", ["A", "C", "F"])
+def test_a_rows_fp32_inference_paths_are_its_eager_forward(row):
+    """Every fp32 fast path of a row at once (inference mode, channels-last) against its forward under plain
+    no_grad: row A (ConvReLU blocks), C (KP without FG: the kernel-map head's ConvReLU on parts with the
+    descriptor), F (Fast GhostConv, PP, SA)."""
+    torch.manual_seed(0)
+    model = build(row_cfg(row, profile="paper")).eval()
+    x = {name: torch.rand(1, 1 if name == "depth" else 3, 37, 53) * (1e3 if name.startswith("c") else 1)
+         for name in model.required_buffers()}
+    x["ref"] = None
+    with torch.no_grad():
+        ref = model(x)["output"]
+    fast_model = model.to(memory_format=torch.channels_last)
+    xl = {k: v if v is None else v.contiguous(memory_format=torch.channels_last) for k, v in x.items()}
+    with torch.inference_mode():
+        fast = fast_model(xl)["output"]
+    torch.testing.assert_close(fast, ref, rtol=1e-4, atol=1e-4 * float(ref.abs().max()))
 
 
 def test_a_concatenation_with_one_channel_inputs_stays_channels_last_without_gradients():
