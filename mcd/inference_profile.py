@@ -3,7 +3,9 @@
 
 The method (``--method``, default row F; capacity ``model=paper`` unless an override says otherwise) reads one
 frame of the store (as ``python -m mcd.bench`` does: a store read, tiled to ``--size``), runs ``--warmup``
-calls and then one call under ``torch.profiler`` on the CPU, under ``torch.inference_mode``, along the path
+calls and then the reported call, each under ``torch.profiler`` (whose own allocations reshape the heap that
+``mcd/allocator.py`` keeps, so the warm-ups must include them; the page faults of the reported call are
+printed, 0 once the heap has settled) on the CPU, under ``torch.inference_mode``, along the path
 ``--dtype`` (default ``bf16`` with channels-last where the CPU computes bf16 natively, else ``fp32``
 channels-last). Each stage is a ``torch.profiler.record_function`` label in the model
 (:data:`mcd.models.two_stage.STAGES` and the nested ``map normalisation``, ``kernel-map head``, ``kernel
@@ -90,17 +92,29 @@ def stage_macs(cfg, height: int, width: int) -> dict[str, float]:
     return out
 
 
-def profile_call(call: Callable[[], object]) -> tuple[dict[str, float], float]:
-    """Milliseconds per label (inclusive, summed over its calls) and of the whole call, one profiled call."""
+def minor_faults() -> int:
+    """Minor page faults of this process so far (0 where ``resource`` is unavailable)."""
+    try:
+        import resource
+    except ImportError:                                                          # not a Unix
+        return 0
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+
+
+def profile_call(call: Callable[[], object]) -> tuple[dict[str, float], float, int]:
+    """Milliseconds per label (inclusive, summed over its calls) and of the whole call, and the page faults
+    during it, one profiled call."""
     with profile(activities=[ProfilerActivity.CPU]) as prof:
+        faults = minor_faults()
         t0 = time.perf_counter()
         call()
         total = (time.perf_counter() - t0) * 1e3
+        faults = minor_faults() - faults
     ms = {label: 0.0 for label, _ in LABELS}
     for event in prof.key_averages():
         if event.key in ms:
             ms[event.key] += event.cpu_time_total / 1e3
-    return ms, total
+    return ms, total, faults
 
 
 def table(ms: dict[str, float], total: float, gmacs: dict[str, float]) -> list[str]:
@@ -126,7 +140,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--method", default="F", help="experiment of a two-stage row (A-M, unet)")
     parser.add_argument("--size", default="1080p", help="1080p, 256 or <W>x<H>")
     parser.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the CPU has it")
-    parser.add_argument("--warmup", type=int, default=1)
+    parser.add_argument("--warmup", type=int, default=2,
+                        help="profiled calls before the reported one (the kept heap settles over a few)")
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
@@ -161,17 +176,19 @@ def main(argv: list[str] | None = None) -> None:
         with torch.inference_mode(), autocast_to(device, path.dtype):
             model(x)
 
-    for _ in range(args.warmup):
-        call()
-    ms, total = profile_call(call)
+    for _ in range(args.warmup):         # profiled too: the profiler's own allocations reshape the kept heap
+        profile_call(call)
+    ms, total, faults = profile_call(call)
     lines = [
         f"# Inference profile: {args.method} at {w}x{h} on the CPU (python -m mcd.bench --profile)",
         "",
         f"- Command: `python -m mcd.bench --profile {' '.join(argv if argv is not None else [])}`".rstrip(),
         f"- Device: {device_name(device)}; torch {torch.__version__}; path {dtype} channels-last, "
         "inference mode",
-        f"- Inputs: {inputs}; {args.warmup} warm-up call(s), then one profiled call",
-        f"- Allocator: {memory} (mcd/allocator.py)",
+        f"- Inputs: {inputs}; {args.warmup} profiled warm-up call(s), then the profiled call",
+        f"- Allocator: {memory} (mcd/allocator.py); page faults during the profiled call: {faults}"
+        + ("" if faults < 1000 else " (the heap had not settled: its first touch of new pages is in these "
+                                    "times; raise --warmup)"),
         "",
         *table(ms, total, gmacs),
     ]
