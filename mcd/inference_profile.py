@@ -94,8 +94,8 @@ def stage_macs(cfg, height: int, width: int) -> dict[str, float]:
 
 
 #: A call that makes fewer page faults than this found the kept heap settled; a reported call that makes more
-#: becomes a warm-up and the next is reported, up to :data:`MORE_WARMUPS` times (the heap does not settle for
-#: good: row F at 1080p under the profiler ran a call without faults after four and faulted again in the next).
+#: becomes a warm-up and the next is reported, up to :data:`MORE_WARMUPS` times (the heap does not settle
+#: for good: row F at 1080p under the profiler ran a call without faults after four, then faulted again).
 SETTLED = 1000
 MORE_WARMUPS = 4
 
@@ -149,8 +149,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--size", default="1080p", help="1080p, 256 or <W>x<H>")
     parser.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the CPU has it")
     parser.add_argument("--warmup", type=int, default=2,
-                        help=f"profiled calls before the reported one, and up to {MORE_WARMUPS} more while the "
-                             f"reported one makes {SETTLED} page faults or more (the kept heap settles)")
+                        help=f"profiled calls before the reported one, and up to {MORE_WARMUPS} more while "
+                             f"the reported one makes {SETTLED} page faults or more (the kept heap settles)")
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
