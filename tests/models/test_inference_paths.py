@@ -232,20 +232,27 @@ def test_split_depthwise_adds_into_a_given_output():
         torch.testing.assert_close(out, ref, rtol=1e-5, atol=1e-5)
 
 
+def _eager_then_channels_last(row: str, profile: str, size: tuple[int, int], colour: float):
+    """Row ``row`` (seeded), random inputs of ``size`` (colour buffers scaled by ``colour``), its output under
+    plain no_grad, then the model and inputs in channels-last: ``(model, inputs, reference output)``."""
+    torch.manual_seed(0)
+    model = build(row_cfg(row, profile=profile)).eval()
+    x = {name: torch.rand(1, 1 if name == "depth" else 3, *size) * (colour if name.startswith("c") else 1)
+         for name in model.required_buffers()}
+    x["ref"] = None
+    with torch.no_grad():
+        ref = model(x)["output"]
+    cl = torch.channels_last
+    return model.to(memory_format=cl), {k: v if v is None else v.contiguous(memory_format=cl)
+                                        for k, v in x.items()}, ref
+
+
 @pytest.mark.parametrize("row", ["A", "C", "F"])
 def test_a_rows_fp32_inference_paths_are_its_eager_forward(row):
     """Every fp32 fast path of a row at once (inference mode, channels-last) against its forward under plain
     no_grad: row A (ConvReLU blocks), C (KP without FG: the kernel-map head's ConvReLU on parts with the
     descriptor), F (Fast GhostConv, PP, SA)."""
-    torch.manual_seed(0)
-    model = build(row_cfg(row, profile="paper")).eval()
-    x = {name: torch.rand(1, 1 if name == "depth" else 3, 37, 53) * (1e3 if name.startswith("c") else 1)
-         for name in model.required_buffers()}
-    x["ref"] = None
-    with torch.no_grad():
-        ref = model(x)["output"]
-    fast_model = model.to(memory_format=torch.channels_last)
-    xl = {k: v if v is None else v.contiguous(memory_format=torch.channels_last) for k, v in x.items()}
+    fast_model, xl, ref = _eager_then_channels_last(row, "paper", (37, 53), colour=1e3)
     with torch.inference_mode():
         fast = fast_model(xl)["output"]
     torch.testing.assert_close(fast, ref, rtol=1e-4, atol=1e-4 * float(ref.abs().max()))
@@ -366,15 +373,7 @@ def test_a_long_capping_cascade_reaches_the_same_water_level():
 def test_fastest_cpu_path_of_a_row_stays_near_fp32_eager(row, profile):
     """The bench's fastest CPU path (inference mode, bf16 autocast, channels-last, every fast path) against
     the fp32 eager forward under plain no_grad (grouped convs as they are)."""
-    torch.manual_seed(0)
-    model = build(row_cfg(row, profile=profile)).eval()
-    x = {name: torch.rand(1, 1 if name == "depth" else 3, 48, 80) * (20 if name.startswith("c") else 1)
-         for name in model.required_buffers()}
-    x["ref"] = None
-    with torch.no_grad():
-        ref = model(x)["output"]
-    fast_model = model.to(memory_format=torch.channels_last)
-    xl = {k: v if v is None else v.contiguous(memory_format=torch.channels_last) for k, v in x.items()}
+    fast_model, xl, ref = _eager_then_channels_last(row, profile, (48, 80), colour=20)
     with torch.inference_mode():
         fp32 = fast_model(xl)["output"]
         with torch.autocast("cpu", dtype=torch.bfloat16):
