@@ -3,7 +3,8 @@
 
 One process per call of this script; per method (``--methods``, default ``F,unet``; capacity ``model=paper``,
 seeded weights), the bench's input frame (the first test scene of ``--data``, read through the store and
-tiled to 1920x1080) on the fp32 channels-last path under ``torch.inference_mode``, freed memory kept
+tiled to 1920x1080) on the fp32 channels-last path (``--dtype bf16``: bf16 autocast and channels-last, where
+the CPU computes bf16) under ``torch.inference_mode``, freed memory kept
 (mcd/allocator.py). Two variants alternate call by call after ``--warmup`` calls each, timed in wall-clock
 seconds (both threads work, so thread CPU time would miss half of it):
 
@@ -11,7 +12,7 @@ seconds (both threads work, so thread CPU time would miss half of it):
   (conv, then ReLU; the decoder's concatenation; ``add_`` per part);
 - ``fused``: the code as it is.
 
-    OMP_NUM_THREADS=2 python benchmarks/fused_post_ops_ab.py --data small --reps 5
+    OMP_NUM_THREADS=2 python benchmarks/fused_post_ops_ab.py --data small --reps 5 [--dtype bf16]
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import torch
 
 from mcd import allocator
 from mcd.bench import StoreFrame, compose_cfg, device_name, frame_buffers, model_inputs, store_frame
+from mcd.lit.precision import cpu_bf16_supported
 from mcd.models import build, fused_conv
 
 VARIANTS = ("plain", "fused")
@@ -34,7 +36,7 @@ def use(variant: str) -> None:
     fused_conv.applies = APPLIES if variant == "fused" else (lambda *_: False)
 
 
-def measure(method: str, source: StoreFrame, warmup: int, reps: int) -> str:
+def measure(method: str, source: StoreFrame, warmup: int, reps: int, bf16: bool) -> str:
     """One method's table row: both variants' times, the ratio of their medians, their outputs' difference."""
     torch.manual_seed(0)
     model = build(compose_cfg(method, ["model=paper"])).eval().to(memory_format=torch.channels_last)
@@ -47,8 +49,8 @@ def measure(method: str, source: StoreFrame, warmup: int, reps: int) -> str:
         use(variant)
         model.reset()
         t0 = time.perf_counter()
-        with torch.inference_mode():
-            outputs[variant] = model(x)["output"]
+        with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+            outputs[variant] = model(x)["output"].float()
         return time.perf_counter() - t0
 
     for _ in range(warmup):
@@ -73,15 +75,19 @@ def main() -> None:
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--reps", type=int, default=5)
     parser.add_argument("--warmup", type=int, default=2)
+    parser.add_argument("--dtype", choices=("fp32", "bf16"), default="fp32")
     args = parser.parse_args()
+    if args.dtype == "bf16" and not cpu_bf16_supported():
+        parser.error("--dtype bf16: this CPU has no native bf16 (avx512_bf16 / amx)")
     memory = allocator.apply("keep")
     source = store_frame(args.data, None)
-    print(f"{device_name(torch.device('cpu'))}, {torch.get_num_threads()} thread(s), 1920x1080, fp32 "
-          f"channels-last, {memory}; wall s per call, {args.warmup} warm-up call(s) per variant\n")
+    print(f"{device_name(torch.device('cpu'))}, {torch.get_num_threads()} thread(s), 1920x1080, "
+          f"{args.dtype} channels-last, {memory}; wall s per call, {args.warmup} warm-up call(s) per "
+          "variant\n")
     print("| method | plain | fused | median plain / fused | max abs difference of the outputs |")
     print("|---|---|---|---|---|")
     for method in args.methods.split(","):
-        print(measure(method, source, args.warmup, args.reps))
+        print(measure(method, source, args.warmup, args.reps, args.dtype == "bf16"))
 
 
 if __name__ == "__main__":

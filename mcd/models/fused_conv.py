@@ -14,9 +14,10 @@ inputs into a new full-resolution tensor. oneDNN applies them inside the convolu
 
 Both call PyTorch's oneDNN fusion operators (``torch.ops.mkldnn._convolution_pointwise`` and its in-place
 ``binary`` form, the ones inductor's CPU backend emits for the same patterns). :func:`applies` says when:
-CPU tensors under ``torch.inference_mode`` (no autograd: training keeps the plain operations), no CPU
-autocast (whose casts these operators take no part in), inputs in the weight's dtype, and a PyTorch built
-with oneDNN. Elsewhere the callers run the plain operations. Tested against them in
+CPU tensors under ``torch.inference_mode`` (no autograd: training keeps the plain operations), a PyTorch
+built with oneDNN, and fp32 or bf16 (where oneDNN computes bf16). Autocast does not see these operators, so
+under CPU autocast :func:`conv2d` casts the operands to autocast's dtype itself, as autocast would for
+``F.conv2d``. Elsewhere the callers run the plain operations. Tested against them in
 ``tests/models/test_inference_paths.py``.
 """
 
@@ -28,25 +29,43 @@ import torch
 from torch import Tensor, nn
 
 
+def compute_dtype(weight: Tensor) -> torch.dtype:
+    """The dtype a convolution of ``weight`` computes in here: CPU autocast's where it is on (autocast runs
+    convolutions in its lower precision), else the weight's."""
+    return torch.get_autocast_dtype("cpu") if torch.is_autocast_enabled("cpu") else weight.dtype
+
+
 def applies(weight: Tensor, parts: Sequence[Tensor]) -> bool:
     """Whether the fused operators may run a convolution of ``weight`` on ``parts`` (see the module
-    docstring): CPU inference mode without autocast and inputs in the weight's dtype."""
-    return (torch.is_inference_mode_enabled() and torch.backends.mkldnn.is_available()
-            and not torch.is_autocast_enabled("cpu")
-            and all(p.device.type == "cpu" and p.dtype == weight.dtype for p in parts))
+    docstring): CPU inference mode, fp32 or (where oneDNN computes it) bf16, and inputs in that dtype or,
+    under autocast, in the weight's."""
+    if not (torch.is_inference_mode_enabled() and torch.backends.mkldnn.is_available()):
+        return False
+    dtype = compute_dtype(weight)
+    supported = dtype == torch.float32 or (dtype == torch.bfloat16
+                                           and torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    return supported and all(p.device.type == "cpu" and p.dtype in (dtype, weight.dtype) for p in parts)
 
 
 def conv2d(x: Tensor, weight: Tensor, bias: Tensor | None, padding: Sequence[int] = (0, 0), groups: int = 1,
            relu: bool = False, add_to: Tensor | None = None) -> Tensor:
     """``F.conv2d(x, weight, bias, padding=padding, groups=groups)`` (stride 1, zero padding), added in place
     to ``add_to`` when given (returned), then ReLU if ``relu``; the add and the ReLU are post-ops of the
-    convolution (call only where :func:`applies`)."""
+    convolution. Under CPU autocast the operands are cast to its dtype first, as autocast casts a conv's (call
+    only where :func:`applies`)."""
+    dtype = compute_dtype(weight)
+    x, weight = x.to(dtype), weight.to(dtype)
+    bias = None if bias is None else bias.to(dtype)
     args = (list(padding), [1, 1], [1, 1], groups)
     mkldnn = torch.ops.mkldnn
     if add_to is None:
         return mkldnn._convolution_pointwise(x, weight, bias, *args, "relu" if relu else "none", [], "")
-    return mkldnn._convolution_pointwise_.binary(add_to, x, weight, bias, *args, "add", 1.0,
-                                                 "relu" if relu else None, [], "")
+    # torch 2.13 sends a bf16 add + ReLU on NCHW tensors to an ATen kernel without bf16: ReLU separately there
+    cl = add_to.is_contiguous(memory_format=torch.channels_last)
+    split_relu = relu and dtype == torch.bfloat16 and not cl
+    out = mkldnn._convolution_pointwise_.binary(add_to, x, weight, bias, *args, "add", 1.0,
+                                                "relu" if relu and not split_relu else None, [], "")
+    return out.relu_() if split_relu else out
 
 
 def conv_on_parts(conv: nn.Conv2d, parts: Sequence[Tensor], relu: bool) -> Tensor:

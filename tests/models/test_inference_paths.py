@@ -196,12 +196,26 @@ def test_fused_conv_adds_in_place_and_applies_only_to_plain_cpu_inference():
         assert out is acc
         torch.testing.assert_close(acc, ref)
         assert not fused_conv.applies(w, [x.double()])                        # another dtype
-        with torch.autocast("cpu", dtype=torch.bfloat16):
-            assert not fused_conv.applies(w, [x])                             # autocast's casts
         with pytest.raises(ValueError, match="parts have"):
             fused_conv.conv_on_parts(torch.nn.Conv2d(8, 4, 3, padding=1), [x], relu=True)
         with pytest.raises(ValueError, match="dense, stride-1"):
             fused_conv.conv_on_parts(torch.nn.Conv2d(6, 4, 3, padding=1, groups=2), [x], relu=True)
+
+
+@needs_bf16
+@pytest.mark.parametrize("fmt", [torch.contiguous_format, torch.channels_last])
+def test_fused_conv_under_bf16_autocast_computes_what_autocast_would(fmt):
+    """Autocast does not see the fused operators; they cast to its dtype as it would for a conv2d."""
+    torch.manual_seed(6)
+    block = ConvReLU(12, 8).eval()
+    parts = [torch.randn(1, 8, 9, 13).contiguous(memory_format=fmt),            # mixed, as under autocast
+             torch.randn(1, 4, 9, 13).bfloat16().contiguous(memory_format=fmt)]
+    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16):
+        assert fused_conv.applies(block.conv.weight, parts)
+        ref = F.relu(block.conv(torch.cat([p.bfloat16() for p in parts], 1)))
+        out = block.forward_parts(parts)
+    assert out.dtype == ref.dtype == torch.bfloat16
+    torch.testing.assert_close(out.float(), ref.float(), rtol=2e-2, atol=2e-2 * float(ref.abs().max()))
 
 
 @pytest.mark.parametrize("fmt", [torch.contiguous_format, torch.channels_last])
