@@ -103,10 +103,10 @@ def main() -> None:
             parts = [torch.rand(1, c, h, w).bfloat16().contiguous(memory_format=CL) for c in widths]
             whole = parts if constant is None else [*parts, broadcast(constant, parts[0])]
             g, p = block.group, block.point
-            cat = best_cpu_ms(lambda g=g, p=p, whole=whole: group_then_point(g, p, [torch.cat(whole, 1)]),
-                              args.reps)
-            split = best_cpu_ms(lambda g=g, p=p, parts=parts, c=constant: group_then_point(g, p, parts, c),
-                                args.reps)
+            cat = best_cpu_ms(lambda g=g, p=p, whole=whole:
+                              group_then_point(g, p.weight, p.bias, [torch.cat(whole, 1)]), args.reps)
+            split = best_cpu_ms(lambda g=g, p=p, parts=parts, c=constant:
+                                group_then_point(g, p.weight, p.bias, parts, c), args.reps)
             print(f"| {name} | {cat:.1f} | {split:.1f} | {cat / split:.2f}x |")
         print()
         for cin, cout in ((16, 16), (32, 32), (64, 64)):

@@ -69,9 +69,9 @@ class FastGhostConv(nn.Module):
         (docs/inference.md; a U-Net decoder block is handed its upsampled features and skip, the kernel-map
         head the kernel descriptor)."""
         if fast_path_applies(self.group, parts):
-            primary = group_then_point(self.group, self.point, parts, constant)
-            if fused_conv.applies(self.ghost.weight, [primary]):
-                return primary_and_ghost(primary, self.ghost)
+            if fused_conv.applies(self.ghost.weight, parts):
+                return primary_and_ghost(self.group, self.point, self.ghost, parts, constant)
+            primary = group_then_point(self.group, self.point.weight, self.point.bias, parts, constant)
         else:
             whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
             x = torch.cat(whole, 1) if len(whole) > 1 else whole[0]
@@ -79,19 +79,24 @@ class FastGhostConv(nn.Module):
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
 
 
-def primary_and_ghost(primary: Tensor, ghost: nn.Conv2d) -> Tensor:
-    """``relu(cat([primary, ghost(primary)]))``, the end of a Fast GhostConv block, written straight into
-    the block's output: the ghost conv with its ReLU fused (:mod:`mcd.models.fused_conv`) and ``primary``
-    clamped, each into its half, so neither the concatenation nor the ReLU is a pass of its own (CPU
-    inference, where :func:`mcd.models.fused_conv.applies`)."""
-    b, half, h, w = primary.shape
-    g = fused_conv.conv2d(primary, ghost.weight, ghost.bias, ghost.padding, groups=ghost.groups, relu=True)
-    cl = primary.is_contiguous(memory_format=torch.channels_last)
-    out = torch.empty(b, 2 * half, h, w, dtype=primary.dtype, device=primary.device,
-                      memory_format=torch.channels_last if cl else torch.contiguous_format)
-    out[:, half:].copy_(g)
-    torch.clamp_min(primary, 0, out=out[:, :half])
-    return out
+def primary_and_ghost(group: nn.Conv2d, point: nn.Conv2d, ghost: nn.Conv2d, parts: Sequence[Tensor],
+                      constant: Tensor | None = None) -> Tensor:
+    """``relu(cat([p, ghost(p)]))`` with ``p = point(group(x))``, the whole Fast GhostConv block, without a
+    concatenation or a ReLU pass of its own: :func:`group_then_point` runs the point-wise conv with its
+    weight stacked twice, so it writes ``[p, p]``, and one depth-wise 3x3 conv over both halves, its ReLU
+    fused (:mod:`mcd.models.fused_conv`), applies an identity kernel (the centre tap 1, no bias) to the first
+    half and the ghost conv to the second. Same function: the identity passes ``p`` through exactly. Costs
+    ``mid x half`` more MACs in the point-wise conv and ``9 x half`` in the depth-wise one per pixel, where
+    the block's MACs are counted on its own form. CPU inference, where :func:`fused_conv.applies`."""
+    pw, pb = point.weight, point.bias
+    both = group_then_point(group, torch.cat([pw, pw]), None if pb is None else torch.cat([pb, pb]), parts,
+                            constant)
+    half = ghost.out_channels
+    identity = torch.zeros_like(ghost.weight)
+    identity[:, :, ghost.kernel_size[0] // 2, ghost.kernel_size[1] // 2] = 1
+    bias = None if ghost.bias is None else torch.cat([torch.zeros_like(ghost.bias), ghost.bias])
+    return fused_conv.conv2d(both, torch.cat([identity, ghost.weight]), bias, ghost.padding, groups=2 * half,
+                             relu=True)
 
 
 #: Output channels oneDNN's CPU convolutions compute together (one AVX-512 register of fp32, or of bf16
@@ -166,9 +171,10 @@ def splits(cin: int, cout_g: int) -> bool:
     return cin <= SPLIT_MAX_IN and cout_g <= SPLIT_MAX_OUT
 
 
-def group_then_point(group: nn.Conv2d, point: nn.Conv2d, parts: Sequence[Tensor],
-                     constant: Tensor | None = None) -> Tensor:
-    """``point(group(x))`` for a stride-1 zero-padded group conv and a 1x1 conv, where ``x`` is the channel
+def group_then_point(group: nn.Conv2d, point_weight: Tensor, point_bias: Tensor | None,
+                     parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
+    """``point(group(x))`` for a stride-1 zero-padded group conv and a 1x1 conv ``point`` (``point_weight``,
+    ``point_bias``), where ``x`` is the channel
     concatenation of ``parts`` and, when given, of ``constant`` ``[B, D]`` broadcast over the image (the last
     ``D`` channels). Parts that hold whole groups are runs as they are; where a group straddles two parts they
     are concatenated first (the per-group pieces measured slower for ``F_s``'s 144 -> 24 decoder block),
@@ -187,16 +193,16 @@ def group_then_point(group: nn.Conv2d, point: nn.Conv2d, parts: Sequence[Tensor]
         raise ValueError(f"group_then_point: the parts have {[p.shape[1] for p in parts]} channels and the "
                          f"constant {depth}; the group conv reads {g * cin_g}")
     if constant is not None and (variable % cin_g == 0 or depth >= cin_g):       # not in a shared group
-        return group_then_point(group, point, [*parts, broadcast(constant, parts[0])])
+        return group_then_point(group, point_weight, point_bias, [*parts, broadcast(constant, parts[0])])
     if constant is None and len(parts) > 1 and any(p.shape[1] % cin_g for p in parts):
         parts = [torch.cat(list(parts), 1)]         # a group straddles two parts: one grouped conv (faster)
     out: Tensor | None = None
     for j, x in group_runs(parts, cin_g):
         n = -(-x.shape[1] // cin_g)
         rows = slice(j * cout_g, (j + n) * cout_g)
-        weight, pw = group.weight[rows, : x.shape[1] // n], point.weight[:, rows]
+        weight, pw = group.weight[rows, : x.shape[1] // n], point_weight[:, rows]
         bias = None if group.bias is None else group.bias[rows]
-        pb = point.bias if out is None else None
+        pb = point_bias if out is None else None
         if constant is not None and x.shape[1] < n * cin_g:            # the group it shares with the constant
             taps = torch.einsum("bc,ocyx->boyx", constant.float(),
                                 group.weight[rows, x.shape[1]:].float())                # [B, cout_g, kh, kw]

@@ -97,7 +97,8 @@ def test_group_then_point_on_parts_is_the_block_on_their_concatenation(split, co
         ref = point(group(torch.cat(parts, 1)))
     with torch.inference_mode():
         for fmt in (torch.contiguous_format, torch.channels_last):
-            fast = group_then_point(group, point, [p.contiguous(memory_format=fmt) for p in parts])
+            laid = [p.contiguous(memory_format=fmt) for p in parts]
+            fast = group_then_point(group, point.weight, point.bias, laid)
             torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
 
 
@@ -120,7 +121,8 @@ def test_group_then_point_with_constant_channels_is_the_block_on_the_broadcast(b
         ref = point(group(whole))
     with torch.inference_mode():
         for fmt in (torch.contiguous_format, torch.channels_last):
-            fast = group_then_point(group, point, [p.contiguous(memory_format=fmt) for p in parts], constant)
+            laid = [p.contiguous(memory_format=fmt) for p in parts]
+            fast = group_then_point(group, point.weight, point.bias, laid, constant)
             torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
 
 
@@ -219,16 +221,20 @@ def test_fused_conv_under_bf16_autocast_computes_what_autocast_would(fmt):
 
 
 @pytest.mark.parametrize("fmt", [torch.contiguous_format, torch.channels_last])
-def test_primary_and_ghost_writes_the_blocks_output(fmt):
-    torch.manual_seed(4)
-    ghost = torch.nn.Conv2d(5, 5, 3, padding=1, groups=5)
-    primary = torch.randn(2, 5, 7, 10).contiguous(memory_format=fmt)
+@pytest.mark.parametrize(("cin", "cout"), [(16, 16), (48, 24)])
+def test_primary_and_ghost_is_the_block(fmt, cin, cout):
+    """The whole block as one stacked point-wise conv and one depth-wise conv (identity on the primary half)
+    against the block's plain form; HDR-sized inputs."""
+    torch.manual_seed(cin)
+    block = FastGhostConv(cin, cout).eval()
+    x = (torch.randn(2, cin, 7, 10) * 1e4).contiguous(memory_format=fmt)
     with torch.no_grad():
-        ref = F.relu(torch.cat([primary, ghost(primary)], 1))
+        ref = block(x)
     with torch.inference_mode():
-        out = primary_and_ghost(primary, ghost)
-    torch.testing.assert_close(out, ref)
-    assert out.is_contiguous(memory_format=fmt)
+        out = primary_and_ghost(block.group, block.point, block.ghost, [x])
+    torch.testing.assert_close(out, ref, rtol=1e-5, atol=1e-5 * float(ref.abs().max()))
+    assert out.shape == ref.shape
+    assert fmt != torch.channels_last or out.is_contiguous(memory_format=fmt)
 
 
 def test_split_depthwise_adds_into_a_given_output():
