@@ -10,7 +10,7 @@ import torch
 from torch import Tensor, nn
 
 from mcd.models import fused_conv
-from mcd.models.inputs import broadcast
+from mcd.models.inputs import with_constant
 
 #: ``block(in_channels, out_channels) -> module`` builds one conv block of a U-Net.
 BlockFactory = Callable[[int, int], nn.Module]
@@ -33,10 +33,10 @@ class ConvReLU(nn.Module):
         """The block on the channel concatenation of ``parts`` and of ``constant`` ``[B, D]`` broadcast over
         the image; in CPU inference mode without building the concatenation
         (:func:`mcd.models.fused_conv.conv_on_parts`)."""
-        whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
+        whole = with_constant(parts, constant)
         if fused_conv.applies(self.conv.weight, whole):
             return fused_conv.conv_on_parts(self.conv, whole, relu=True)
-        return self.act(self.conv(torch.cat(whole, 1) if len(whole) > 1 else whole[0]))
+        return self.forward(torch.cat(whole, 1) if len(whole) > 1 else whole[0])
 
 
 def on_parts(block: nn.Module, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
@@ -46,6 +46,4 @@ def on_parts(block: nn.Module, parts: Sequence[Tensor], constant: Tensor | None 
     forward_parts = getattr(block, "forward_parts", None)
     if callable(forward_parts):
         return forward_parts(parts, constant)
-    whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
-    return block(torch.cat(whole, 1))
-
+    return block(torch.cat(with_constant(parts, constant), 1))

@@ -76,7 +76,7 @@ def conv_on_parts(conv: nn.Conv2d, parts: Sequence[Tensor], relu: bool) -> Tenso
         raise ValueError(f"conv_on_parts splits the input channels of a dense, stride-1, zero-padded conv; "
                          f"got {conv}")
     widths = [p.shape[1] for p in parts]
-    if sum(widths) != conv.in_channels or not parts:
+    if sum(widths) != conv.in_channels:
         raise ValueError(f"conv_on_parts: the parts have {widths} channels; the conv reads "
                          f"{conv.in_channels}")
     first = widths[0]

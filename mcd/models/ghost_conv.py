@@ -38,7 +38,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from mcd.models import fused_conv
-from mcd.models.inputs import broadcast, cat_channels
+from mcd.models.inputs import cat_channels, with_constant
 
 
 class FastGhostConv(nn.Module):
@@ -73,7 +73,7 @@ class FastGhostConv(nn.Module):
                 return primary_and_ghost(self.group, self.point, self.ghost, parts, constant)
             primary = group_then_point(self.group, self.point.weight, self.point.bias, parts, constant)
         else:
-            whole = [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
+            whole = with_constant(parts, constant)
             x = torch.cat(whole, 1) if len(whole) > 1 else whole[0]
             primary = self.point(grouped_conv(self.group, x))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))
@@ -193,7 +193,7 @@ def group_then_point(group: nn.Conv2d, point_weight: Tensor, point_bias: Tensor 
         raise ValueError(f"group_then_point: the parts have {[p.shape[1] for p in parts]} channels and the "
                          f"constant {depth}; the group conv reads {g * cin_g}")
     if constant is not None and (variable % cin_g == 0 or depth >= cin_g):       # not in a shared group
-        return group_then_point(group, point_weight, point_bias, [*parts, broadcast(constant, parts[0])])
+        return group_then_point(group, point_weight, point_bias, with_constant(parts, constant))
     if constant is None and len(parts) > 1 and any(p.shape[1] % cin_g for p in parts):
         parts = [torch.cat(list(parts), 1)]         # a group straddles two parts: one grouped conv (faster)
     out: Tensor | None = None

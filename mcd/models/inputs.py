@@ -104,3 +104,9 @@ def broadcast(constant: Tensor, like: Tensor) -> Tensor:
     """``constant`` ``[B, D]`` as ``D`` channels over ``like``'s image, in its dtype."""
     b, _, h, w = like.shape
     return constant[:, :, None, None].expand(b, constant.shape[1], h, w).to(like.dtype)
+
+
+def with_constant(parts: Sequence[Tensor], constant: Tensor | None) -> list[Tensor]:
+    """``parts``, followed by ``constant`` ``[B, D]`` broadcast over the first part's image when given: the
+    channel parts of a block's input whose concatenation the block reads."""
+    return [*parts, *([] if constant is None else [broadcast(constant, parts[0])])]
