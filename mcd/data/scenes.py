@@ -130,7 +130,11 @@ class SceneSpec:
         return desc
 
     def load(self, width: int, height: int, max_depth: int | None, segments: int) -> LoadedScene:
-        """Load into Mitsuba (the variant must be set) and build the camera key nodes (``segments + 1``)."""
+        """Load into Mitsuba (the variant must be set) and build the camera key nodes (``segments + 1``).
+
+        ``optimize=False``: Mitsuba's shape merging orders the emitters differently from process to process,
+        so the same seed would not reproduce a render (docs/data.md, "Reproducible renders").
+        """
         import mitsuba as mi
 
         if self.kind == "xml":
@@ -142,7 +146,8 @@ class SceneSpec:
             if "max_depth" in kwargs and "max_depth" not in declared:
                 log.info("scene %s declares no <default name=\"max_depth\">: its integrator's own depth is "
                          "used", self.name)
-            scene = mi.load_file(str(self.file), **{k: v for k, v in kwargs.items() if k in declared})
+            scene = mi.load_file(str(self.file), optimize=False,
+                                 **{k: v for k, v in kwargs.items() if k in declared})
             sensor = scene.sensors()[0]
             params = mi.traverse(sensor)
             fov = float(np.asarray(params["x_fov"], dtype=np.float64).ravel()[0])
@@ -155,7 +160,7 @@ class SceneSpec:
             from mcd.data.procedural import build_room
 
             scene_dict, nodes, fov = build_room(self.seed, self.room, segments, max_depth or 8)
-            scene = mi.load_dict(scene_dict)
+            scene = mi.load_dict(scene_dict, optimize=False)
         if len(nodes) != segments + 1:
             raise ValueError(
                 f"scene {self.name!r}: path has {len(nodes)} key nodes, the profile needs {segments + 1}"
