@@ -139,12 +139,15 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
     """
     from mcd.data import StoreBuilder
     from mcd.data.buffers import run_buffers
+    from mcd.data.pack import pack
+    from mcd.data.train_store import TrainStoreSettings
     from mcd.lit import checkpoint, transfer
     from mcd.models import build as build_model
 
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
     check_run(cfg)  # budget and image size, before anything is rendered
+    train_store = TrainStoreSettings.from_cfg(cfg)  # data.train_store.*, named if unknown
     resume = resume_checkpoint(cfg.get("ckpt_path"), out_dir)
     if resume and not Path(resume).is_file():
         raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
@@ -164,6 +167,8 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
     store = StoreBuilder.from_cfg(cfg)
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
+    if train_store.format == "array":  # training clips from the packed store
+        pack(cfg, store, buffers)  # resumes; reuses what is packed (docs/training_store.md)
     data_s = time.perf_counter() - t0
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
     module = DenoiseModule(cfg, model, build_loss(cfg))

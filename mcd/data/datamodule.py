@@ -23,6 +23,13 @@ ranks by a ``DistributedSampler`` (as Lightning's own would: shuffled with ``see
 equal shares), and rank 0 tests every test frame, in order, while the other ranks test none: the test carries
 temporal state along each whole sequence, so its frames cannot be split between processes.
 
+Where clips come from (``data.train_store.format``): ``exr`` reads whole EXR frames and crops them
+(:class:`mcd.data.clips.ExrClips`); ``array`` reads training and validation clips from the packed training
+store, only the bytes a crop covers (:class:`mcd.data.train_store.TrainStore`, docs/training_store.md), after
+checking at setup that every clip's frames are packed from today's EXR files. Test frames are whole frames and
+always come from the EXR store. Memory maps open lazily in each loader worker; loaders pin memory when CUDA is
+available.
+
 The simulated adaptive render is built by the model from the stored ``c_{2^k}`` images, not here.
 """
 
@@ -33,46 +40,18 @@ from collections.abc import Iterable
 from typing import Any
 
 import lightning as L
-import numpy as np
 import torch
 from omegaconf import DictConfig
 from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, Subset
 
 from mcd.data.buffers import BUFFERS, validate_buffers
+from mcd.data.clips import ExrClips
 from mcd.data.splits import split_frames
 from mcd.data.store import StoreReader
+from mcd.data.train_store import TrainStore, TrainStoreSettings, pack_command
 from mcd.preflight import check_crops
 
 log = logging.getLogger(__name__)
-
-
-class _Frames:
-    """Loads ``(scene, frame, buffer)`` as CHW float32 tensors from the store, optionally kept in memory."""
-
-    def __init__(self, store: StoreReader, buffers: list[str], cache: bool):
-        self.store, self.buffers, self.cache = store, buffers, cache
-        self._mem: dict[tuple[str, int, str], torch.Tensor] = {}
-
-    def get(self, scene: str, frame: int, buffer: str) -> torch.Tensor:
-        key = (scene, frame, buffer)
-        if key in self._mem:
-            return self._mem[key]
-        t = torch.from_numpy(np.ascontiguousarray(self.store.load(scene, frame, buffer).transpose(2, 0, 1)))
-        if self.cache:
-            self._mem[key] = t
-        return t
-
-    def clip(self, scene: str, frames: list[int], crop: tuple[int, int, int, int] | None) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for b in self.buffers:
-            ts = [self.get(scene, f, b) for f in frames]
-            if crop is not None:
-                y, x, h, w = crop
-                ts = [t[:, y : y + h, x : x + w] for t in ts]
-            out[b] = torch.stack(ts)
-        out["scene"] = scene
-        out["frame"] = torch.tensor(frames, dtype=torch.long)
-        return out
 
 
 class ClipDataset(Dataset):
@@ -80,7 +59,7 @@ class ClipDataset(Dataset):
 
     def __init__(
         self,
-        frames: _Frames,
+        frames: ExrClips | TrainStore,
         clips: list[tuple[str, list[int]]],
         crop: int,
         size: tuple[int, int],
@@ -115,7 +94,7 @@ class ClipDataset(Dataset):
 class SequenceDataset(Dataset):
     """Whole test frames in sequence order, each with its window of neighbours and a ``reset`` flag."""
 
-    def __init__(self, frames: _Frames, sequences: list[tuple[str, list[int]]], window: tuple[int, int]):
+    def __init__(self, frames: ExrClips, sequences: list[tuple[str, list[int]]], window: tuple[int, int]):
         self.frames, self.window = frames, window
         self.items = [(scene, seq, i) for scene, seq in sequences for i in range(len(seq))]
 
@@ -159,7 +138,12 @@ class MCDDataModule(L.LightningDataModule):
         self.batch_size = int(train_cfg.get("batch_size", 4))
         self.num_workers = int(d.get("num_workers", 0))
         self.seed = int(cfg.get("seed", 0))
-        self._frames = _Frames(store, self.buffers, bool(d.get("cache_in_memory", True)))
+        self._frames = ExrClips(store, self.buffers, bool(d.get("cache_in_memory", True)))
+        self.train_store: TrainStore | None = None
+        settings = TrainStoreSettings.from_cfg(cfg)
+        if settings.format == "array":  # training and validation clips from the packed store
+            self.train_store = TrainStore.open(settings, d, self.buffers,
+                                               pack_command(store.overrides, self.buffers))
         self._ready = False
         # under DDP the ranks other than 0 get an empty test loader (see the module docstring)
         self.allow_zero_length_dataloader_with_multiple_devices = True
@@ -181,12 +165,18 @@ class MCDDataModule(L.LightningDataModule):
                 val += [(scene, c) for c in sp["val"]]
             if scene in self.test_scenes:
                 test += [(scene, s) for s in sp["test"]]
-        self.train_set = ClipDataset(self._frames, train, crop, (h, w), random_crop=True, at_edge=at_edge)
-        self.val_set = ClipDataset(self._frames, val, int(d.val_crop), (h, w), random_crop=False)
+        clips: ExrClips | TrainStore = self._frames
+        if self.train_store is not None:
+            for scene in self.train_scenes:  # every clip's frames packed from today's EXR files
+                self.train_store.check_frames(scene, [f for s, c in train + val if s == scene for f in c],
+                                              self.store.manifest(scene))
+            clips = self.train_store
+        self.train_set = ClipDataset(clips, train, crop, (h, w), random_crop=True, at_edge=at_edge)
+        self.val_set = ClipDataset(clips, val, int(d.val_crop), (h, w), random_crop=False)
         self.test_set = SequenceDataset(self._frames, test, self.window)
         log.info(
             "datamodule %s: loading buffers %s; train %d clips of %d (crop %d, at a frame edge %.2f per "
-            "axis) from %s; "
+            "axis) from %s (%s); "
             "val %d clips (crop %d); "
             "test %d frames from %s (window %s)",
             d.name,
@@ -196,6 +186,7 @@ class MCDDataModule(L.LightningDataModule):
             crop,
             at_edge,
             ",".join(self.train_scenes),
+            "EXR" if self.train_store is None else f"training store {self.train_store.root}",
             len(val),
             min(int(d.val_crop), h, w),
             len(self.test_set),
@@ -222,6 +213,7 @@ class MCDDataModule(L.LightningDataModule):
             num_workers=self.num_workers,
             drop_last=False,
             persistent_workers=self.num_workers > 0,
+            pin_memory=torch.cuda.is_available(),
         )
 
     def train_dataloader(self) -> DataLoader:
@@ -238,4 +230,4 @@ class MCDDataModule(L.LightningDataModule):
         rank, _ = self._ranks()
         frames = self.test_set if rank == 0 else Subset(self.test_set, [])
         return DataLoader(frames, batch_size=1, shuffle=False, num_workers=self.num_workers,
-                          persistent_workers=self.num_workers > 0)
+                          persistent_workers=self.num_workers > 0, pin_memory=torch.cuda.is_available())

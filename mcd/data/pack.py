@@ -1,0 +1,198 @@
+"""``python -m mcd.data.pack data=<profile> [+experiment=X]``: pack the EXR store's training and validation
+frames into the training store (:mod:`mcd.data.train_store`, docs/training_store.md; issue 30, part 1).
+
+Which buffers: ``render.buffers`` as for ``python -m mcd.render`` (default ``method``: those the configured
+method reads, plus ``ref`` and the uniform render at the budget). Which scenes: ``data.train_scenes`` (the
+frames of their training and validation clips, :func:`mcd.data.splits.split_frames`). Where, and in which
+precision: ``data.train_store.dir`` and ``data.train_store.dtype``. ``python -m mcd.run`` packs by itself
+when ``data.train_store.format=array``; this command does it ahead (e.g. once, before a sweep).
+
+The unit of work is one frame of one scene: its buffers are read through
+:meth:`mcd.data.store.StoreReader.load` (as models see them), written into the scene's array, flushed, read
+back and compared (CRC-32), and only then recorded in the scene's pack record (written atomically: temp file,
+then rename). A pack killed at any point (kill -9 included) loses nothing: run again, it skips recorded frames
+whose EXR sources are unchanged and packs the rest. A store packed with another config is refused before any
+work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR store that lacks a file, naming
+the render command. One packer per scene at a time (``<scene>.lock``, ``fcntl.flock``): a second one (another
+DDP rank) waits, then reuses the first one's frames.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import logging
+import os
+import time
+import zlib
+from collections.abc import Iterable
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from omegaconf import DictConfig
+
+from mcd.data.buffers import BUFFERS
+from mcd.data.splits import split_frames
+from mcd.data.store import StoreReader
+from mcd.data.store_builder import _write_json_atomic
+from mcd.data.train_store import (
+    DTYPES,
+    FP16_MAX,
+    VERSION,
+    TrainStore,
+    TrainStoreSettings,
+    channel_ranges,
+    check_meta,
+    frame_digest,
+    pack_command,
+)
+
+log = logging.getLogger("mcd.pack")
+
+
+def frames_to_pack(reader: StoreReader, scene: str, data_cfg: DictConfig) -> list[int]:
+    """The frames of the scene's training and validation clips (what the datamodule reads from this store)."""
+    sp = split_frames(reader.frame_count(scene), float(data_cfg.test_fraction), int(data_cfg.val_clips),
+                      int(data_cfg.clip_len))
+    return sorted({f for clip in sp["train"] + sp["val"] for f in clip})
+
+
+def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
+         scenes: Iterable[str] | None = None) -> dict[str, Any]:
+    """Pack ``buffers`` of ``scenes`` (default ``data.train_scenes``) into the training store of ``cfg``
+    (module docstring). Returns ``{"root", "packed", "reused", "clamped", "seconds"}`` (frames packed now,
+    frames already packed, float16 values clamped now). Everything that can be checked is checked before the
+    first frame is read."""
+    settings = TrainStoreSettings.from_cfg(cfg)
+    buffers = [b for b in BUFFERS if b in set(buffers)]
+    scenes = list(dict.fromkeys(scenes if scenes is not None else cfg.data.train_scenes))
+    command = pack_command(reader.overrides, buffers)
+    todo = {s: frames_to_pack(reader, s, cfg.data) for s in scenes}
+    for scene, frames in todo.items():  # every source file listed, before any work
+        files = reader.manifest(scene)["files"]
+        absent = [(f, b) for f in frames for b in buffers if f"{f:04d}/{b}.exr" not in files]
+        if absent:
+            need = sorted({b for _, b in absent})
+            raise FileNotFoundError(
+                f"{reader.manifest_path(scene)}: {len(absent)} buffer file(s) to pack were never rendered "
+                f"(e.g. frame {absent[0][0]} {absent[0][1]}); render them first: "
+                f"{reader.render_command('render.buffers=[' + ','.join(need) + ']')}")
+    meta = {"version": VERSION, "dtype": settings.dtype, "width": int(cfg.data.width),
+            "height": int(cfg.data.height), "profile": str(cfg.data.name),
+            "channels": {b: list(r) for b, r in channel_ranges(buffers).items()}}
+    meta_path = settings.dir / "store.json"
+    if meta_path.is_file():
+        check_meta(json.loads(meta_path.read_text()), settings, cfg.data, buffers, meta_path)
+        meta = json.loads(meta_path.read_text())
+    else:
+        _write_json_atomic(meta_path, meta)
+    store = TrainStore(settings.dir, meta, command)
+    t0 = time.perf_counter()
+    report = {"root": str(settings.dir), "packed": 0, "reused": 0, "clamped": 0}
+    for scene, frames in todo.items():
+        with _scene_lock(settings.dir / f"{scene}.lock"):
+            got = _pack_scene(store, reader, scene, frames, (int(cfg.data.height), int(cfg.data.width)))
+        for k in ("packed", "reused", "clamped"):
+            report[k] += got[k]
+    report["seconds"] = time.perf_counter() - t0
+    log.info("training store %s (%s): packed %d frame(s), reused %d, %d value(s) clamped to the float16 "
+             "range, in %.1f s", settings.dir, settings.dtype, report["packed"], report["reused"],
+             report["clamped"], report["seconds"])
+    return report
+
+
+@contextmanager
+def _scene_lock(path: Path):
+    """Hold an exclusive ``flock`` on ``path`` (one packer per scene; others wait)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> np.memmap:
+    """The scene's ``.npy`` opened for writing; created (sparse, at a temp name, then renamed) when absent or
+    shaped for another frame count (the EXR store was re-rendered with another sequence: every frame is
+    packed again)."""
+    path = store.scene_path(scene)
+    n_channels = max(end for _, end in store.ranges.values())
+    shape = (reader.frame_count(scene), n_channels, *size)
+    if path.is_file():
+        mm = np.load(path, mmap_mode="r+")
+        if mm.shape == shape and mm.dtype == store.dtype:
+            return mm
+        log.warning("%s: shaped %s, the EXR store now gives %s: packing the scene again", path, mm.shape,
+                    shape)
+        del mm
+        store.record_path(scene).unlink(missing_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    np.lib.format.open_memmap(tmp, mode="w+", dtype=store.dtype, shape=shape).flush()
+    os.replace(tmp, path)
+    return np.load(path, mmap_mode="r+")
+
+
+def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list[int],
+                size: tuple[int, int]) -> dict[str, int]:
+    """Pack the scene's ``frames`` that are missing or stale (module docstring: the unit of work)."""
+    man = reader.manifest(scene)
+    mm = _scene_array(store, reader, scene, size)
+    record = store.record(scene)
+    done = record["frames"]
+    got = {"packed": 0, "reused": 0, "clamped": 0}
+    fp16 = store.dtype == np.dtype(DTYPES["float16"])
+    with open(store.scene_path(scene), "rb") as fh:
+        for f in frames:
+            digest = frame_digest(man, f, store.packed)
+            if done.get(str(f), {}).get("sources") == digest:
+                got["reused"] += 1
+                continue
+            frame = np.empty(mm.shape[1:], dtype=np.float32)
+            for b in store.packed:
+                c0, c1 = store.ranges[b]
+                frame[c0:c1] = reader.load(scene, f, b).transpose(2, 0, 1)
+            clamped = 0
+            if fp16:
+                over = np.abs(frame) > FP16_MAX
+                clamped = int(over.sum())
+                if clamped:
+                    np.clip(frame, -FP16_MAX, FP16_MAX, out=frame)
+                    log.warning("%s frame %d: %d value(s) beyond the float16 range clamped to +-%g "
+                                "(data.train_store.dtype=float16; float32 keeps them)", scene, f, clamped,
+                                FP16_MAX)
+            data = frame.astype(store.dtype) if fp16 else frame
+            mm[f] = data
+            mm.flush()
+            crc = zlib.crc32(data.tobytes())
+            back = os.pread(fh.fileno(), data.nbytes, mm.offset + f * data.nbytes)
+            if zlib.crc32(back) != crc:
+                raise OSError(f"{store.scene_path(scene)}: frame {f} reads back other bytes than were "
+                              "written (disk full or failing?); nothing was recorded for it: pack again")
+            done[str(f)] = {"sources": digest, "crc32": crc, "clamped": clamped}
+            _write_json_atomic(store.record_path(scene), record)
+            got["packed"] += 1
+            got["clamped"] += clamped
+    return got
+
+
+def main() -> None:
+    """The Hydra command (module docstring)."""
+    import hydra
+
+    @hydra.main(config_path="../../conf", config_name="config", version_base=None)
+    def _run(cfg: DictConfig) -> dict:
+        from mcd.lit.transfer import prepare
+        from mcd.render import requested_buffers
+
+        cfg, _ = prepare(cfg)
+        return pack(cfg, StoreReader.from_cfg(cfg), requested_buffers(cfg))
+
+    _run()
+
+
+if __name__ == "__main__":
+    main()
