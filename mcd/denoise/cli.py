@@ -9,7 +9,6 @@ Every bad input is refused before the long work starts, with a message naming th
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 from pathlib import Path
@@ -17,7 +16,8 @@ from pathlib import Path
 import torch
 
 from mcd import allocator
-from mcd.denoise import precision, weights
+from mcd.denoise import output_folder, precision, weights
+from mcd.denoise.output import SUMMARY, frame_files, write_json
 from mcd.denoise.precision import PRECISIONS
 
 log = logging.getLogger("mcd.denoise")
@@ -83,7 +83,8 @@ def load_model(args: argparse.Namespace) -> weights.Loaded:
 
 def run(argv: list[str] | None = None) -> dict:
     """Parse ``argv``, denoise, write ``<output>/denoise.json``; returns its content. A refused input exits 2
-    with the message on stderr."""
+    with the message on stderr. The output folder and every input are checked before any work
+    (docs/reliability.md, "Denoising your frames")."""
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     allocator.keep_freed_memory()           # full frames reuse freed pages (mcd/allocator.py)
@@ -92,43 +93,78 @@ def run(argv: list[str] | None = None) -> dict:
         dtype = precision.check(args.precision, device)
         loaded = load_model(args)
         log.info("model: %s, experiment %s, budget %s", loaded.source, loaded.experiment, loaded.cfg.budget)
+        meta = {"checkpoint": loaded.source, "experiment": loaded.experiment, "provenance": loaded.provenance,
+                "precision": args.precision, "device": str(device), "allocator": allocator.policy()}
         if args.scene is not None:
-            if args.inputs:
-                raise ValueError("give either EXR frames or --scene, not both")
-            from mcd.denoise.scene import denoise_scene
-
-            report = denoise_scene(loaded, args.scene, args.output, device, args.width, args.height,
-                                   args.frames, args.gbuffer_spp, args.seed, args.reference_spp,
-                                   progress=not args.no_progress, dtype=dtype)
-            for row in report["frames"]:
-                line = f"frame {row['frame']}: {row['samples']} colour samples, N*s = {row['budget_samples']}"
-                if "psnr_real" in row:
-                    line += f"; PSNR input {row['psnr_input']:.2f} dB, output {row['psnr_real']:.2f} dB"
-                if "psnr_simulated" in row:
-                    line += (f", with the simulated render {row['psnr_simulated']:.2f} dB (real - simulated "
-                             f"{row['psnr_real_minus_simulated']:+.2f} dB)")
-                print(line)
+            report = _scene(args, loaded, device, dtype)
         else:
-            if not args.inputs:
-                raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
-            from mcd.denoise.frames import find_frames
-            from mcd.denoise.sequence import denoise_frames
-
-            report = denoise_frames(loaded, find_frames(args.inputs), args.output, device, args.max_memory_mb,
-                                    args.overlap, progress=not args.no_progress, dtype=dtype)
-            bad = sum(report["sanitised"].values())
-            if bad:
-                print(f"sanitised: {bad} NaN/Inf/negative input values replaced by 0 "
-                      f"({', '.join(f'{k} {v}' for k, v in report['sanitised'].items())})")
-            print(f"{report['frames']} frames denoised in {report['tiles']} tile(s) each -> {args.output}")
+            report = _frames(args, loaded, device, dtype, meta)
     except (ValueError, FileNotFoundError, RuntimeError) as err:
         print(f"mcd-denoise: error: {err}", file=sys.stderr)
         raise SystemExit(2) from err
-    report.update(checkpoint=loaded.source, experiment=loaded.experiment, provenance=loaded.provenance,
-                  precision=args.precision, device=str(device), allocator=allocator.policy())
-    args.output.mkdir(parents=True, exist_ok=True)
-    (args.output / "denoise.json").write_text(json.dumps(report, indent=1, default=str))
+    report.update(meta)
+    record = report.pop("record", None)
+    if record is not None:
+        record.write(report, complete=True)
+    else:
+        write_json(args.output / SUMMARY, report)
     return report
+
+
+def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.device,
+           dtype: torch.dtype | None) -> dict:
+    """Input (b): check ``-o``, render and denoise the scene, print each frame's samples and PSNRs."""
+    if args.inputs:
+        raise ValueError("give either EXR frames or --scene, not both")
+    from mcd.data.scenes import path_scene_name
+    from mcd.denoise.scene import denoise_scene
+
+    name = path_scene_name(args.scene)
+    outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
+    output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
+    output_folder.check_writable(args.output)
+    report = denoise_scene(loaded, args.scene, args.output, device, args.width, args.height,
+                           args.frames, args.gbuffer_spp, args.seed, args.reference_spp,
+                           progress=not args.no_progress, dtype=dtype)
+    for row in report["frames"]:
+        line = f"frame {row['frame']}: {row['samples']} colour samples, N*s = {row['budget_samples']}"
+        if "psnr_real" in row:
+            line += f"; PSNR input {row['psnr_input']:.2f} dB, output {row['psnr_real']:.2f} dB"
+        if "psnr_simulated" in row:
+            line += (f", with the simulated render {row['psnr_simulated']:.2f} dB (real - simulated "
+                     f"{row['psnr_real_minus_simulated']:+.2f} dB)")
+        print(line)
+    return report
+
+
+def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.device, dtype: torch.dtype | None,
+            meta: dict) -> dict:
+    """Input (a): find and check the frames and ``-o`` (before any work), denoise (resuming), print."""
+    if not args.inputs:
+        raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
+    from mcd.denoise.frames import check_frames, find_frames, siblings
+    from mcd.denoise.resume import Record, file_stamps, weights_digest
+    from mcd.denoise.sequence import denoise_frames, wanted_layers
+
+    paths = find_frames(args.inputs)
+    inputs = [f for p in paths for f in (p, *siblings(p))]
+    outputs = [n for p in paths for n in frame_files(p.stem)]
+    output_folder.check_apart(args.output, inputs, [SUMMARY, *outputs])
+    output_folder.check_writable(args.output)
+    check_frames(paths, wanted_layers(loaded))
+    settings = {"inputs": file_stamps(inputs), "weights_sha256": weights_digest(loaded.model),
+                "experiment": loaded.experiment, "budget": loaded.cfg.budget, "precision": args.precision,
+                "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap}
+    record = Record(args.output, settings)
+    report = denoise_frames(loaded, paths, args.output, device, args.max_memory_mb, args.overlap,
+                            progress=not args.no_progress, dtype=dtype, record=record, meta=meta)
+    bad = sum(report["sanitised"].values())
+    if bad:
+        print(f"sanitised: {bad} NaN/Inf/negative input values replaced by 0 "
+              f"({', '.join(f'{k} {v}' for k, v in report['sanitised'].items())})")
+    resumed = f" ({len(report['resumed'])} finished before, kept)" if report["resumed"] else ""
+    print(f"{report['frames']} frames denoised in {report['tiles']} tile(s) each{resumed} -> {args.output}")
+    return {**report, "record": record}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -21,12 +21,14 @@ from __future__ import annotations
 
 import glob
 import logging
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import OpenEXR
 
+from mcd.data import exr
 from mcd.data.exposure import auto_exposure, depth_scale, normalise
 
 log = logging.getLogger(__name__)
@@ -53,8 +55,22 @@ class FrameError(ValueError):
     """A frame file cannot be used as it is: the message names the file and what to do."""
 
 
-def read_channels(path: Path) -> dict[str, np.ndarray]:
-    """Every channel of an EXR file as float32 ``(H, W)`` arrays; FrameError naming the file if unreadable."""
+def read_header(path: Path) -> tuple[tuple[int, int], list[str]]:
+    """``((height, width), channel names)`` of an EXR's header, no pixels read; FrameError naming the file if
+    it is unreadable or declares an image above :data:`mcd.data.exr.MAX_PIXELS` (a memory bomb)."""
+    try:
+        width, height, names = exr.read_header(path)
+    except (exr.CorruptEXRError, exr.EXRSizeError) as exc:
+        raise FrameError(f"{path}: not a readable EXR frame ({exc}); give linear HDR EXR frames") from exc
+    return (height, width), names
+
+
+def read_channels(path: Path, size: tuple[int, int] | None = None) -> dict[str, np.ndarray]:
+    """Every channel of an EXR file as float32 ``(H, W)`` arrays; FrameError naming the file if unreadable,
+    or if its header declares another ``size`` ``(H, W)`` than expected (checked before reading pixels)."""
+    got, _ = read_header(path)
+    if size is not None and got != size:
+        raise FrameError(f"{path}: {got[1]}x{got[0]}, expected {size[1]}x{size[0]}")
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
             return {name: np.asarray(ch.pixels, dtype=np.float32) for name, ch in f.channels().items()}
@@ -74,11 +90,10 @@ def write_layers(path: Path, colour: np.ndarray, layers: dict[str, np.ndarray] |
     OpenEXR.File(header, chans).write(str(path))
 
 
-def _pick(chans: dict[str, np.ndarray], candidates: list[tuple[str, ...]]) -> np.ndarray | None:
-    for keys in candidates:
-        if all(k in chans for k in keys):
-            return np.stack([chans[k] for k in keys], axis=-1)
-    return None
+def _pick(names: Iterable[str], candidates: list[tuple[str, ...]]) -> tuple[str, ...] | None:
+    """The first channel-name set of ``candidates`` that ``names`` holds completely."""
+    have = set(names)
+    return next((keys for keys in candidates if all(k in have for k in keys)), None)
 
 
 def is_sibling(path: Path) -> bool:
@@ -86,55 +101,117 @@ def is_sibling(path: Path) -> bool:
     return Path(path.stem).suffix.lstrip(".") in LAYERS
 
 
+def siblings(path: Path) -> list[Path]:
+    """The sibling layer files of the frame ``path`` that exist."""
+    return [s for s in (path.with_name(f"{path.stem}.{layer}.exr") for layer in LAYERS) if s.is_file()]
+
+
+def _is_frame(path: Path) -> bool:
+    """A folder's ``*.exr`` that is a colour frame: not a sibling layer file, not hidden (``._x.exr`` of
+    macOS, the ``.tmp.exr`` temporaries of an atomic write)."""
+    return not path.name.startswith(".") and not is_sibling(path)
+
+
 def find_frames(inputs: list[str]) -> list[Path]:
-    """The colour frames named by ``inputs`` (folders, files, glob patterns), in order; FrameError if none."""
+    """The colour frames named by ``inputs`` (folders, files, glob patterns), in order.
+
+    A folder gives its ``*.exr`` that are frames (:func:`_is_frame`). FrameError if none, or if two frames
+    share a name (their outputs would overwrite each other in ``-o``), naming both.
+    """
     frames: list[Path] = []
     for item in inputs:
         p = Path(item).expanduser()
         if p.is_dir():
-            frames += sorted(f for f in p.glob("*.exr") if not is_sibling(f))
+            frames += sorted(f for f in p.glob("*.exr") if _is_frame(f))
         elif p.is_file():
             frames.append(p)
         else:
-            hits = sorted(Path(h) for h in glob.glob(str(p)) if not is_sibling(Path(h)))
+            hits = sorted(Path(h) for h in glob.glob(str(p)) if _is_frame(Path(h)))
             if not hits:
                 raise FrameError(f"{item}: no such file or folder, and no EXR file matches it as a pattern")
             frames += hits
     if not frames:
         raise FrameError(f"{' '.join(inputs)}: no EXR colour frames found (a folder's *.exr, sibling layer "
-                         "files <stem>.albedo.exr / .normal.exr / .depth.exr excluded)")
+                         "files <stem>.albedo.exr / .normal.exr / .depth.exr and hidden files excluded)")
+    seen: dict[str, Path] = {}
+    for f in frames:
+        if f.stem in seen:
+            same = seen[f.stem].resolve() == f.resolve()
+            raise FrameError(
+                f"{f}: {'given twice' if same else f'has the name of {seen[f.stem]}'}; the outputs are named "
+                f"after the frame ({f.stem}.exr) and would overwrite each other. "
+                + ("Give each frame once" if same else "Denoise the folders apart, each into its own -o"))
+        seen[f.stem] = f
     return frames
 
 
-def read_frame(path: Path, want: set[str]) -> dict[str, np.ndarray]:
-    """Raw ``colour`` and the layers of ``want`` (subset of :data:`LAYERS`) of one frame, ``(H, W, C)``."""
-    chans = read_channels(path)
-    colour = _pick(chans, [tuple(p + c for c in "RGB") for p in ("", "colour.", "color.", "rgb.")])
+def _layout(path: Path, want: set[str],
+            size: tuple[int, int] | None) -> dict[str, tuple[Path, tuple[str, ...]]]:
+    """Where each buffer of the frame ``path`` is: ``{buffer: (file, channel names)}`` for ``colour`` and the
+    layers of ``want``, from the headers only; FrameError naming the file for a missing layer or a size that
+    differs from the frame's (or from ``size``)."""
+    shape, names = read_header(path)
+    if size is not None and shape != size:
+        raise FrameError(f"{path}: this frame is {shape[1]}x{shape[0]} but the first frame is {size[1]}x"
+                         f"{size[0]}; a sequence keeps one size (denoise it apart)")
+    colour = _pick(names, [tuple(p + c for c in "RGB") for p in ("", "colour.", "color.", "rgb.")])
     if colour is None:
-        raise FrameError(f"{path}: no colour channels R, G, B (found {sorted(chans)[:8]}); write the noisy "
+        raise FrameError(f"{path}: no colour channels R, G, B (found {sorted(names)[:8]}); write the noisy "
                          "render's colour as channels R, G, B")
-    out = {"colour": colour}
+    out = {"colour": (path, colour)}
     for layer in sorted(want):
-        img = _pick(chans, _candidates(layer, in_file=True))
+        keys = _pick(names, _candidates(layer, in_file=True))
         sibling = path.with_name(f"{path.stem}.{layer}.exr")
-        if img is None and sibling.is_file():
-            sib = read_channels(sibling)
-            img = _pick(sib, _candidates(layer, in_file=False))
-            if img is None and layer == "depth" and len(sib) == 1:
-                img = next(iter(sib.values()))[..., None]
-            if img is None:
-                raise FrameError(f"{sibling}: channels {sorted(sib)} are not a {layer} layer; write "
-                                 f"{'/'.join(LAYER_CHANNELS[layer][0])}")
-        if img is None:
-            names = "/".join(f"{layer}.{c}" for c in LAYER_CHANNELS[layer][0])
-            raise FrameError(f"{path}: missing layer {layer!r} (no channels {names} in the file, no sibling "
+        if keys is not None:
+            out[layer] = (path, keys)
+            continue
+        if not sibling.is_file():
+            chans = "/".join(f"{layer}.{c}" for c in LAYER_CHANNELS[layer][0])
+            raise FrameError(f"{path}: missing layer {layer!r} (no channels {chans} in the file, no sibling "
                              f"file {sibling.name}); the checkpoint reads {', '.join(sorted(want))}: add the "
                              "layer to every frame (docs/denoise.md, 'Frames from disk')")
-        if img.shape[:2] != colour.shape[:2]:
-            raise FrameError(f"{path}: layer {layer!r} is {img.shape[1]}x{img.shape[0]} but the colour is "
-                             f"{colour.shape[1]}x{colour.shape[0]}; render every layer at the frame's size")
-        out[layer] = img
+        sib_shape, sib_names = read_header(sibling)
+        keys = _pick(sib_names, _candidates(layer, in_file=False))
+        if keys is None and layer == "depth" and len(sib_names) == 1:
+            keys = (sib_names[0],)
+        if keys is None:
+            raise FrameError(f"{sibling}: channels {sorted(sib_names)} are not a {layer} layer; write "
+                             f"{'/'.join(LAYER_CHANNELS[layer][0])}")
+        if sib_shape != shape:
+            raise FrameError(f"{sibling}: the {layer} layer is {sib_shape[1]}x{sib_shape[0]} but its frame "
+                             f"{path.name} is {shape[1]}x{shape[0]}; render every layer at the frame's size")
+        out[layer] = (sibling, keys)
     return out
+
+
+def read_frame(path: Path, want: set[str], size: tuple[int, int] | None = None) -> dict[str, np.ndarray]:
+    """Raw ``colour`` and the layers of ``want`` (subset of :data:`LAYERS`) of one frame, ``(H, W, C)``;
+    ``size``: the ``(H, W)`` every file must have (checked on the headers before any pixel is read)."""
+    layout = _layout(path, want, size)
+    shape = read_header(path)[0]
+    files: dict[Path, dict[str, np.ndarray]] = {}
+    out = {}
+    for name, (file, keys) in layout.items():
+        if file not in files:
+            files[file] = read_channels(file, shape)
+        out[name] = np.stack([files[file][k] for k in keys], axis=-1)
+    return out
+
+
+def check_frames(paths: list[Path], want: set[str]) -> tuple[int, int]:
+    """Check every frame before the first is denoised: its header and its sibling layers' (readable, the
+    layers of ``want`` present, one size across frames and layers), then its pixels (they decode: a truncated
+    file is named here); returns the sequence's ``(H, W)``. FrameError naming the first bad file."""
+    size = read_header(paths[0])[0]
+    for i, p in enumerate(paths):
+        (h, w), _ = read_header(p)
+        if (h, w) != size:
+            raise FrameError(f"{p}: frame {i} is {w}x{h} but frame 0 ({paths[0].name}) is "
+                             f"{size[1]}x{size[0]}; a sequence keeps one size (denoise it apart)")
+        _layout(p, want, size)
+    for p in paths:
+        read_frame(p, want, size)
+    return size
 
 
 @dataclass
@@ -169,11 +246,7 @@ class FrameSequence:
     def load(self, i: int) -> dict[str, np.ndarray]:
         """Frame ``i``'s buffers, normalised (``colour_key`` and the wanted layers), ``(H, W, C)`` float32."""
         path = self.paths[i]
-        raw = read_frame(path, self.want)
-        if raw["colour"].shape[:2] != self.size:
-            h, w = raw["colour"].shape[:2]
-            raise FrameError(f"{path}: frame {i} is {w}x{h} but frame 0 ({self.paths[0].name}) is "
-                             f"{self.size[1]}x{self.size[0]}; a sequence keeps one size (denoise it apart)")
+        raw = read_frame(path, self.want, self.size)
         out = {}
         for name, img in raw.items():
             key = self.colour_key if name == "colour" else name

@@ -5,21 +5,32 @@
 method has them ``<stem>_sampling_map``, ``<stem>_kernel_map``, ``<stem>_adaptive`` (the adaptive render
 ``i``), ``<stem>_initial`` (``ī``) as EXR + PNG, drawn as the run directory's samples are
 (:func:`mcd.lit.samples.picture`).
+
+Every file is written atomically: to a hidden temporary file in the same folder, then renamed over the final
+name (``os.replace``), so a killed run never leaves a half-written file under a final name, and a symlink
+named like an output is replaced, never written through (docs/reliability.md, "Denoising your frames").
 """
 
 from __future__ import annotations
 
+import json
+import os
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.image import imsave
 from torch import Tensor
 
-from mcd.data.exr import write_exr
+from mcd.data.exr import umask_mode, write_exr
 from mcd.lit.samples import picture
 
 COLOUR = ("output", "adaptive", "initial")
 MAPS = ("sampling_map", "kernel_map")
+#: The summary every run writes beside its frames.
+SUMMARY = "denoise.json"
 
 
 def hwc(t: Tensor) -> np.ndarray:
@@ -27,8 +38,33 @@ def hwc(t: Tensor) -> np.ndarray:
     return t.detach()[0].float().permute(1, 2, 0).cpu().numpy()
 
 
+def frame_files(stem: str) -> list[str]:
+    """Every file name :func:`write_frame` may write for the frame ``stem`` (its EXR first)."""
+    bases = [stem, *(f"{stem}_{name}" for name in (*COLOUR[1:], *MAPS))]
+    return [f"{b}{ext}" for b in bases for ext in (".exr", ".png")]
+
+
+def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
+    """Call ``write(tmp)`` on a hidden temporary file beside ``path`` (same suffix), then rename it to
+    ``path``; the temporary file is removed if ``write`` fails."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".tmp{path.suffix}")
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.chmod(tmp, umask_mode())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def write_json(path: Path, content: dict[str, Any]) -> None:
+    """``content`` as indented JSON at ``path``, atomically."""
+    write_atomic(path, lambda tmp: tmp.write_text(json.dumps(content, indent=1, default=str) + "\n"))
+
+
 def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: float) -> list[Path]:
-    """Write one frame's outputs (module docstring); returns the EXR paths written."""
+    """Write one frame's outputs (module docstring), each atomically; returns the EXR paths written."""
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
     for name in (*COLOUR, *MAPS):
@@ -38,6 +74,7 @@ def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: floa
         base = out_dir / (stem if name == "output" else f"{stem}_{name}")
         exr = base.with_name(base.name + ".exr")
         write_exr(exr, img / np.float32(exposure) if name in COLOUR else img, compress=name not in COLOUR)
-        imsave(base.with_name(base.name + ".png"), picture(name, img))
+        preview = picture(name, img)
+        write_atomic(base.with_name(base.name + ".png"), lambda tmp, p=preview: imsave(tmp, p, format="png"))
         written.append(exr)
     return written

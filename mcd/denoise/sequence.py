@@ -5,6 +5,10 @@ For the methods that read a uniform render (U-Net = row A, other rows without AS
 G-buffers it reads, in sequence order; the model is reset once at the start, so temporal methods carry their
 state across the sequence, and a model with a frame window (FastDVDnet: 2 before, 2 after) gets its
 neighbours, edge frames repeated (as the test datamodule does, docs/architecture.md "Batches").
+
+With a :class:`mcd.denoise.resume.Record`, frames a previous run finished with the same settings are not
+written again (a method without temporal state does not even run them), and every finished frame is
+recorded as it is written.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from tqdm import tqdm
 from mcd.denoise.frames import LAYERS, FrameError, FrameSequence
 from mcd.denoise.output import write_frame
 from mcd.denoise.precision import layout, prepare, running
+from mcd.denoise.resume import Record
 from mcd.denoise.tiles import PROBE, TiledModel, bytes_per_pixel, tile_size
 from mcd.denoise.weights import Loaded
 
@@ -39,18 +44,26 @@ def colour_key(loaded: Loaded) -> str:
     return colour[0]
 
 
+def wanted_layers(loaded: Loaded) -> set[str]:
+    """The G-buffer layers (of :data:`mcd.denoise.frames.LAYERS`) the model reads from each frame."""
+    return set(loaded.model.required_buffers()) & set(LAYERS)
+
+
 def to_tensor(img: np.ndarray, device: torch.device) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(img.transpose(2, 0, 1)))[None].to(device)
 
 
 def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: torch.device,
                    max_memory_mb: float, overlap: int, progress: bool = True,
-                   dtype: torch.dtype | None = None) -> dict[str, Any]:
-    """Denoise ``paths`` (one sequence) into ``out_dir`` with autocast to ``dtype`` (None: fp32;
-    mcd/denoise/precision.py); returns a summary (frames, tiles, sanitised, s)."""
+                   dtype: torch.dtype | None = None, record: Record | None = None,
+                   meta: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Denoise ``paths`` (one sequence, checked by :func:`mcd.denoise.frames.check_frames`) into ``out_dir``
+    with autocast to ``dtype`` (None: fp32; mcd/denoise/precision.py); returns a summary (frames, tiles,
+    sanitised, s, resumed). ``record``: resume and record finished frames (module docstring), its JSON
+    carrying ``meta`` and the summary so far."""
     model = prepare(loaded.model.to(device), dtype)
     key = colour_key(loaded)
-    want = set(model.required_buffers()) & set(LAYERS)
+    want = wanted_layers(loaded)
     seq = FrameSequence(paths, want, key, float(loaded.cfg.data.get("exposure_target", 0.5)))
     past, future = (int(v) for v in model.window)
     cache: dict[int, dict[str, torch.Tensor]] = {}
@@ -77,13 +90,33 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
              "cap %g MB)", len(seq), w, h, paths[0].parent, loaded.experiment,
              ",".join(sorted(want)) or "colour", key, seq.exposure, len(tiled), per_pixel, max_memory_mb)
     t0 = time.perf_counter()
+    stateful = bool(getattr(model, "temporal_state", True))
+    resumed: list[str] = []
+
+    def summary() -> dict[str, Any]:
+        return {**(meta or {}), "frames": len(seq), "tiles": len(tiled), "size": [h, w],
+                "exposure": seq.exposure, "sanitised": seq.bad, "seconds": time.perf_counter() - t0,
+                "out_dir": str(out_dir), "resumed": resumed}
+
     tiled.reset()
     bar = tqdm(range(len(seq)), desc="denoise", unit="frame", disable=not progress)
     with running(device, dtype):
         for i in bar:
-            out = tiled(inputs(i))
-            write_frame(out_dir, paths[i].stem, out, seq.exposure)
+            stem = paths[i].stem
+            finished = record is not None and record.is_finished(stem, f"{stem}.exr")
+            if not finished or stateful:
+                out = tiled(inputs(i))
+            if finished:
+                resumed.append(stem)
+                assert record is not None
+                record.keep(stem)
+            else:
+                write_frame(out_dir, stem, out, seq.exposure)
+                if record is not None:
+                    record.done(stem, summary())
             for j in [j for j in cache if j < i - past]:
                 del cache[j]
-    return {"frames": len(seq), "tiles": len(tiled), "size": [h, w], "exposure": seq.exposure,
-            "sanitised": seq.bad, "seconds": time.perf_counter() - t0, "out_dir": str(out_dir)}
+    if resumed:
+        log.info("%d frame(s) finished by a previous run with the same settings, not written again: %s",
+                 len(resumed), ", ".join(resumed))
+    return summary()

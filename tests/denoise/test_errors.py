@@ -65,7 +65,7 @@ def test_layer_of_another_size(tmp_path, capsys, unet):
     write_layers(tmp_path / "in" / "a.normal.exr", np.zeros((16, 32, 3), np.float32),
                  {"normal": rng.random((16, 32, 3), dtype=np.float32)})
     err = refused(capsys, str(tmp_path / "in"), "-o", str(tmp_path / "out"), "--checkpoint", str(unet))
-    assert "a.exr: layer 'normal' is 32x16 but the colour is 32x32" in err
+    assert "a.normal.exr: the normal layer is 32x16 but its frame a.exr is 32x32" in err
 
 
 def test_frame_of_another_size(tmp_path, capsys, unet, frames):

@@ -1,0 +1,70 @@
+"""The output folder ``-o`` of ``mcd-denoise``, checked before any work (docs/denoise.md, "Output";
+docs/reliability.md, "Denoising your frames").
+
+Nothing a user gives is lost: the folder must be a folder that can be made and written to, must not be the
+folder of an input file, must not contain an input (at any depth, symlinks resolved both ways), and no file
+the run would write may be an input or a symlink. An output folder inside an input folder is allowed: frames
+are read from a folder's own ``*.exr``, never from its subfolders.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterable
+from pathlib import Path
+
+
+class OutputFolderError(ValueError):
+    """``-o`` cannot take this run's outputs; the message names the folder, the file and what to do."""
+
+
+def _location(path: Path) -> set[Path]:
+    """Where ``path`` is: its folder resolved with its own name, and (for a symlink) its target."""
+    return {path.absolute().parent.resolve() / path.name, path.resolve()}
+
+
+def check_writable(out: Path) -> None:
+    """Make ``out`` (and its parents) and write a temporary file in it; OutputFolderError naming what is in
+    the way (a file where a folder is needed, no permission, a read-only file system)."""
+    if out.exists() and not out.is_dir():
+        raise OutputFolderError(f"-o {out}: is a file, not a folder; give a folder for the outputs")
+    for parent in out.absolute().parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise OutputFolderError(f"-o {out}: {parent} is a file, so the folder cannot be made inside "
+                                        "it; give a folder whose parents are folders")
+            break
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=out, prefix=".write-probe.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise OutputFolderError(f"-o {out}: cannot write there ({exc.strerror or exc}); give a writable "
+                                "folder") from exc
+
+
+def check_apart(out: Path, inputs: Iterable[Path], outputs: Iterable[str]) -> None:
+    """Refuse ``out`` when it is the folder of an input, contains an input, or when one of the file names
+    ``outputs`` (written in ``out``) is an input or a symlink (module docstring)."""
+    root = out.absolute().resolve()
+    taken: dict[Path, Path] = {}
+    for f in inputs:
+        for loc in _location(f):
+            taken[loc] = f
+            if loc.parent == root:
+                raise OutputFolderError(
+                    f"-o {out}: is the folder of the input {f}; the outputs would be written among (and "
+                    "over) the inputs. Give another folder for the outputs")
+            if root in loc.parents:
+                raise OutputFolderError(
+                    f"-o {out}: contains the input {f}; give an output folder that holds no input")
+    for name in outputs:
+        target = out / name
+        if target.is_symlink():
+            raise OutputFolderError(
+                f"{target}: a symlink named like an output of this run (to {os.readlink(target)}); outputs "
+                "are never written through a link. Remove it, or give another -o")
+        if root / name in taken:
+            raise OutputFolderError(f"{target}: is the input {taken[root / name]}; give another -o")
