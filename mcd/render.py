@@ -8,8 +8,14 @@ given by path (``data.test_scenes=[path/to/scene.xml]``, docs/scenes.md).
 ``--force`` (or ``render.force=true``) re-renders them; ``render.verify=true`` checks every checksum and re-
 renders damaged files; ``render.variant`` picks the Mitsuba variant (default ``auto``: CUDA, else LLVM, else
 scalar; logged). The store lives in ``paths.data_dir`` (env ``MCD_DATA_DIR``); Hydra's ``hydra.run.dir`` holds
-the log. Rendering resumes where an interrupted run stopped. See docs/architecture.md ("The store") and
-mcd/data/store_builder.py.
+the log. Rendering resumes where an interrupted run stopped.
+
+Parts of a profile (docs/scale.md, "Render in shards"; :mod:`mcd.data.shards`): ``render.shard=i/N``
+(0-based; or ``render.shard=i render.shards=N``) renders the i-th of N disjoint shards of the (scene, frame)
+units; ``render.scenes=[a,b]`` and ``render.frames=a:b`` (0-based, b excluded) narrow the units first. N
+processes or machines may render their shards into one store at once, e.g. as a Hydra multirun:
+``python -m mcd.render -m data=paper render.shards=64 'render.shard=range(0,64)' hydra/launcher=slurm``
+(``hydra/launcher=joblib`` on one machine).
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ import hydra
 from omegaconf import DictConfig, ListConfig
 
 from mcd.data.buffers import BUFFERS, run_buffers
+from mcd.data.shards import Selection
 from mcd.data.store_builder import StoreBuilder
 
 log = logging.getLogger("mcd.render")
@@ -48,9 +55,11 @@ def main(cfg: DictConfig) -> dict:
 
     cfg, _ = prepare(cfg)  # a transfer run reads its held-out scenes only
     store = StoreBuilder.from_cfg(cfg)
+    selection = Selection.from_render_cfg(cfg.render, store.scene_names, store.n_frames)
     buffers = requested_buffers(cfg)
-    log.info("rendering profile %s into %s: buffers %s", store.profile, store.root, ",".join(sorted(buffers)))
-    report = store.ensure(buffers)
+    log.info("rendering profile %s into %s: buffers %s; %s", store.profile, store.root,
+             ",".join(sorted(buffers)), selection.describe())
+    report = store.ensure(buffers, selection=selection)
     for scene, q in report["reference"].items():
         if q["test_psnr_db"] is not None:
             log.info("reference quality %s: test frames %d spp, estimated %.2f dB (lowest frame %.2f; "

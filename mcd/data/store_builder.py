@@ -9,7 +9,10 @@ byte size, SHA-256 and the counts of NaN / Inf / negative values the renderer pr
 its manifest entry exists, its key (everything that determines its content: camera, spp, seed, scene, size,
 depth limit) matches the current config, and its size on disk matches; otherwise it is (re-)rendered. Files
 and the manifest are written atomically (temp file + rename) and the manifest after every frame, so an
-interrupted render resumes where it stopped; a per-scene lock (``<scene>/.lock``) keeps one writer per scene.
+interrupted render resumes where it stopped. Several processes may render one store at once (the shards of
+``render.shard``, :mod:`mcd.data.shards`, or identical renders): a frame is rendered under its own lock
+(``<scene>/<frame>/.lock``), and the manifest is read, merged and written under a short scene lock
+(``<scene>/.lock``), so no unit is rendered twice and no entry is lost (:meth:`StoreBuilder._ensure_scene`).
 ``render.force=true`` re-renders the requested buffers; ``render.verify=true`` also checks every checksum and
 re-renders damaged files.
 
@@ -33,7 +36,8 @@ import os
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Self
 
@@ -47,6 +51,7 @@ from mcd.data.exr import count_bad, read_exr, sha256, umask_mode, write_exr
 from mcd.data.reference_quality import estimate_psnr, spp_for_target
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneSpec
+from mcd.data.shards import Selection
 from mcd.data.splits import test_frame_count
 from mcd.data.store import CorruptManifestError, StoreReader
 
@@ -265,100 +270,156 @@ class StoreBuilder(StoreReader):
         return new
 
     def ensure(
-        self, buffers: Iterable[str], scenes: Iterable[str] | None = None, progress: bool = True
+        self,
+        buffers: Iterable[str],
+        scenes: Iterable[str] | None = None,
+        progress: bool = True,
+        selection: Selection | None = None,
     ) -> dict:
-        """Render whatever of `buffers` (+ ``ref``) is missing or stale for the profile's scenes.
+        """Render whatever of `buffers` (+ ``ref``) is missing or stale for the profile's scenes, or for the
+        share of their (scene, frame) units that `selection` picks (``render.shard``, ``render.scenes``,
+        ``render.frames``: :mod:`mcd.data.shards`).
 
-        Returns ``{"rendered": {buffer: n}, "reused": {buffer: n}, "variant", "seconds", "msamples"}``
-        and logs one line saying what was rendered and what was reused.
+        Several processes may run this on one store at once (the shards of a profile, or identical renders):
+        see :meth:`_ensure_scene`. With `progress`, one log line per scene and per rendered frame (elapsed,
+        ETA; plain lines, fit for a log file).
+
+        Returns ``{"rendered": {buffer: n}, "reused": {buffer: n}, "variant", "seconds", "msamples",
+        "scenes", "reference", "selection"}`` and logs one line saying what was rendered and what was reused.
         """
         want = validate_buffers(buffers) | {"ref"}
         todo_buffers = want | ({"depth"} if "motion" in want else set())
+        order = sorted(todo_buffers, key=BUFFERS.index)
+        order = ["ref", *[b for b in order if b != "ref"]]  # ref first (exposure); motion after depth
         scene_list = list(scenes) if scenes is not None else self.scene_names
-        force = bool(self.render_cfg.get("force", False))
-        verify = bool(self.render_cfg.get("verify", False))
-        rendered: Counter[str] = Counter()
-        reused: Counter[str] = Counter()
-        t0 = time.perf_counter()
-        msamples = 0.0
-        variant = None
+        sel = selection or Selection()
         for name in scene_list:  # every scene file before the first render, not after the earlier scenes
             if name not in self.specs:
                 raise ValueError(f"scene {name!r} is not registered in data.scenes of profile {self.profile}")
             self.specs[name].check_exists()
-        for name in scene_list:
-            with self._scene_lock(name):  # one writer per scene; the manifest is read again under the lock
-                spec = self.specs[name]
-                state: dict[str, Any] = {}
-
-                def loader(spec: SceneSpec = spec, state: dict[str, Any] = state) -> Any:
-                    if "loaded" not in state:
-                        nonlocal variant
-                        variant = variant or self._variant()
-                        state["loaded"] = spec.load(
-                            int(self.data_cfg.width),
-                            int(self.data_cfg.height),
-                            self._settings()["max_depth"],
-                            int(self.data_cfg.segments),
-                        )
-                    return state["loaded"]
-
-                man = self._open_manifest(spec, loader)
-                quality = self._quality_cfg()
-                if quality is None:
-                    man.pop("ref_quality", None)
-                elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
-                    variant = variant or self._variant()
-                    man["ref_quality"] = {"key": self._pilot_key(man, quality),
-                                          **self._pilot(spec, man, loader(), quality)}
-                    msamples += man["ref_quality"]["samples"] / 1e6
-                order = sorted(todo_buffers, key=BUFFERS.index)
-                # ref first so that auto exposure is known early; motion after depth
-                order = ["ref", *[b for b in order if b != "ref"]]
-                todo = {
-                    f: [b for b in order if force or not self._is_done(man, name, f, b, verify)]
-                    for f in range(self.n_frames)
-                }
-                for f in range(self.n_frames):
-                    for b in order:
-                        if b not in todo[f] and (b in want):
-                            reused[b] += 1
-                if any(todo.values()):
-                    variant = variant or self._variant()
-                    msamples += self._render_scene(spec, man, todo, loader(), progress, rendered) / 1e6
-                self._fill_scales(spec, man)
-                self._manifests[name] = man
-                self._save(name, man)
+        units = sel.units(scene_list, self.n_frames)
+        tally = _Tally()
+        t0 = time.perf_counter()
+        for k, (name, frames) in enumerate(units.items()):
+            position = f"{k + 1}/{len(units)}" if progress else None
+            self._ensure_scene(name, frames, want, order, tally, position)
+            self._manifests[name] = self._read_manifest(self.manifest_path(name))  # every process's entries
         seconds = time.perf_counter() - t0
         summary = {
-            "rendered": dict(rendered),
-            "reused": dict(reused),
-            "variant": variant,
+            "rendered": dict(tally.rendered),
+            "reused": dict(tally.reused),
+            "variant": tally.variant,
             "seconds": round(seconds, 3),
-            "msamples": round(msamples, 3),
-            "scenes": scene_list,
-            "reference": {name: self.reference_quality(name) for name in scene_list},
+            "msamples": round(tally.msamples, 3),
+            "scenes": list(units),
+            "reference": {name: self.reference_quality(name) for name in units},
+            "selection": sel.describe(),
         }
         log.info(
-            "store %s (%s): scenes %s; rendered %s; reused %s; %.1f Msamples in %.1f s (variant %s)",
+            "store %s (%s): scenes %s (%s); rendered %s; reused %s; %.1f Msamples in %.1f s (variant %s)",
             self.profile,
             self.root,
-            ",".join(scene_list),
-            _fmt(rendered),
-            _fmt(reused),
-            msamples,
+            ",".join(units),
+            sel.describe(),
+            _fmt(tally.rendered),
+            _fmt(tally.reused),
+            tally.msamples,
             seconds,
-            variant or "none needed",
+            tally.variant or "none needed",
         )
         return summary
 
+    def _ensure_scene(
+        self, name: str, frames: list[int], want: set[str], order: list[str], tally: _Tally,
+        position: str | None,
+    ) -> None:
+        """Render what `frames` of scene `name` lack of `order`, safely beside other writers of the scene.
+
+        1. Under the scene lock (``<scene>/.lock``, short): the manifest is opened or made (cameras), the
+           scene's reference-quality pilot is run if its key changed, known scales are filled, stale temp
+           files of dead writers are removed, and the manifest is saved: the first process to need the scene's
+           facts computes them, the others read them.
+        2. Auto exposure (frame 0's reference) is needed before any other test frame's reference half-split
+           estimate; if unknown, frame 0's reference is rendered first, under frame 0's lock, by whichever
+           process needs it first.
+        3. Each frame is rendered outside the scene lock, under its own lock (``<scene>/<frame>/.lock``),
+           after reading the manifest again: what another process rendered since is not rendered twice. Busy
+           frames are skipped and taken last. After each frame, this process's new entries (and frame 0's
+           scales) are merged into the manifest read again under the scene lock: no process loses another's
+           entries.
+        """
+        spec = self.specs[name]
+        force = bool(self.render_cfg.get("force", False))
+        verify = bool(self.render_cfg.get("verify", False))
+        state: dict[str, Any] = {}
+
+        def loader() -> Any:
+            if "loaded" not in state:
+                tally.variant = tally.variant or self._variant()
+                state["loaded"] = spec.load(int(self.data_cfg.width), int(self.data_cfg.height),
+                                            self._settings()["max_depth"], int(self.data_cfg.segments))
+            return state["loaded"]
+
+        with self._scene_lock(name):
+            man = self._open_manifest(spec, loader)
+            quality = self._quality_cfg()
+            if quality is None:
+                man.pop("ref_quality", None)
+            elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
+                tally.variant = tally.variant or self._variant()
+                man["ref_quality"] = {"key": self._pilot_key(man, quality),
+                                      **self._pilot(spec, man, loader(), quality)}
+                tally.msamples += man["ref_quality"]["samples"] / 1e6
+            self._fill_scales(spec, man)
+            self._save(name, man)
+            self._remove_stale_temps(name)
+        seen = {(f, b): man["files"].get(f"{f:04d}/{b}.exr") for f in frames for b in order}
+        todo = {f: [b for b in order if force or not self._is_done(man, name, f, b, verify)] for f in frames}
+        for f in frames:
+            tally.reused.update(b for b in order if b not in todo[f] and b in want)
+        work = [f for f in frames if todo[f]]
+        if position is not None:
+            log.info("render %s scene %s: %d of its %d frames here need rendering (%s)", position, name,
+                     len(work), len(frames), ",".join(order))
+        if not work:
+            return
+        tally.variant = tally.variant or self._variant()
+        frame = _FrameRenderer(self, spec, loader, seen, want, tally)
+        if spec.exposure == "auto" and man.get("exposure") is None and any(
+            f != 0 and "ref" in todo[f] and self._quality_frame(man, f) for f in work
+        ):
+            frame.run(0, todo.get(0, ["ref"]), blocking=True)
+            work = [f for f in work if f != 0]
+            todo.pop(0, None)
+        t0, done, pending = time.perf_counter(), 0, list(work)
+
+        def report(f: int) -> None:
+            nonlocal done
+            done += 1
+            if position is not None:
+                dt = time.perf_counter() - t0
+                log.info("render %s scene %s: frame %d done (%d/%d); %.2f Msamples/s; elapsed %s, ETA %s",
+                         position, name, f, done, len(work), frame.samples / 1e6 / max(dt, 1e-9),
+                         _clock(dt), _clock(dt / done * (len(work) - done)))
+
+        while pending:
+            for f in list(pending):
+                if frame.run(f, todo[f], blocking=False):  # False: another process renders it; take it last
+                    pending.remove(f)
+                    report(f)
+            if pending:  # every frame left was busy when tried: wait for the first
+                f = pending.pop(0)
+                frame.run(f, todo[f], blocking=True)
+                report(f)
+        tally.msamples += frame.samples / 1e6
+
     @contextlib.contextmanager
     def _scene_lock(self, scene: str) -> Iterator[None]:
-        """Hold ``<scene>/.lock`` (``fcntl.flock``) while this process renders the scene.
+        """Hold ``<scene>/.lock`` (``fcntl.flock``) for a short read-modify-write of the scene's manifest.
 
-        A second render of the same scene (another process) waits here, then reads the manifest the first one
-        left, so neither loses the other's entries. Under the lock no other process is writing the scene, so
-        temp files left by a killed run (``.*.tmp*`` beside the manifest and in frame folders) are removed.
+        Every writer of the scene's manifest holds it, so a process that takes it reads the manifest every
+        other process left and loses none of their entries; the manifest's own temp files (``.*.tmp*`` beside
+        it, left by a killed run) are removed under it.
         """
         folder = self.root / scene
         folder.mkdir(parents=True, exist_ok=True)
@@ -366,83 +427,109 @@ class StoreBuilder(StoreReader):
             try:
                 fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
-                log.info("%s: another process is rendering this scene; waiting for it to finish", folder)
                 fcntl.flock(f, fcntl.LOCK_EX)
             try:
-                for stale in [*folder.glob(".*.tmp*"), *folder.glob("*/.*.tmp*")]:  # of a killed run
+                for stale in folder.glob(".*.tmp*"):  # of a killed run
                     stale.unlink(missing_ok=True)
                 yield
             finally:
                 fcntl.flock(f, fcntl.LOCK_UN)
+
+    @contextlib.contextmanager
+    def _frame_lock(self, scene: str, frame: int, blocking: bool) -> Iterator[bool]:
+        """Hold ``<scene>/<frame>/.lock`` while this process renders the frame's files; yields False (and
+        holds nothing) when another process holds it and `blocking` is off. Under it no other process writes
+        in the frame's folder, so temp files there (``.*.tmp*``, of a killed run) are removed."""
+        folder = self.root / scene / f"{frame:04d}"
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(folder / ".lock", "a") as f:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
+            except BlockingIOError:
+                yield False
+                return
+            try:
+                for stale in folder.glob(".*.tmp*"):
+                    stale.unlink(missing_ok=True)
+                yield True
+            finally:
+                fcntl.flock(f, fcntl.LOCK_UN)
+
+    def _remove_stale_temps(self, scene: str) -> None:
+        """Remove the temp files of killed runs in the scene's frame folders that no live writer holds."""
+        for folder in sorted({p.parent for p in (self.root / scene).glob("*/.*.tmp*")}):
+            if folder.name.isdigit():
+                with self._frame_lock(scene, int(folder.name), blocking=False):
+                    pass
+
+    def _merge(self, spec: SceneSpec, man: dict, rels: list[str], scales: dict[str, Any]) -> None:
+        """Add this process's entries `rels` of `man` (and the manifest-level `scales` it set) to the scene's
+        manifest as it is on disk now, under the scene lock (see :meth:`_ensure_scene`)."""
+        with self._scene_lock(spec.name):
+            disk = self._read_manifest(self.manifest_path(spec.name))
+            if disk.get("camera_key") != man.get("camera_key"):
+                raise RuntimeError(
+                    f"{self.manifest_path(spec.name)}: another render with other camera settings rewrote "
+                    f"this manifest while this one rendered; render with one config per store "
+                    f"({self.render_command()})")
+            disk["files"].update({rel: man["files"][rel] for rel in rels})
+            disk.update(scales)
+            self._fill_scales(spec, disk)
+            self._save(spec.name, disk)
 
     def _variant(self) -> str:
         from mcd.data.mitsuba_env import select_variant
 
         return select_variant(str(self.render_cfg.get("variant", "auto")))
 
-    def _render_scene(
-        self,
-        spec: SceneSpec,
-        man: dict,
-        todo: dict[int, list[str]],
-        loaded: Any,
-        progress: bool,
-        rendered: Counter[str],
-    ) -> float:
+    def _render_frame(
+        self, spec: SceneSpec, man: dict, f: int, bufs: list[str], r: Any, rendered: Counter[str]
+    ) -> dict[str, Any]:
+        """Render and write `bufs` of frame `f` with renderer `r`, adding their entries to ``man["files"]``;
+        return the manifest-level values it set (``exposure`` from frame 0's reference, ``depth_scale`` from
+        frame 0's depth, ``variant``)."""
         import mitsuba as mi
-        from tqdm import tqdm
-
-        from mcd.data.renderer import SceneRenderer
 
         s = self._settings()
-        r = SceneRenderer(loaded.scene, s["width"], s["height"], loaded.fov, s["max_samples_per_pass"])
-        man["variant"] = mi.variant()
-        frames = [f for f in range(self.n_frames) if todo[f]]
-        t0 = time.perf_counter()
-        bar = tqdm(frames, desc=f"{self.profile}/{spec.name}", unit="frame", disable=not progress, leave=True)
-        for f in bar:
-            cam = man["cameras"][f]
-            r.set_camera(np.asarray(cam["to_world"], dtype=np.float64))
-            gb: dict[str, np.ndarray] | None = None
-            for b in todo[f]:
-                seed = derive_seed(s["seed"], spec.name, f, b)
-                extra: dict[str, Any] = {}
-                halves: list[np.ndarray] | None = None
-                if b == "ref" and self._quality_frame(man, f):
-                    spp = self._ref_spp(man, f)
-                    halves = [r.color(spp // 2, derive_seed(seed, "half", k)) for k in (0, 1)]
-                    img = (halves[0] + halves[1]) / 2
-                elif b in COLOUR_BUFFERS:
-                    spp = buffer_spp(b, self.data_cfg)
-                    img = r.color(spp, seed)
-                elif b in GBUFFERS:
-                    spp = s["gbuffer_spp"]
-                    if gb is None:
-                        gb = r.gbuffer(spp, derive_seed(s["seed"], spec.name, f, "gbuffer"))
-                    img = gb[b]
-                else:
-                    spp, seed = 0, 0
-                    depth = read_exr(self.path(spec.name, f, "depth"), self.fix_command("depth"))
-                    cams = man["cameras"]
-                    img = (
-                        np.zeros((s["height"], s["width"], 2), np.float32)
-                        if f == 0
-                        else backward_motion(depth, Camera.from_dict(cams[f]), Camera.from_dict(cams[f - 1]))
-                    )
-                if f == 0 and b == "ref":  # before the estimate, which is taken on exposed images
-                    self._set_exposure(spec, man, img)
-                if halves is not None:
-                    extra["psnr_estimate"] = round(estimate_psnr(*halves, float(man["exposure"] or 1.0)), 3)
-                self._write(spec.name, man, f, b, img, spp, seed, mi.variant(), extra)
-                rendered[b] += 1
-                if f == 0 and b == "depth":
-                    man["depth_scale"] = depth_scale(img)
-            self._save(spec.name, man)
-            dt = time.perf_counter() - t0
-            bar.set_postfix_str(f"{r.samples_rendered / 1e6 / max(dt, 1e-9):.2f} Msamples/s")
-        bar.close()
-        self._manifests[spec.name] = man
-        return float(r.samples_rendered)
+        scales: dict[str, Any] = {"variant": mi.variant()}
+        cam = man["cameras"][f]
+        r.set_camera(np.asarray(cam["to_world"], dtype=np.float64))
+        gb: dict[str, np.ndarray] | None = None
+        for b in bufs:
+            seed = derive_seed(s["seed"], spec.name, f, b)
+            extra: dict[str, Any] = {}
+            halves: list[np.ndarray] | None = None
+            if b == "ref" and self._quality_frame(man, f):
+                spp = self._ref_spp(man, f)
+                halves = [r.color(spp // 2, derive_seed(seed, "half", k)) for k in (0, 1)]
+                img = (halves[0] + halves[1]) / 2
+            elif b in COLOUR_BUFFERS:
+                spp = buffer_spp(b, self.data_cfg)
+                img = r.color(spp, seed)
+            elif b in GBUFFERS:
+                spp = s["gbuffer_spp"]
+                if gb is None:
+                    gb = r.gbuffer(spp, derive_seed(s["seed"], spec.name, f, "gbuffer"))
+                img = gb[b]
+            else:
+                spp, seed = 0, 0
+                depth = read_exr(self.path(spec.name, f, "depth"), self.fix_command("depth"))
+                cams = man["cameras"]
+                img = (
+                    np.zeros((s["height"], s["width"], 2), np.float32)
+                    if f == 0
+                    else backward_motion(depth, Camera.from_dict(cams[f]), Camera.from_dict(cams[f - 1]))
+                )
+            if f == 0 and b == "ref":  # before the estimate, which is taken on exposed images
+                self._set_exposure(spec, man, img)
+                scales["exposure"] = man["exposure"]
+            if halves is not None:
+                extra["psnr_estimate"] = round(estimate_psnr(*halves, float(man["exposure"] or 1.0)), 3)
+            self._write(spec.name, man, f, b, img, spp, seed, mi.variant(), extra)
+            rendered[b] += 1
+            if f == 0 and b == "depth":
+                man["depth_scale"] = scales["depth_scale"] = depth_scale(img)
+        return scales
 
     def _fill_scales(self, spec: SceneSpec, man: dict) -> None:
         """Exposure and depth scale from frame 0 when unknown (e.g. files kept from an older manifest)."""
@@ -491,6 +578,65 @@ class StoreBuilder(StoreReader):
 
     def _save(self, scene: str, man: dict) -> None:
         _write_json_atomic(self.manifest_path(scene), man)
+
+
+@dataclass
+class _Tally:
+    """What one :meth:`StoreBuilder.ensure` call rendered and reused, its Msamples and Mitsuba variant."""
+
+    rendered: Counter[str] = field(default_factory=Counter)
+    reused: Counter[str] = field(default_factory=Counter)
+    msamples: float = 0.0
+    variant: str | None = None
+
+
+class _FrameRenderer:
+    """One process's renders of one scene's frames, each under the frame's lock (step 3 of
+    :meth:`StoreBuilder._ensure_scene`). `seen` holds the manifest entries the process saw when it chose what
+    to render: an entry that differs under the lock was written by another process since."""
+
+    def __init__(self, store: StoreBuilder, spec: SceneSpec, loader: Callable[[], Any],
+                 seen: dict[tuple[int, str], Any], want: set[str], tally: _Tally):
+        self.store, self.spec, self.loader = store, spec, loader
+        self.seen, self.want, self.tally = seen, want, tally
+        self._renderer: Any = None
+
+    @property
+    def samples(self) -> float:
+        """Samples this process rendered so far for the scene."""
+        return 0.0 if self._renderer is None else float(self._renderer.samples_rendered)
+
+    def run(self, f: int, bufs: list[str], blocking: bool) -> bool:
+        """Render what of `bufs` frame `f` still lacks and merge the entries; False (nothing done) when
+        another process holds the frame and `blocking` is off."""
+        store, name = self.store, self.spec.name
+        with store._frame_lock(name, f, blocking) as held:
+            if not held:
+                return False
+            man = store._read_manifest(store.manifest_path(name))
+            now = []
+            for b in bufs:
+                changed = man["files"].get(f"{f:04d}/{b}.exr") != self.seen.get((f, b))
+                if changed and store._is_done(man, name, f, b, verify=False):
+                    self.tally.reused.update([b] if b in self.want else [])
+                else:
+                    now.append(b)
+            if now:
+                if self._renderer is None:
+                    from mcd.data.renderer import SceneRenderer
+
+                    s, loaded = store._settings(), self.loader()
+                    self._renderer = SceneRenderer(loaded.scene, s["width"], s["height"], loaded.fov,
+                                                   s["max_samples_per_pass"])
+                scales = store._render_frame(self.spec, man, f, now, self._renderer, self.tally.rendered)
+                store._merge(self.spec, man, [f"{f:04d}/{b}.exr" for b in now], scales)
+        return True
+
+
+def _clock(seconds: float) -> str:
+    """``H:MM:SS`` of a duration."""
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
 
 
 def _fmt(c: Counter[str]) -> str:
