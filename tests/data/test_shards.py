@@ -21,7 +21,8 @@ from mcd.data.shards import Selection
 from tests.conftest import compose_cfg, store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]
-BUFFERS = "[c1,depth,motion]"  # with ref: a colour buffer, the G-buffer frame 0's depth scale comes from, motion
+BUFFERS = "[c1,depth,motion]"  # + ref: a colour buffer, the G-buffer of frame 0's depth scale, motion
+ASKED = {"c1", "depth", "motion"}
 
 
 def _sel(**render) -> Selection:
@@ -96,7 +97,7 @@ def test_three_shards_two_processes_at_once_equal_a_one_process_render(tmp_path)
          "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={sweep}"],
         cwd=REPO, env=_env(), capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    Store.from_cfg(compose_cfg(*_overrides(single))).ensure(set(BUFFERS.strip("[]").split(",")), progress=False)
+    Store.from_cfg(compose_cfg(*_overrides(single))).ensure(ASKED, progress=False)
 
     one = json.loads((single / "test32" / "cbox" / "manifest.json").read_text())
     many = json.loads((sharded / "test32" / "cbox" / "manifest.json").read_text())
@@ -143,11 +144,11 @@ def test_a_killed_shard_resumes_beside_a_live_one(tmp_path):
     root = manifest.parent
     mtimes = {k: (root / k).stat().st_mtime_ns for k in done}
     resumed = Store.from_cfg(compose_cfg(*args)).ensure(
-        set(BUFFERS.strip("[]").split(",")), progress=False, selection=Selection(0, 2))
+        ASKED, progress=False, selection=Selection(0, 2))
     assert sum(resumed["rendered"].values()) + sum(resumed["reused"].values()) == 6 * 4
     assert sum(resumed["rendered"].values()) == 6 * 4 - len([k for k in done if k.split("/")[0] in mine])
     assert all((root / k).stat().st_mtime_ns == t for k, t in mtimes.items())
     files = json.loads(manifest.read_text())["files"]
     assert len(files) == 12 * 4
     assert not list(root.rglob(".*.tmp*"))
-    assert Store.from_cfg(compose_cfg(*args)).ensure({"c1", "depth", "motion"}, progress=False)["rendered"] == {}
+    assert Store.from_cfg(compose_cfg(*args)).ensure(ASKED, progress=False)["rendered"] == {}
