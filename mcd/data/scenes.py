@@ -129,8 +129,10 @@ class SceneSpec:
         desc["sha256"] = hashlib.sha256(json.dumps(desc, sort_keys=True).encode()).hexdigest()
         return desc
 
-    def load(self, width: int, height: int, max_depth: int | None, segments: int) -> LoadedScene:
-        """Load into Mitsuba (the variant must be set) and build the camera key nodes (``segments + 1``).
+    def load(self, width: int | None, height: int | None, max_depth: int | None,
+             segments: int) -> LoadedScene:
+        """Load into Mitsuba (the variant must be set) and build the camera key nodes (``segments + 1``). A
+        ``width`` / ``height`` of None keeps the film size the scene file declares (its sensor's film).
 
         ``optimize=False``: Mitsuba's shape merging orders the emitters differently from process to process,
         so the same seed would not reproduce a render (docs/data.md, "Reproducible renders").
@@ -139,7 +141,7 @@ class SceneSpec:
 
         if self.kind == "xml":
             self.check_exists()
-            kwargs: dict[str, Any] = {"resx": width, "resy": height}
+            kwargs: dict[str, Any] = {k: v for k, v in (("resx", width), ("resy", height)) if v is not None}
             if max_depth is not None:
                 kwargs["max_depth"] = max_depth
             declared = declared_defaults(self.file)

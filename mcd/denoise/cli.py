@@ -19,6 +19,7 @@ from mcd import allocator
 from mcd.denoise import output_folder, precision, weights
 from mcd.denoise.output import SUMMARY, frame_files, write_json
 from mcd.denoise.precision import PRECISIONS
+from mcd.denoise.reference import MAX_SPP, TARGET_DB
 
 log = logging.getLogger("mcd.denoise")
 
@@ -36,13 +37,22 @@ def parser() -> argparse.ArgumentParser:
                    "--checkpoint, a method without weights (oidn, noisy)")
     p.add_argument("--model", help="the capacity profile the checkpoint must have (cpu, paper)")
     p.add_argument("--scene", type=Path, help="a Mitsuba 3 scene file to render and denoise (input b)")
-    p.add_argument("--width", type=int, default=256, help="scene film width (input b)")
-    p.add_argument("--height", type=int, default=256, help="scene film height (input b)")
+    p.add_argument("--width", type=int, default=None, help="film width (input b; default: the scene's own)")
+    p.add_argument("--height", type=int, default=None, help="film height (input b; default: the scene's own)")
     p.add_argument("--frames", type=int, default=1,
                    help="scene frames: 1 = its own camera, more = a path derived from it (input b)")
     p.add_argument("--gbuffer-spp", type=int, default=16, help="samples per pixel of the G-buffers (input b)")
     p.add_argument("--reference-spp", type=int, default=0,
-                   help="also render a reference at this spp and print PSNRs, simulated vs real (input b)")
+                   help="score against a reference: its pilot spp on frame 0, raised to --reference-db; 0: "
+                   "no scores (input b; docs/denoise.md 'Scores of the real loop')")
+    p.add_argument("--reference-db", type=float, default=TARGET_DB,
+                   help="target of the reference's own estimated PSNR; 0: every reference at --reference-spp "
+                   "(input b)")
+    p.add_argument("--reference-max-spp", type=int, default=MAX_SPP,
+                   help="cap of the reference's spp (input b)")
+    p.add_argument("--exposure", type=float, default=None,
+                   help="one exposure for the network and every score (input b; default: frame 0's reference "
+                   "mean, or its input's without a reference, becomes 0.5)")
     p.add_argument("--seed", type=int, default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
@@ -113,11 +123,11 @@ def run(argv: list[str] | None = None) -> dict:
 
 def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.device,
            dtype: torch.dtype | None) -> dict:
-    """Input (b): check ``-o``, render and denoise the scene, print each frame's samples and PSNRs."""
+    """Input (b): check ``-o``, render and denoise the scene, print each frame's samples and scores."""
     if args.inputs:
         raise ValueError("give either EXR frames or --scene, not both")
     from mcd.data.scenes import path_scene_name
-    from mcd.denoise.scene import denoise_scene
+    from mcd.denoise.scene import denoise_scene, report_lines
 
     name = path_scene_name(args.scene)
     outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
@@ -125,15 +135,9 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     output_folder.check_writable(args.output)
     report = denoise_scene(loaded, args.scene, args.output, device, args.width, args.height,
                            args.frames, args.gbuffer_spp, args.seed, args.reference_spp,
-                           progress=not args.no_progress, dtype=dtype)
-    for row in report["frames"]:
-        line = f"frame {row['frame']}: {row['samples']} colour samples, N*s = {row['budget_samples']}"
-        if "psnr_real" in row:
-            line += f"; PSNR input {row['psnr_input']:.2f} dB, output {row['psnr_real']:.2f} dB"
-        if "psnr_simulated" in row:
-            line += (f", with the simulated render {row['psnr_simulated']:.2f} dB (real - simulated "
-                     f"{row['psnr_real_minus_simulated']:+.2f} dB)")
-        print(line)
+                           progress=not args.no_progress, dtype=dtype, exposure=args.exposure,
+                           reference_db=args.reference_db or None, reference_max_spp=args.reference_max_spp)
+    print("\n".join(report_lines(report)))
     return report
 
 

@@ -4,7 +4,8 @@
 ``<out>/<stem>.png``: a preview (``mcd.metrics.to_display`` of the exposure-normalised image); and where the
 method has them ``<stem>_sampling_map``, ``<stem>_kernel_map``, ``<stem>_adaptive`` (the adaptive render
 ``i``), ``<stem>_initial`` (``ī``) as EXR + PNG, drawn as the run directory's samples are
-(:func:`mcd.lit.samples.picture`).
+(:func:`mcd.lit.samples.picture`); with a reference (``--scene ... --reference-spp``) ``<stem>_reference``
+too, in the same units.
 
 Every file is written atomically: to a hidden temporary file in the same folder, then renamed over the final
 name (``os.replace``), so a killed run never leaves a half-written file under a final name, and a symlink
@@ -27,7 +28,7 @@ from torch import Tensor
 from mcd.data.exr import umask_mode, write_exr
 from mcd.lit.samples import picture
 
-COLOUR = ("output", "adaptive", "initial")
+COLOUR = ("output", "adaptive", "initial", "reference")
 MAPS = ("sampling_map", "kernel_map")
 #: The summary every run writes beside its frames.
 SUMMARY = "denoise.json"

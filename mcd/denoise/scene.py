@@ -8,11 +8,15 @@ map to exactly ``N * (s - 1)`` samples, render those per-pixel counts with Mitsu
 (:func:`mcd.data.spp_map_render.render_spp_map`, injected through :func:`mcd.sampling.real_renderer`), then
 the second stage. Colour samples per frame: ``N + N * (s - 1) = N * s`` exactly (checked). A uniform method
 renders ``c_s`` (``N * s``) instead. NTASAD's first frame also reads ``c_s`` (its stand-in for a previous
-output), rendered on top and reported apart.
+output), rendered on top and reported as ``extra_samples``; no other adaptive method renders ``c_s`` for
+itself. The film size defaults to the scene's own (:func:`film_size`).
 
-With ``reference_spp``, a reference and the stack ``c_1 .. c_{2^levels}`` of the simulated render are
-rendered too, a copy of the model runs the simulated pipeline (what the benchmark measures), and the PSNR of
-both against the reference is reported with their difference (real minus simulated).
+With ``reference_spp``, every method is scored on the same terms (docs/denoise.md, "Scores of the real
+loop"): one exposure (given, or from frame 0's reference), the same uniform input ``c_s`` beside an adaptive
+method's own input, a reference raised to a target quality with its own noise estimated
+(:mod:`mcd.denoise.reference`) and written beside the outputs; for adaptive methods also the stack
+``c_1 .. c_{2^levels}`` of the simulated render, run through a copy of the model (what the benchmark
+measures) and compared with the real loop. Renders made only for the scores are counted as ``score_samples``.
 """
 
 from __future__ import annotations
@@ -34,8 +38,9 @@ from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
 from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.precision import layout, prepare, running
+from mcd.denoise.reference import MAX_SPP, TARGET_DB, ReferencePlan
 from mcd.denoise.weights import Loaded
-from mcd.metrics import psnr
+from mcd.metrics import psnr, ssim
 from mcd.sampling import real_renderer, stack_names
 
 log = logging.getLogger(__name__)
@@ -87,58 +92,93 @@ class AdaptiveRender:
         return _tensor(img * counts[..., None].astype(np.float32), m.device)
 
 
-def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch.device, width: int,
-                  height: int, frames: int = 1, gbuffer_spp: int = 16, seed: int = 0,
-                  reference_spp: int = 0, progress: bool = True,
-                  dtype: torch.dtype | None = None) -> dict[str, Any]:
+def film_size(scene: Any) -> tuple[int, int]:
+    """``(width, height)`` of the film a loaded Mitsuba scene declares (its first sensor's)."""
+    w, h = scene.sensors()[0].film().crop_size()
+    return int(w), int(h)
+
+
+def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch.device,
+                  width: int | None = None, height: int | None = None, frames: int = 1,
+                  gbuffer_spp: int = 16, seed: int = 0, reference_spp: int = 0, progress: bool = True,
+                  dtype: torch.dtype | None = None,
+                  exposure: float | None = None, reference_db: float | None = TARGET_DB,
+                  reference_max_spp: int = MAX_SPP) -> dict[str, Any]:
     """Render and denoise ``path`` (module docstring) with autocast to ``dtype`` (None: fp32;
-    mcd/denoise/precision.py); returns a summary with per-frame samples and PSNRs."""
+    mcd/denoise/precision.py); returns a summary with per-frame samples and, with ``reference_spp``, scores.
+
+    ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: from frame 0's reference when
+    there is one, else from frame 0's input (``data.exposure_target``). ``reference_db`` None: every reference
+    at ``reference_spp``.
+    """
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
 
+    plan = ReferencePlan(reference_spp, reference_db, reference_max_spp, seed) if reference_spp else None
+    if exposure is not None and not (np.isfinite(exposure) and exposure > 0):
+        raise ValueError(f"--exposure={exposure}: give a positive number, or leave it out (automatic)")
     select_variant("auto")
     cfg = loaded_model.cfg
     model = prepare(loaded_model.model.to(device), dtype)
     budget = int(cfg.budget)
     levels = int((cfg.method.get("sampling", None) or {}).get("levels", 5))
     reads = set(model.required_buffers())
+    adaptive = loaded_model.adaptive
+    # the one buffer an adaptive method reads beyond its budget: NTASAD's first-frame stand-in c_s
+    first_frame_extra = getattr(model, "first_key", None) if adaptive else None
     scene, cams = load_scene(path, width, height, cfg.data.get("max_depth"), frames)
+    if width is None or height is None:
+        film_w, film_h = film_size(scene.scene)
+        width, height = width or film_w, height or film_h
     r = SceneRenderer(scene.scene, width, height, scene.fov)
     n = width * height
     target = float(cfg.data.get("exposure_target", 0.5))
-    sim_model = copy.deepcopy(model) if reference_spp and loaded_model.adaptive else None
-    exposure = scale = 1.0
+    sim_model = copy.deepcopy(model) if plan is not None and adaptive else None
+    exposure_source = "--exposure" if exposure is not None else None
+    scale = 1.0
     rows: list[dict[str, Any]] = []
     model.reset()
     if sim_model is not None:
         sim_model.reset()
     t0 = time.perf_counter()
     prev_cam: Camera | None = None
-
-    def colour(spp: int, key: str, f: int) -> np.ndarray:
-        """A render of frame ``f`` at ``spp`` (not part of the budget), normalised as the network's inputs."""
-        return normalise(r.color(spp, derive_seed(seed, key, f)), key, exposure, scale, colour=True)[0]
+    uniform = uniform_buffer(budget)
 
     for f, to_world in enumerate(tqdm(cams, desc=f"denoise {path.name}", unit="frame", disable=not progress)):
         r.set_camera(to_world)
         cam = r.camera(to_world)
-        spent = {"c1": 0, "adaptive": 0, "uniform": 0, "extra": 0}
+        spent = {"c1": 0, "adaptive": 0, "uniform": 0, "extra": 0, "scores": 0}
+        ref = None
+        if plan is not None:
+            before = r.samples_rendered
+            if f == 0:
+                ref, exposure = plan.first(r, exposure, target)
+                exposure_source = exposure_source or "frame 0's reference"
+            else:
+                ref = plan.render(r, f, exposure)
+            spent["scores"] += r.samples_rendered - before
         raw: dict[str, np.ndarray] = {}
-        if loaded_model.adaptive:
+        if adaptive:
             raw["c1_in"] = r.color(1, derive_seed(seed, "c1_in", f))
             spent["c1"] = n
-        uniform = uniform_buffer(budget)
-        if uniform in reads and (not loaded_model.adaptive or f == 0):
+        read_uniform = (uniform in reads) if not adaptive else (f == 0 and first_frame_extra == uniform)
+        if read_uniform or plan is not None:  # the method's input, or the uniform input of the scores
             raw[uniform] = r.color(budget, derive_seed(seed, uniform, f))
-            spent["uniform" if not loaded_model.adaptive else "extra"] = n * budget
+            key = "extra" if adaptive and read_uniform else "uniform" if read_uniform else "scores"
+            spent[key] += n * budget
         gb = r.gbuffer(gbuffer_spp, derive_seed(seed, "gbuffer", f))
         if f == 0:
-            exposure = auto_exposure(raw.get("c1_in", raw.get(uniform)), target) or 1.0
+            if exposure is None:
+                exposure = auto_exposure(raw.get("c1_in", raw.get(uniform)), target) or 1.0
+                exposure_source = "frame 0's input"
             scale = depth_scale(gb["depth"])
         x: dict[str, torch.Tensor | None] = {}
         for name, img in {**raw, **{b: gb[b] for b in GBUFFERS if b in reads}}.items():
             x[name] = layout(_tensor(normalise(img, name, exposure, scale, colour=name not in GBUFFERS)[0],
                                      device), dtype)
+        uniform_input = x.get(uniform)
+        if not read_uniform:
+            x.pop(uniform, None)  # rendered for the scores only: the method never sees it
         if "motion" in reads:
             mv = (np.zeros((height, width, 2), np.float32) if prev_cam is None
                   else backward_motion(gb["depth"], cam, prev_cam))
@@ -146,7 +186,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         prev_cam = cam
         row: dict[str, Any] = {"frame": f}
         with running(device, dtype):
-            if loaded_model.adaptive:
+            if adaptive:
                 placeholders = {k: torch.zeros_like(x["c1_in"]) for k in stack_names(levels)}
                 render = AdaptiveRender(scene.scene, r.sensor, derive_seed(seed, "adaptive", f), exposure)
                 with real_renderer(render):
@@ -159,21 +199,84 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             raise RuntimeError(f"frame {f}: {colour_spent} colour samples spent, not N*s = {n * budget}")
         row.update(samples=colour_spent, budget_samples=n * budget, extra_samples=spent["extra"],
                    gbuffer_samples=n * gbuffer_spp)
-        if reference_spp:
-            ref = colour(reference_spp, "ref", f)
-            noisy = out["adaptive"] if "adaptive" in out else x[uniform]
-            row.update(psnr_input=psnr(hwc(noisy), ref), psnr_real=psnr(hwc(out["output"]), ref))
+        written = dict(out)
+        if ref is not None:
+            ref_img = normalise(ref.image, "ref", exposure, scale, colour=True)[0]
+            written["reference"] = _tensor(ref_img, device)
+            row.update(reference_spp=ref.spp, reference_psnr_estimate=ref.psnr_estimate)
+            row.update(scores(ref_img, uniform_input, out.get("adaptive"), out["output"]))
             if sim_model is not None:
-                stack = {k: layout(_tensor(colour(2 ** j, k, f), device), dtype)
+                before = r.samples_rendered
+                stack = {k: layout(_tensor(normalise(r.color(2 ** j, derive_seed(seed, k, f)), k, exposure,
+                                                     scale, colour=True)[0], device), dtype)
                          for j, k in enumerate(stack_names(levels))}
+                spent["scores"] += r.samples_rendered - before
                 with running(device, dtype):
                     sim = sim_model({**x, **stack})
-                row["psnr_simulated"] = psnr(hwc(sim["output"]), ref)
-                row["psnr_real_minus_simulated"] = row["psnr_real"] - row["psnr_simulated"]
-        write_frame(out_dir, f"{scene.spec.name}_{f:04d}", out, exposure)
+                row["psnr_simulated"] = psnr(hwc(sim["output"]), ref_img)
+                row["psnr_output_minus_simulated"] = row["psnr_output"] - row["psnr_simulated"]
+        row["score_samples"] = spent["scores"]
+        write_frame(out_dir, f"{scene.spec.name}_{f:04d}", written, exposure)
         rows.append(row)
     return {"frames": rows, "size": [height, width], "budget": budget, "exposure": exposure,
+            "exposure_source": exposure_source, "mean": mean_scores(rows),
+            "reference": plan.summary() if plan is not None else None,
             "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant()}
+
+
+#: The score columns: the same uniform render ``c_s`` for every method, an adaptive method's own input, the
+#: output.
+COLUMNS = (("uniform", "uniform input"), ("adaptive", "adaptive input"), ("output", "output"))
+
+
+def scores(ref: np.ndarray, uniform: torch.Tensor | None, adaptive: torch.Tensor | None,
+           output: torch.Tensor) -> dict[str, float]:
+    """PSNR and SSIM (mcd/metrics.py) of each column present against ``ref``, all in one exposure."""
+    row = {}
+    for key, img in (("uniform", uniform), ("adaptive", adaptive), ("output", output)):
+        if img is not None:
+            x = hwc(img)
+            row[f"psnr_{key}"], row[f"ssim_{key}"] = psnr(x, ref), ssim(x, ref)
+    return row
+
+
+def mean_scores(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """The mean over the frames of every score and of the reference's estimate."""
+    keys = [k for k in rows[0] if k.startswith(("psnr_", "ssim_", "reference_psnr"))] if rows else []
+    return {k: float(np.mean([row[k] for row in rows])) for k in keys}
+
+
+def report_lines(report: dict[str, Any]) -> list[str]:
+    """What ``mcd-denoise --scene`` prints: per frame its samples (budget, extra, for the scores) and scores,
+    then the means, the reference and the exposure (docs/denoise.md, "Scores of the real loop")."""
+    lines = []
+    for row in report["frames"]:
+        line = f"frame {row['frame']}: {row['samples']} colour samples = N*s"
+        if row["extra_samples"]:
+            line += f" + {row['extra_samples']} read beyond the budget (NTASAD's first-frame stand-in c_s)"
+        if row.get("score_samples"):
+            line += f"; {row['score_samples']} more for the scores only"
+        lines.append(line + _score_text(row))
+    ref = report.get("reference")
+    if ref and report["frames"]:
+        lines.append(f"mean of {len(report['frames'])} frame(s): " + _score_text(report["mean"]).lstrip("; "))
+        lines.append(f"reference: {ref['spp']} spp, its own noise estimated at PSNR "
+                     f"{report['mean']['reference_psnr_estimate']:.2f} dB (pilot {ref['pilot_spp']} spp: "
+                     f"{ref['pilot_db']:.2f} dB; target {ref['target_db']} dB, cap {ref['max_spp']} spp); "
+                     "a score near it is limited by the reference")
+    lines.append(f"exposure {report['exposure']:.6g} (from {report['exposure_source']}), the same for every "
+                 "column")
+    return lines
+
+
+def _score_text(row: dict[str, Any]) -> str:
+    parts = [f"{label} {row[f'psnr_{key}']:.2f} dB / SSIM {row[f'ssim_{key}']:.4f}"
+             for key, label in COLUMNS if f"psnr_{key}" in row]
+    text = "; PSNR " + ", ".join(parts) if parts else ""
+    if "psnr_simulated" in row:
+        text += (f"; the simulated pipeline's output {row['psnr_simulated']:.2f} dB (real - simulated "
+                 f"{row['psnr_output_minus_simulated']:+.2f} dB)")
+    return text
 
 
 def _variant() -> str:
