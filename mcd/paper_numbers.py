@@ -1,5 +1,5 @@
 """The paper's published numbers (docs/benchmark.md "The paper's numbers"), as data for the reports and
-``python -m mcd.complexity``. Mitsuba scenes, 4 spp, 1920x1080.
+``python -m mcd.tools.complexity``. Mitsuba scenes, 4 spp, 1920x1080.
 """
 
 from __future__ import annotations

@@ -19,11 +19,9 @@ Sweeps (``-m``): a job whose output directory already holds a complete ``metrics
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import logging
 import math
-import subprocess
 import time
 import traceback
 import warnings
@@ -49,26 +47,10 @@ from mcd.losses import build_loss
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
+from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, is_complete
 
 log = logging.getLogger("mcd.run")
-
-REPO = Path(__file__).resolve().parent.parent
-
-
-@functools.cache
-def git_commit() -> dict[str, object]:
-    """The repository's commit and whether its working tree differs from it ("unknown" outside git), as
-    first asked in this process: a sweep's jobs all run the code imported when it started, so later commits
-    must not be recorded as theirs (``train_and_test`` asks before anything else)."""
-    try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True,
-                                check=True).stdout.strip()
-        status = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=REPO,
-                                capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return {"commit": "unknown", "dirty": None}
-    return {"commit": commit, "dirty": bool(status.strip())}
 
 
 def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseException) -> Path:
@@ -261,7 +243,7 @@ def run_test(job: Job, checkpoint: str | None) -> float:
 def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str], code: dict[str, object],
                started: float) -> RunRecord:
     """The :class:`~mcd.run_record.RunRecord` of a tested job (rank 0: it holds the test's averages)."""
-    from mcd.complexity import complexity, count_params
+    from mcd.models.complexity import complexity, count_params
 
     cfg, model, trainer, averages = job.cfg, job.model, job.trainer, job.recorder.averages
     assert averages is not None, "run_record needs the test's averages (global rank 0, after test)"

@@ -36,7 +36,7 @@ class RunRecord:
 
     #: Test averages over scenes (``mcd.metrics.aggregate``) of ``FRAME_METRICS`` and ``MODEL_METRICS``.
     scores: dict[str, float | None]
-    macs_g: float | None  # 1080p GMACs (mcd.complexity); null where FlopCounterMode cannot count them
+    macs_g: float | None  # 1080p GMACs (mcd.models.complexity); null where FlopCounterMode cannot count them
     params_m: float | None  # millions of parameters (older records: null for OIDN)
     experiment: str
     method: dict[str, Any]  # the resolved ``method`` config

@@ -53,12 +53,12 @@ stage() {
       SUFFIX=_part2 sweep baselines noisy oidn
       SUFFIX=_part2 sweep ablation I,K L,M ;;
     report)
-      local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/edge_effect.py)
+      local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/tools/edge_effect.py)
       for d in "$ROOT"/*/small$TAG/*/ "$ROOT"/*/small${TAG}_s[0-9]*/*/ "$ROOT"/*/small${TAG}_part2/*/; do
         if [ -f "$d/metrics.json" ] && [ "$d/metrics.json" -nt "$d/edges.json" ]; then todo+=("$d"); fi
       done
       if [ ${#todo[@]} -gt 0 ]; then  # a job it cannot measure keeps an empty cell; the report still runs
-        "$PY" -m mcd.edge_effect "${todo[@]}" || echo "edge effect: some jobs not measured (above)" >&2
+        "$PY" -m mcd.tools.edge_effect "${todo[@]}" || echo "edge effect: some jobs not measured (above)" >&2
       fi
       # reports/small_converged was generated from run directories that were lost with the first machine (its
       # multirun/ is not in git); on a machine without F's finished job it is left as committed

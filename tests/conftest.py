@@ -16,15 +16,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_dir
 
-CONF_DIR = str(Path(__file__).resolve().parents[1] / "conf")
+from mcd.config import compose
+from mcd.paths import CONF_DIR as _CONF_DIR
+
+CONF_DIR = str(_CONF_DIR)
 
 
 def compose_cfg(*overrides: str):
     """The composed root config with `overrides` (Hydra command-line syntax)."""
-    with initialize_config_dir(config_dir=CONF_DIR, version_base=None):
-        return compose("config", overrides=list(overrides))
+    return compose(overrides)
 
 
 def store32_overrides(data_dir: Path | str) -> list[str]:

@@ -1,5 +1,5 @@
-"""The edge effect (mcd/edge_effect.py; docs/benchmark.md "Metrics"): what the image border itself costs a
-denoiser, measured on real 32x32 Cornell-box renders."""
+"""The edge effect (mcd/tools/edge_effect.py; docs/benchmark.md "Metrics"): what the image border itself costs
+a denoiser, measured on real 32x32 Cornell-box renders."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from torch import nn
 
 from mcd.data.buffers import run_buffers
 from mcd.data.datamodule import MCDDataModule
-from mcd.edge_effect import inset_batch, measure
 from mcd.lit.module import DenoiseModule
 from mcd.models import build
+from mcd.tools.edge_effect import inset_batch, measure
 from tests.conftest import compose_cfg, store32_overrides
 
 
@@ -92,7 +92,7 @@ def test_inset_batch_cuts_every_image_buffer_and_refuses_too_small_frames():
 
 
 def test_map_border_reads_the_outermost_ring_of_the_maps():
-    from mcd.edge_effect import map_border
+    from mcd.tools.edge_effect import map_border
 
     m = torch.full((1, 1, 40, 30), 2.0)
     m[..., 0, :] = m[..., -1, :] = m[..., :, 0] = m[..., :, -1] = 6.0

@@ -10,7 +10,7 @@ spp, seed, byte size, SHA-256 and the NaN / Inf / negative counts the renderer p
 multiplied by the scene's exposure scale (``exposure: auto`` sets the mean of frame 0's reference to
 ``data.exposure_target``; recorded in the manifest), depth divided by the scene's ``depth_scale`` (median
 first-hit distance of frame 0), then NaN/Inf (and negative values where they are not meaningful) replaced by 0
-with one log line per file. The datamodule, ``mcd.bench`` and ``mcd.data.check_paths`` read through it;
+with one log line per file. The datamodule, ``mcd.bench`` and ``mcd.tools.check_paths`` read through it;
 :class:`mcd.data.store_builder.StoreBuilder` (a reader that also renders) writes the store.
 """
 

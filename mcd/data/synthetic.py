@@ -1,6 +1,6 @@
 """Seeded synthetic frames: every buffer of :mod:`mcd.data.buffers` in its channel count and range, for
-what needs model inputs without a store (``mcd.bench --synthetic``, the MAC count of ``mcd.complexity``, unit
-tests). docs/architecture.md ("The store", "Models").
+what needs model inputs without a store (``mcd.bench --synthetic``, the MAC count of
+``mcd.models.complexity``, unit tests). docs/architecture.md ("The store", "Models").
 """
 
 from __future__ import annotations

@@ -82,10 +82,10 @@ def load_model(args: argparse.Namespace) -> weights.Loaded:
         raise ValueError("give --checkpoint (a run directory, a .ckpt file or a bundled name: "
                          f"{', '.join(weights.bundled_names()) or 'none installed'}), or --experiment of a "
                          "method without weights (oidn, noisy)")
-    from mcd.denoise.configs import compose
+    from mcd.config import compose
     from mcd.models import build
 
-    cfg = compose(f"+experiment={args.experiment}", *([f"model={args.model}"] if args.model else []))
+    cfg = compose([f"+experiment={args.experiment}", *([f"model={args.model}"] if args.model else [])])
     if bool(cfg.method.get("trainable", True)):
         raise ValueError(f"--experiment={args.experiment} has weights to train: give its --checkpoint")
     return weights.Loaded(build(cfg).eval(), cfg, f"experiment {args.experiment} (no weights)")

@@ -3,7 +3,7 @@
 ``--checkpoint`` is a run directory of ``python -m mcd.run`` (its best checkpoint, else its last: the rule of
 ``transfer.init_from``, :func:`mcd.lit.transfer.checkpoint_of`), a ``.ckpt`` file of such a run, or the name
 of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.json``, made by
-``python -m mcd.denoise.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
+``python -m mcd.tools.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
 ``weights_only=True`` (:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the
 checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
 it exactly (:func:`mcd.lit.checkpoint.check_fits`). ``--experiment`` / ``--model`` state what the user

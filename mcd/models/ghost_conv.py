@@ -334,8 +334,8 @@ def split_depthwise(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int,
 def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
     """``conv(x)``; when training on the CPU a grouped ``conv`` runs dense with a block-diagonal weight.
     Without gradients it is ``conv`` itself (CPU inference mode runs :func:`group_then_point` instead, from
-    :class:`FastGhostConv`), so ``FlopCounterMode`` on a CPU forward (mcd.complexity) counts the block's true
-    MACs."""
+    :class:`FastGhostConv`), so ``FlopCounterMode`` on a CPU forward (mcd.models.complexity) counts the
+    block's true MACs."""
     g = conv.groups
     if g == 1 or x.device.type != "cpu" or not torch.is_grad_enabled():
         return conv(x)

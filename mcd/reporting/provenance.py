@@ -3,7 +3,6 @@ commit, device): gathered from the runs themselves, printed in the README and un
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import textwrap
 from dataclasses import dataclass
@@ -11,27 +10,8 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
+from mcd.provenance import short_commit
 from mcd.reporting.runs import Run, Sweep
-
-REPO = Path(__file__).resolve().parents[2]
-
-
-def git_commit(cwd: Path = REPO) -> str:
-    """The checked-out commit (short hash, `+dirty` when tracked files differ), or `unknown` outside git."""
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "--short=10", "HEAD"], cwd=cwd, capture_output=True, text=True, check=True
-        ).stdout.strip()
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
-            cwd=cwd,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return commit + ("+dirty" if dirty else "")
 
 
 def _distinct(values: list[object]) -> str:
@@ -64,7 +44,7 @@ class Provenance:
             sweeps=sweeps,
             runs=runs,
             report_command=command or "python -m mcd.report " + " ".join(sys.argv[1:]),
-            report_commit=git_commit(),
+            report_commit=short_commit(),
         )
 
     def _ok(self) -> list[Run]:

@@ -15,8 +15,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from mcd.edge_effect import EDGES_FILE
-from mcd.reporting.runs import Run, Sweep
+from mcd.reporting.runs import EDGES_FILE, Run, Sweep
 
 #: What a run directory's records are: every file the report reads apart from ``samples/``.
 RECORD_FILES = (

@@ -19,9 +19,12 @@ import pandas as pd
 import yaml
 from omegaconf import OmegaConf
 
-from mcd.edge_effect import EDGES_FILE, MAP_KEYS
-
 log = logging.getLogger(__name__)
+
+#: The file ``python -m mcd.tools.edge_effect`` writes into a run directory, read beside its metrics.
+EDGES_FILE = "edges.json"
+#: The sampling and kernel maps' border figures in that file, where a model has the maps.
+MAP_KEYS = ("map_border_ratio", "index_border", "index_interior")
 
 #: Names shown in tables and legends; experiments not listed here (rows A-M) show as they are.
 DISPLAY_NAMES = {
@@ -206,7 +209,7 @@ def load_run(path: Path) -> Run:
     metrics = _load_json(path / "metrics.json")
     if metrics is not None and "psnr" not in metrics:
         metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
-    edges = _load_json(path / EDGES_FILE)  # measured after the run by python -m mcd.edge_effect
+    edges = _load_json(path / EDGES_FILE)  # measured after the run by python -m mcd.tools.edge_effect
     if metrics is not None and edges is not None and edges.get("checkpoint") == metrics.get("checkpoint"):
         metrics = {**metrics, **{k: edges.get(k) for k in ("edge_effect", *MAP_KEYS)}}
     error = _load_json(path / "error.json")

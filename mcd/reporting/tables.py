@@ -59,7 +59,7 @@ ADDED_NOTE = ("FLIP x1e2 (LDR-FLIP of the display images, lower is better), tPSN
               "input's beside it shows the content's share), colour shift % (largest per-channel difference "
               "of the frame mean from the reference's), edge effect in dB (PSNR of a crop's outer 4-pixel "
               "frame minus that of the same pixels denoised inside the whole frame: what the image border "
-              "itself costs; python -m mcd.edge_effect): metrics this project adds (docs/benchmark.md "
+              "itself costs; python -m mcd.tools.edge_effect): metrics this project adds (docs/benchmark.md "
               "\"Metrics\"); empty for runs from before them.")
 
 
@@ -287,7 +287,7 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
             "map ring ratio: the sampling map's mean on the outermost pixel ring over its interior mean (1: "
             "no preference for the border); KP index ring: the kernel index h[0] on that ring (the "
             "interior's spread is KP index std); both measured with the edge effect (python -m "
-            "mcd.edge_effect).",
+            "mcd.tools.edge_effect).",
             *component_checks(comp),
         ],
     )

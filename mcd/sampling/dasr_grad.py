@@ -59,7 +59,8 @@ def adaptive_render(logits: Tensor, c1: Tensor, stack: Tensor, ref: Tensor | Non
 
     ``c1`` is the render the sampler saw (``c1_in``), ``stack`` the ``[B, K, 3, H, W]`` renders ``c_{2^k}``,
     ``ref`` the reference (training only). Computed in fp32 whatever the autocast state. On the meta device
-    (MAC counting, :mod:`mcd.complexity`) only shapes are produced: these steps hold no multiply-accumulates.
+    (MAC counting, :mod:`mcd.models.complexity`) only shapes are produced: these steps hold no
+    multiply-accumulates.
     Inside :func:`mcd.sampling.real.real_renderer` the map is rendered for real (``stack`` is not read).
     """
     if logits.device.type == "meta":

@@ -15,17 +15,17 @@ device (CPU; CUDA when present), resolution (1920x1080 and 256x256 by default) a
 Timing: one output frame per call (batch 1, under ``torch.inference_mode``) in steady state (temporal methods
 keep their state from frame to frame; ``reset()`` once before warm-up), ``--warmup`` calls first, then
 ``--reps`` timed calls, each closed by ``torch.cuda.synchronize()`` on CUDA; the median and frames/s are
-written. CPU at 1080p is slow: it uses ``--cpu-1080p-reps`` (default 2) after ``--cpu-1080p-warmup``
-(default 2: with freed memory kept, the heap settles over the first calls), and the CSV's ``warmup`` and
-``reps`` columns state them. Beside the time: the method's MACs at that size (``mcd.complexity``; for OIDN,
+written. CPU at 1080p is slow: it uses ``--cpu-1080p-reps`` (default 2) after ``--cpu-1080p-warmup`` (default
+2: with freed memory kept, the heap settles over the first calls), and the CSV's ``warmup`` and ``reps``
+columns state them. Beside the time: the method's MACs at that size (``mcd.models.complexity``; for OIDN,
 whose network torch cannot see, those of its network's shape: mcd/models/baselines/oidn_network.py) and the
 achieved GMAC/s, the torch thread count (OIDN runs its own threads, one per core), and on CPU the process's
-peak resident memory during that path's calls (``VmHWM`` of ``/proc/self/status``, reset before the path
-after handing freed heap back to the OS; it includes the Python process, the model and the inputs). The README
-also gives each device's dense matmul rate (:func:`matmul_ceilings`), the ceiling to read GMAC/s against.
+peak resident memory during that path's calls (``VmHWM`` of ``/proc/self/status``, reset before the path after
+handing freed heap back to the OS; it includes the Python process, the model and the inputs). The README also
+gives each device's dense matmul rate (:func:`matmul_ceilings`), the ceiling to read GMAC/s against.
 ``--allocator keep`` (the default) has glibc keep freed memory for reuse (:mod:`mcd.allocator`: without it
-every full-frame tensor faults in fresh pages, half of a 1080p frame's time on the project's CPU);
-``--allocator system`` measures glibc's default; the ``allocator`` column says which ran.
+every full-frame tensor faults in fresh pages); ``--allocator system`` measures glibc's default; the
+``allocator`` column says which ran.
 
 Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.StoreReader.load`:
 exposure applied, depth scaled, sanitised, as the models see it; ``--data <profile>``, ``--scene``; default
@@ -34,7 +34,8 @@ seeded synthetic buffers (:func:`mcd.data.synthetic.synthetic_frame`). The ``inp
 Unavailable paths (no pyoidn, no bf16 on this CPU) get a row whose ``status`` says why and no time; failures
 get ``status`` ``failed: <error>``.
 
-``--profile``: the time of each stage of one method (mcd/inference_profile.py, docs/inference.md).
+``python -m mcd.bench profile``: the time of each stage of one method (mcd/tools/inference_profile.py,
+docs/inference.md); ``python -m mcd.bench train``: training throughput (mcd/tools/train_bench.py).
 """
 
 from __future__ import annotations
@@ -53,19 +54,18 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from hydra import compose, initialize_config_dir
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
 from mcd import allocator
+from mcd.config import compose
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
+from mcd.provenance import short_commit
 
 log = logging.getLogger("mcd.bench")
 
-REPO = Path(__file__).resolve().parent.parent
 #: Every registered method, as the experiment that selects it (A-M are rows of `two_stage`; F stands for it).
 METHODS = ("F", "unet", "rae", "fastdvdnet", "dasr", "ntasad", "oidn", "noisy")
 SIZES = {"1080p": (1080, 1920), "256": (256, 256)}  # or any "<W>x<H>"
@@ -157,22 +157,11 @@ def inference_paths(device: torch.device, cpu_compile: bool) -> list[InferencePa
     return paths
 
 
-def compose_config(overrides: list[str]) -> DictConfig:
-    """The config of ``conf/config.yaml`` with ``overrides``, as ``python -m mcd.run`` composes it."""
-    with initialize_config_dir(config_dir=str(REPO / "conf"), version_base="1.3"):
-        return compose(config_name="config", overrides=overrides)
-
-
-def compose_cfg(experiment: str, overrides: list[str]) -> DictConfig:
-    """The run config of `+experiment=<X>` plus `overrides`, as `python -m mcd.run` composes it."""
-    return compose_config([f"+experiment={experiment}", *overrides])
-
-
 def store_frame(data: str | None, scene: str | None, frame: int = 0) -> StoreFrame:
     """Frame ``frame`` of ``scene`` (default: the first of ``data.test_scenes``) in the store of data profile
     ``data`` (default: the config's), at ``paths.data_dir``."""
     overrides = [f"data={data}"] if data else []
-    cfg = compose_config(overrides)
+    cfg = compose(overrides)
     store = StoreReader.from_cfg(cfg, overrides=overrides)
     scene = scene or str(list(cfg.data.test_scenes)[0])
     if scene not in store.specs:
@@ -313,8 +302,8 @@ def run(
     source: StoreFrame | None,
 ) -> list[Row]:
     """Every (method, device, size, path) measurement (see the module docstring)."""
-    from mcd.complexity import complexity
     from mcd.models import build
+    from mcd.models.complexity import complexity
 
     rows: list[Row] = []
     profile = next((o.split("=", 1)[1] for o in overrides if o.startswith("model=")), "cpu")
@@ -343,7 +332,7 @@ def run(
                     allocator=allocator.policy(),
                 )
                 try:
-                    cfg = compose_cfg(method, overrides)
+                    cfg = compose([f"+experiment={method}", *overrides])
                     model = build(cfg)
                     gmacs = complexity(cfg, h, w)[1]
                     base["gmacs"] = None if math.isnan(gmacs) else gmacs
@@ -547,21 +536,12 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
 
 
 def main(argv: list[str] | None = None) -> None:
+    """The ``speed`` mode of ``python -m mcd.bench`` (mcd/bench/__main__.py): measure, write the CSV and its
+    README."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    if "--train" in argv:  # training throughput: mcd/train_bench.py
-        from mcd import train_bench
-
-        argv.remove("--train")
-        train_bench.main(argv)
-        return
-    if "--profile" in argv:  # time per stage of one method: mcd/inference_profile.py
-        from mcd import inference_profile
-
-        argv.remove("--profile")
-        inference_profile.main(argv)
-        return
     parser = argparse.ArgumentParser(
-        prog="python -m mcd.bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+        prog="python -m mcd.bench [speed]", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
         "overrides", nargs="*", help="Hydra overrides for every method (default: model=paper)"
@@ -594,9 +574,7 @@ def main(argv: list[str] | None = None) -> None:
             parse_size(s)
         except ValueError as err:
             parser.error(str(err))
-    from mcd.reporting.provenance import git_commit
-
-    commit = git_commit()  # before this run rewrites its own (tracked) report files
+    commit = short_commit()  # before this run rewrites its own (tracked) report files
     started = time.perf_counter()
     rows = run(
         [m for m in args.methods.split(",") if m],

@@ -1,4 +1,4 @@
-"""``python -m mcd.denoise.bundle <run dir> --name <name>``: a finished run -> a bundled checkpoint
+"""``python -m mcd.tools.bundle <run dir> --name <name>``: a finished run -> a bundled checkpoint
 (docs/denoise.md, "Bundled checkpoints").
 
 Writes ``mcd/bundled/<name>.pt`` (the model's weights only: a flat state dict of float tensors, loadable with
@@ -88,7 +88,7 @@ def write_bundle(weights: dict[str, torch.Tensor], cfg: DictConfig, name: str, p
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="python -m mcd.denoise.bundle", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m mcd.tools.bundle", description=__doc__.split("\n\n")[0])
     p.add_argument("run_dir", type=Path, help="a finished run directory of python -m mcd.run")
     p.add_argument("--name", required=True, help="the bundled checkpoint's name (e.g. F-cpu-small)")
     p.add_argument("--out", type=Path, default=BUNDLED_DIR,

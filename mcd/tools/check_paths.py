@@ -1,4 +1,4 @@
-"""``python -m mcd.data.check_paths data=<profile>``: no camera-path frame is rendered from inside a wall.
+"""``python -m mcd.tools.check_paths data=<profile>``: no camera-path frame is rendered from inside a wall.
 
 Renders every frame of every scene of the profile at a low resolution and spp (``check.size``, ``check.spp``)
 with colour and first-hit depth, and flags a frame that is mostly black (its fraction of black pixels exceeds

@@ -16,7 +16,7 @@ frame of that size gets. ``tests/models/test_bundled_f.py`` holds the bundled F 
 
 For finished runs (after the fact, from the checkpoint the run tested; no retraining)::
 
-    python -m mcd.edge_effect RUN_DIR [RUN_DIR ...] [--margin 16]
+    python -m mcd.tools.edge_effect RUN_DIR [RUN_DIR ...] [--margin 16]
 
 writes ``edges.json`` into each run directory (per frame, per scene and over scenes, averaged as
 ``mcd.metrics.aggregate`` does; with the command, the commit and the weights: the checkpoint the run tested,
@@ -41,6 +41,8 @@ from omegaconf import OmegaConf
 from torch import Tensor
 
 from mcd.metrics import BORDER, aggregate, border_psnr, colour_shift, psnr
+from mcd.provenance import short_commit
+from mcd.reporting.runs import EDGES_FILE, MAP_KEYS
 
 if TYPE_CHECKING:
     from mcd.lit.module import DenoiseModule
@@ -49,10 +51,6 @@ if TYPE_CHECKING:
 MARGIN = 16
 #: How far the whole frames' PSNR here may be from the run's own (measured under the run's precision).
 PSNR_AGREEMENT_DB = 0.1
-#: What :func:`map_border` reports, where a model has the maps.
-MAP_KEYS = ("map_border_ratio", "index_border", "index_interior")
-#: The file :func:`main` writes into a run directory.
-EDGES_FILE = "edges.json"
 
 
 def inset_batch(batch: dict[str, object], margin: int = MARGIN) -> dict[str, object]:
@@ -168,17 +166,17 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
         raise RuntimeError(f"{run_dir}: the whole frames score {averages['psnr']:.3f} dB here but "
                            f"{run_metrics['psnr']:.3f} dB in its metrics.json: these are not the weights or "
                            f"frames the run tested ({weights}); nothing written")
-    from mcd.reporting.provenance import git_commit
 
     return {"edge_effect": averages["edge_effect"], **{k: averages[k] for k in MAP_KEYS},
             "psnr": averages["psnr"], "per_scene": averages["per_scene"], "frames": rows, "margin": margin,
             "width": BORDER, "checkpoint": tested, "weights": weights,
-            "command": shlex.join(["python", "-m", "mcd.edge_effect", str(run_dir), "--margin", str(margin)]),
-            "commit": git_commit()}
+            "command": shlex.join(["python", "-m", "mcd.tools.edge_effect", str(run_dir),
+                                   "--margin", str(margin)]),
+            "commit": short_commit()}
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m mcd.edge_effect",
+    parser = argparse.ArgumentParser(prog="python -m mcd.tools.edge_effect",
                                      description=__doc__.split("\n\n")[0] if __doc__ else None)
     parser.add_argument("runs", nargs="+", type=Path, help="finished run directories of python -m mcd.run")
     parser.add_argument("--margin", type=int, default=MARGIN, help="pixels cut off each side for the crop")

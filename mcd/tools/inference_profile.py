@@ -1,4 +1,4 @@
-"""``python -m mcd.bench --profile``: where a two-stage method's inference time goes, stage by stage
+"""``python -m mcd.bench profile``: where a two-stage method's inference time goes, stage by stage
 (docs/inference.md).
 
 The method (``--method``, default row F; capacity ``model=paper`` unless an override says otherwise) reads one
@@ -11,8 +11,8 @@ the page faults of the reported call are printed, 0 once the heap has settled) o
 channels-last). Each stage is a ``torch.profiler.record_function`` label in the model
 (:data:`mcd.models.two_stage.STAGES` and the nested ``map normalisation``, ``kernel-map head``, ``kernel
 application``, ``PP``, ``SA``); the table gives its time (inclusive of nested stages), its share of the call,
-its MACs (``FlopCounterMode`` per module on the meta device, as :mod:`mcd.complexity` counts them) and the
-achieved GMAC/s. ``other`` is the call minus the four top-level stages (input preparation, concatenations,
+its MACs (``FlopCounterMode`` per module on the meta device, as :mod:`mcd.models.complexity` counts them) and
+the achieved GMAC/s. ``other`` is the call minus the four top-level stages (input preparation, concatenations,
 the colour transform).
 """
 
@@ -28,20 +28,21 @@ from torch import nn
 from torch.profiler import ProfilerActivity, profile
 
 from mcd import allocator
-from mcd.bench import (
+from mcd.config import compose
+from mcd.lit.precision import autocast_to, cpu_bf16_supported
+from mcd.machine import device_name
+from mcd.models.complexity import dummy_batch, flop_counter_mode
+from mcd.models.position_pooling import PositionAwarePool
+from mcd.models.semantic_alignment import SemanticAlignment
+from mcd.models.two_stage import STAGES, TwoStage
+from mcd.provenance import short_commit
+from mcd.tools.bench import (
     InferencePath,
-    compose_cfg,
     frame_buffers,
     model_inputs,
     parse_size,
     store_frame,
 )
-from mcd.complexity import dummy_batch, flop_counter_mode
-from mcd.lit.precision import autocast_to, cpu_bf16_supported
-from mcd.machine import device_name
-from mcd.models.position_pooling import PositionAwarePool
-from mcd.models.semantic_alignment import SemanticAlignment
-from mcd.models.two_stage import STAGES, TwoStage
 
 #: Every label, as ``(name, depth)`` in the printed order (depth 1: nested in the stage above it).
 LABELS = (
@@ -142,7 +143,7 @@ def table(ms: dict[str, float], total: float, gmacs: dict[str, float]) -> list[s
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m mcd.bench --profile", description=__doc__,
+    parser = argparse.ArgumentParser(prog="python -m mcd.bench profile", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("overrides", nargs="*", help="Hydra overrides (default: model=paper)")
     parser.add_argument("--method", default="F", help="experiment of a two-stage row (A-M, unet)")
@@ -170,7 +171,7 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("--dtype bf16: this CPU has no native bf16 (avx512_bf16 / amx); use --dtype fp32")
     path = InferencePath(torch.bfloat16 if dtype == "bf16" else None, channels_last=True, compiled=False)
     source = None if args.synthetic else store_frame(args.data, args.scene)
-    cfg = compose_cfg(args.method, overrides)
+    cfg = compose([f"+experiment={args.method}", *overrides])
     gmacs = stage_macs(cfg, h, w)
 
     from mcd.models import build
@@ -193,9 +194,9 @@ def main(argv: list[str] | None = None) -> None:
         warmups += 1
         ms, total, faults = profile_call(call)
     lines = [
-        f"# Inference profile: {args.method} at {w}x{h} on the CPU (python -m mcd.bench --profile)",
+        f"# Inference profile: {args.method} at {w}x{h} on the CPU (python -m mcd.bench profile)",
         "",
-        f"- Command: `python -m mcd.bench --profile {' '.join(argv if argv is not None else [])}`".rstrip(),
+        f"- Command: `python -m mcd.bench profile {' '.join(argv if argv is not None else [])}`".rstrip(),
         f"- Device: {device_name(device)}; torch {torch.__version__}; path {dtype} channels-last, "
         "inference mode",
         f"- Inputs: {inputs}; {warmups} profiled warm-up call(s), then the profiled call",
@@ -205,9 +206,7 @@ def main(argv: list[str] | None = None) -> None:
         "",
         *table(ms, total, gmacs),
     ]
-    from mcd.reporting.provenance import git_commit
-
-    lines.insert(3, f"- Commit: `{git_commit()}`")
+    lines.insert(3, f"- Commit: `{short_commit()}`")
     print("\n".join(lines))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)

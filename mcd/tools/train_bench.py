@@ -1,4 +1,4 @@
-"""``python -m mcd.bench --train``: training throughput of each method and training path on real batches of
+"""``python -m mcd.bench train``: training throughput of each method and training path on real batches of
 the store (docs/training.md, "Throughput"); writes ``reports/bench/train.csv`` and prints each path's ratio to
 ``today`` (this project's fp32 training path before the throughput work).
 
@@ -49,10 +49,11 @@ from pathlib import Path
 import torch
 
 from mcd import allocator
+from mcd.machine import device_name
+from mcd.paths import REPO_ROOT
 
-log = logging.getLogger("mcd.train_bench")
+log = logging.getLogger("mcd.tools.train_bench")
 
-REPO = Path(__file__).resolve().parent.parent
 METHODS = ("A", "C", "F", "rae", "fastdvdnet", "dasr", "ntasad")
 PATHS = ("today", "default", "default-fp32", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
          "bf16+channels-last", "compile")
@@ -85,7 +86,7 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
     (:func:`mcd.allocator.apply`): steps/s of a Lightning fit after ``warmup`` steps."""
     import lightning as L
 
-    from mcd.bench import compose_cfg, device_name
+    from mcd.config import compose
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.lit import DenoiseModule, budget
@@ -93,8 +94,8 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
 
     policy = allocator.apply(memory)
     torch.set_num_threads(threads)
-    cfg = compose_cfg(method, [f"data={profile}", *path_overrides(path), *extra,
-                               f"train.max_steps={steps + warmup}", "train.max_minutes=null"])
+    cfg = compose([f"+experiment={method}", f"data={profile}", *path_overrides(path), *extra,
+                   f"train.max_steps={steps + warmup}", "train.max_minutes=null"])
     L.seed_everything(0)
     from mcd.models import build
 
@@ -138,13 +139,14 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
 
 def applicable(method: str, path: str) -> str | None:
     """Why ``path`` does not apply to ``method`` (None: it does)."""
-    from mcd.bench import compose_cfg
+    from mcd.config import compose
     from mcd.lit.precision import cpu_bf16_supported
     from mcd.models import build
 
     if path.startswith("bf16") and not cpu_bf16_supported():
         return "this CPU has no native bf16"
-    if path.startswith("tbptt") and not getattr(build(compose_cfg(method, [])), "temporal_state", True):
+    if path.startswith("tbptt") and not getattr(build(compose([f"+experiment={method}"])), "temporal_state",
+                                                True):
         return "no temporal state"
     return None
 
@@ -152,15 +154,15 @@ def applicable(method: str, path: str) -> str | None:
 def child(args: list[str]) -> dict[str, object]:
     """Runs :func:`measure` in a fresh process; returns its row."""
     env = dict(os.environ)
-    out = subprocess.run([sys.executable, "-m", "mcd.train_bench", "--child", *args], capture_output=True,
-                         text=True, env=env, cwd=REPO)
+    out = subprocess.run([sys.executable, "-m", "mcd.tools.train_bench", "--child", *args],
+                         capture_output=True, text=True, env=env, cwd=REPO_ROOT)
     if out.returncode != 0:
         raise RuntimeError(f"training benchmark {args[:3]} failed:\n{out.stderr[-3000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(prog="python -m mcd.bench --train", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m mcd.bench train", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("overrides", nargs="*", help="Hydra overrides for every job (default: model=cpu)")
     ap.add_argument("--methods", default=",".join(METHODS))
@@ -172,7 +174,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--warmup", type=int, default=4)
     ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--pair", action="store_true", help="also two concurrent 1-thread fp32 jobs")
-    ap.add_argument("--out", type=Path, default=REPO / "reports/bench/train.csv")
+    ap.add_argument("--out", type=Path, default=REPO_ROOT / "reports/bench/train.csv")
     ap.add_argument("--allocators", default="keep",
                     help="comma-separated: keep (mcd.run's setting, mcd/allocator.py) and/or system "
                          "(glibc's default)")
@@ -210,10 +212,11 @@ def main(argv: list[str] | None = None) -> None:
                     log.info("%s %s %-13s %-6s %.2f steps/s", method, profile, path, memory,
                              row["steps_per_s"])
             if args.pair:
-                cmd = [sys.executable, "-m", "mcd.train_bench", "--child", f"--methods={method}",
+                cmd = [sys.executable, "-m", "mcd.tools.train_bench", "--child", f"--methods={method}",
                        f"--profiles={profile}", "--paths=fp32", "--threads=1",
                        f"--allocators={allocators[0]}", *common]
-                procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=REPO) for _ in range(2)]
+                procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=REPO_ROOT)
+                         for _ in range(2)]
                 pair = [json.loads(p.communicate()[0].strip().splitlines()[-1]) for p in procs]
                 rows.append({**pair[0], "path": "fp32 x2 jobs", "threads": 1,
                              "steps_per_s": sum(r["steps_per_s"] for r in pair),

@@ -3,9 +3,9 @@ three vendored training scenes at 96x96 (issue 12's two checks on the output, do
 
 - no colour cast: each channel's frame mean within 5% of the reference's (``mcd.metrics.colour_shift``), per
   frame; and it beats its noisy input on every frame;
-- no border artefact: the edge effect (``mcd.edge_effect``: the outer 4-pixel frame of a 64x64 inset crop as
-  the crop's border, against the same pixels inside the whole frame) at least -1 dB averaged over the scenes,
-  and on each scene no worse than OIDN's on the same frames (when ``pyoidn`` is installed, as
+- no border artefact: the edge effect (``mcd.tools.edge_effect``: the outer 4-pixel frame of a 64x64 inset
+  crop as the crop's border, against the same pixels inside the whole frame) at least -1 dB averaged over the
+  scenes, and on each scene no worse than OIDN's on the same frames (when ``pyoidn`` is installed, as
   ``scripts/setup.sh`` does). Per scene the image border costs every method something where a sharp edge
   meets it (cornell-box-picture: F -1.4 dB, OIDN -3.7 dB when this test was written), so the 1 dB bound is
   asked of the average, and OIDN is the bound per scene.
@@ -21,22 +21,22 @@ import importlib.util
 import numpy as np
 import pytest
 
+from mcd.config import compose
 from mcd.data import Store
 from mcd.data.buffers import run_buffers
 from mcd.data.datamodule import MCDDataModule
-from mcd.denoise.configs import compose
 from mcd.denoise.weights import load
-from mcd.edge_effect import measure
 from mcd.lit.module import DenoiseModule
 from mcd.models import build
+from mcd.tools.edge_effect import measure
 
 SCENES = ("cbox", "cornell-box-picture", "staircase2")
 HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None
 
 
 def _rows(model, experiment: str, data_dir) -> list[dict[str, object]]:
-    """``mcd.edge_effect.measure`` of ``model`` on the test frames (2 per scene) of a 96x96 store."""
-    cfg = compose(
+    """``mcd.tools.edge_effect.measure`` of ``model`` on the test frames (2 per scene) of a 96x96 store."""
+    cfg = compose([
         f"+experiment={experiment}", "model=cpu", "data=tiny", "data.name=bundled_f",
         f"paths.data_dir={data_dir}",
         "data.width=96", "data.height=96", "data.segments=1", "data.frames_per_segment=4",
@@ -44,7 +44,7 @@ def _rows(model, experiment: str, data_dir) -> list[dict[str, object]]:
         "data.ref_spp=512", "data.ref_quality.target_db=null",
         "+scene@data.scenes.cornell-box-picture=cornell-box-picture",
         f"data.train_scenes=[{','.join(SCENES)}]", f"data.test_scenes=[{','.join(SCENES)}]",
-    )
+    ])
     store = Store.from_cfg(cfg, overrides=[])
     buffers = run_buffers(model.required_buffers(), cfg.budget)
     store.ensure(buffers, progress=False)
@@ -80,6 +80,6 @@ def test_bundled_f_has_no_border_artefact(f_rows, data_dir):
     assert np.mean(list(effect.values())) >= -1.0, effect
     if not HAS_PYOIDN:
         pytest.skip("pyoidn is not installed (optional: pip install 'mcd[oidn]'): no per-scene bound")
-    cfg = compose("+experiment=oidn")
+    cfg = compose(["+experiment=oidn"])
     oidn = _per_scene(_rows(build(cfg).eval(), "oidn", data_dir), "edge_effect")
     assert all(effect[s] >= oidn[s] for s in SCENES), (effect, oidn)

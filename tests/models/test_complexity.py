@@ -5,9 +5,10 @@ import csv
 import pytest
 import torch
 
-from mcd.complexity import complexity, count_macs, main
 from mcd.models import build
+from mcd.models.complexity import complexity, count_macs
 from mcd.paper_numbers import COMPONENTS
+from mcd.tools.complexity import main
 from tests.models.helpers import ROWS, row_cfg
 
 
@@ -45,3 +46,12 @@ def test_command_writes_the_csv(tmp_path, capsys):
     assert list(rows[0]) == ["name", "params_m", "gmacs_1080p", "paper_params_m", "paper_gmacs"]
     assert float(rows[1]["paper_gmacs"]) == 478.22
     assert "F" in capsys.readouterr().out
+
+
+def test_command_writes_nothing_without_out(tmp_path, monkeypatch, capsys):
+    """A measuring command changes no file unless asked (issue 32 item 8): without ``-o`` the table is only
+    printed, so a run from the repository leaves the tracked reports/complexity.csv alone."""
+    monkeypatch.chdir(tmp_path)
+    main(["--experiments", "A", "--height", "32", "--width", "32"])
+    assert "A" in capsys.readouterr().out
+    assert list(tmp_path.rglob("*")) == []

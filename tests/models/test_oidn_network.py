@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 import torch
 
-from mcd.complexity import count_macs, count_params
 from mcd.models.baselines.oidn_network import MODEL_OF_QUALITY, WIDTHS, OIDNUNet
+from mcd.models.complexity import count_macs, count_params
 
 HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None
 TZA_MAGIC = b"\xd7\x41\x02"  # OIDN's tensor archive: magic 0x41D7 (little-endian), format version 2

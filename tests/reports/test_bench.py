@@ -8,7 +8,10 @@ import csv
 import pytest
 import torch
 
-from mcd import allocator, bench
+from mcd import allocator
+from mcd.bench.__main__ import MODES
+from mcd.bench.__main__ import main as bench_command
+from mcd.tools import bench
 
 INTERFACE = ["method", "device", "dtype", "compiled", "height", "width", "ms_median", "fps"]
 
@@ -162,10 +165,10 @@ def test_bench_gpu_paths(tmp_path):
 
 
 def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
-    """`python -m mcd.bench --profile`: a real profiled forward of row F; each stage label has a time, and
-    the stages with modules have their MACs."""
+    """`python -m mcd.bench --profile` (the old flag of the `profile` mode): a real profiled forward of row
+    F; each stage label has a time, and the stages with modules have their MACs."""
     out = tmp_path / "profile.md"
-    bench.main(["--profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
+    bench_command(["--profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
                 "model=cpu"])
     text = capsys.readouterr().out
     assert text.strip() == out.read_text().strip()
@@ -177,3 +180,21 @@ def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
     for stage in ("F_s", "kernel-map head", "F_d", "PP", "SA", "**frame**"):
         ms, _, gmacs, rate = (c.strip() for c in rows[stage])
         assert float(ms) > 0 and float(gmacs) > 0 and float(rate) > 0, stage
+
+
+
+def _help(argv: list[str], capsys) -> str:
+    with pytest.raises(SystemExit) as done:
+        bench_command(argv)
+    assert done.value.code == 0
+    return capsys.readouterr().out
+
+
+def test_help_lists_every_mode_and_each_mode_has_its_own_help(capsys):
+    """`python -m mcd.bench --help` names every mode and its tool; `MODE --help` is that tool's own parser."""
+    top = _help(["--help"], capsys)
+    for mode, (module, _) in MODES.items():
+        assert mode in top and module in top, mode
+        own = _help([mode, "--help"], capsys)
+        prog = f"python -m mcd.bench {'[speed]' if mode == 'speed' else mode}"
+        assert own.startswith(f"usage: {prog}"), own[:80]

@@ -125,7 +125,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     # the edge effect of the finished F, measured after the run from the checkpoint it tested, and of the
     # transfer job tested as loaded (no checkpoint of its own: the weights it started from)
     as_loaded = transfer_dir / "F_spp4_ft0"
-    edges = _run(["-m", "mcd.edge_effect", str(sweep_dir / "F_spp4"), str(as_loaded), "--margin", "8"],
+    edges = _run(["-m", "mcd.tools.edge_effect", str(sweep_dir / "F_spp4"), str(as_loaded), "--margin", "8"],
                  tmp_path)
     assert edges.stdout.count("edge effect") == 2
     f_edges = json.loads((sweep_dir / "F_spp4" / "edges.json").read_text())
@@ -138,8 +138,8 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     record = json.loads((tmp_path / "F_copy" / "metrics.json").read_text())
     (tmp_path / "F_copy" / "metrics.json").write_text(json.dumps({**record, "psnr": record["psnr"] + 5}))
     (tmp_path / "F_copy" / "edges.json").unlink()
-    refused = _run(["-m", "mcd.edge_effect", str(tmp_path / "F_copy"), str(sweep_dir / "A_spp4"), "--margin",
-                    "8"], tmp_path, returncode=1)
+    refused = _run(["-m", "mcd.tools.edge_effect", str(tmp_path / "F_copy"), str(sweep_dir / "A_spp4"),
+                    "--margin", "8"], tmp_path, returncode=1)
     assert "not the weights or frames the run tested" in refused.stderr and "1 of 2 run(s)" in refused.stderr
     assert not (tmp_path / "F_copy" / "edges.json").exists()
     assert (sweep_dir / "A_spp4" / "edges.json").is_file()  # the other run was measured all the same

@@ -50,7 +50,7 @@ class OIDN(nn.Module):
 
     def network(self) -> OIDNUNet:
         """The shape of the network OIDN runs at this quality, on the ``meta`` device (no weights): what
-        :mod:`mcd.complexity` counts (mcd/models/baselines/oidn_network.py)."""
+        :mod:`mcd.models.complexity` counts (mcd/models/baselines/oidn_network.py)."""
         with torch.device("meta"):
             return OIDNUNet(MODEL_OF_QUALITY[self.quality])
 
@@ -73,7 +73,7 @@ class OIDN(nn.Module):
         noisy = need(x, self.key, "oidn")
         albedo = need(x, "albedo", "oidn").clamp(0, 1)
         normal = need(x, "normal", "oidn").clamp(-1, 1)
-        if noisy.device.type == "meta":  # counting MACs (mcd.complexity): OIDN's network in shape only
+        if noisy.device.type == "meta":  # counting MACs (mcd.models.complexity): OIDN's network in shape only
             return {"output": self.network()(torch.cat((noisy, albedo, normal), 1))}
         out = [self.pyoidn.denoise(self._hwc(c.clamp_min(0)), albedo=self._hwc(a), normal=self._hwc(n),
                                    hdr=True, quality=self.quality)

@@ -1,9 +1,9 @@
 """The shape of the network OIDN runs, in torch, to count its MACs and parameters (docs/baselines.md "OIDN";
 docs/inference.md "OIDN's MACs").
 
-OIDN (``pyoidn``) runs its own network, which torch cannot see, so :mod:`mcd.complexity` counts this replica
-instead, on the ``meta`` device (shapes only: it holds no weights and never denoises). It is the U-Net of
-OIDN's published training code (``training/model.py``, models ``unet`` and ``unet_small``): 16 3x3
+OIDN (``pyoidn``) runs its own network, which torch cannot see, so :mod:`mcd.models.complexity` counts this
+replica instead, on the ``meta`` device (shapes only: it holds no weights and never denoises). It is the U-Net
+of OIDN's published training code (``training/model.py``, models ``unet`` and ``unet_small``): 16 3x3
 convolutions with ReLU, 2x2 max pooling, nearest 2x upsampling and skip concatenations. For the ``RT`` filter
 on HDR colour + albedo + normal, OIDN 2.x runs the ``unet`` weights at quality ``high`` and ``balanced`` (that
 input has no large model) and the ``unet_small`` weights at ``fast``. OIDN pads the image to a multiple of 16

@@ -1,0 +1,50 @@
+"""``python -m mcd.bench [MODE] [ARGS]``: the measuring commands behind one name (docs/benchmark.md "Metrics",
+speed; docs/training.md "Throughput"). Each mode is a tool of :mod:`mcd.tools`, imported only when chosen, and
+``python -m mcd.bench MODE --help`` shows that tool's own options.
+
+The mode is the first argument; without one the command measures inference speed (``speed``). The older
+flags ``--train`` and ``--profile`` anywhere on the line choose the same modes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+#: mode -> (module whose ``main(argv)`` runs it, one line of help). ``speed`` is the default.
+MODES: dict[str, tuple[str, str]] = {
+    "speed": ("mcd.tools.bench", "inference ms/frame of every method (the default mode)"),
+    "train": ("mcd.tools.train_bench", "training steps/s of each method and training path"),
+    "profile": ("mcd.tools.inference_profile", "where a two-stage row's inference time goes, stage by stage"),
+}
+DEFAULT = "speed"
+
+
+def parser() -> argparse.ArgumentParser:
+    """The top-level parser: one sub-command per mode; everything after the mode goes to that mode's tool."""
+    top = argparse.ArgumentParser(prog="python -m mcd.bench",
+                                  description="The measuring commands: choose a mode; MODE --help shows its "
+                                              "options.",
+                                  epilog=f"Without a mode: {DEFAULT}. Old flags: --train, --profile.")
+    modes = top.add_subparsers(dest="mode", metavar="MODE", title="modes")
+    for name, (module, text) in MODES.items():
+        modes.add_parser(name, help=f"{text} ({module})", add_help=False)
+    return top
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Choose the mode (first argument, an old ``--<mode>`` flag, or :data:`DEFAULT`) and run its tool."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    flag = next((a for a in args if a.lstrip("-") in MODES and a.startswith("--")), None)
+    if flag is not None:  # the old spelling: python -m mcd.bench --train ...
+        args.remove(flag)
+        args.insert(0, flag[2:])
+    elif not args or (args[0] not in MODES and args[0] not in ("-h", "--help")):
+        args.insert(0, DEFAULT)
+    chosen = parser().parse_args(args[:1])
+    importlib.import_module(MODES[chosen.mode][0]).main(args[1:])
+
+
+if __name__ == "__main__":
+    main()

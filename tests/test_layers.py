@@ -1,0 +1,137 @@
+"""The package's layers (docs/architecture.md, "Layers"), read from the source with ``ast``: no import circle
+between modules of ``mcd`` and no import that runs back up a layer. Imports inside functions count too: a
+lazy import still ties the two modules together.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+MCD = Path(__file__).resolve().parents[1] / "mcd"
+
+#: Layer of each top-level part of ``mcd`` (a subpackage or a module), lowest first. A module may import
+#: its own layer and those below it, never one above.
+LAYERS: dict[str, int] = {
+    # plumbing: one home each for paths, config composition, provenance, registries, metrics, the machine
+    **dict.fromkeys(("__init__", "paths", "config", "provenance", "registry", "metrics", "machine",
+                     "allocator"), 0),
+    # rendering, the store, sampling maps, and the checks a run's config gets before anything renders
+    **dict.fromkeys(("data", "sampling", "preflight"), 1),
+    # networks and losses
+    **dict.fromkeys(("models", "losses", "paper_numbers"), 2),
+    # training and testing (Lightning)
+    **dict.fromkeys(("lit", "run_record"), 3),
+    # the product's commands and what they write: train, render, denoise, report
+    **dict.fromkeys(("run", "render", "denoise", "reporting", "report", "hydra_callbacks"), 4),
+    # measuring tools, and the command that runs them
+    "tools": 5,
+    "bench": 6,
+}
+#: Where a part not listed above sits: with the product's commands (so it may use the whole product, and
+#: nothing below imports it unnoticed).
+NEW_PART = 4
+
+
+def module_name(path: Path, root: Path = MCD) -> str:
+    parts = path.relative_to(root.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imports_of(path: Path, modules: set[str], root: Path = MCD) -> set[str]:
+    """The ``mcd`` modules ``path`` imports anywhere in its body (``from a import b`` counts as ``a.b``
+    where that is a module, else ``a``)."""
+    name = module_name(path, root)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                source = ".".join(base + ([node.module] if node.module else []))
+            else:
+                source = node.module or ""
+            for alias in node.names:
+                found.add(f"{source}.{alias.name}" if f"{source}.{alias.name}" in modules else source)
+    return {m for m in found if m in modules and m != name}
+
+
+def import_graph(root: Path = MCD) -> dict[str, set[str]]:
+    """Module -> the ``mcd`` modules it imports, for every ``.py`` file under ``root``."""
+    files = sorted(root.rglob("*.py"))
+    modules = {module_name(p, root) for p in files}
+    return {module_name(p, root): imports_of(p, modules, root) for p in files}
+
+
+def part(module: str) -> str:
+    pieces = module.split(".")
+    return pieces[1] if len(pieces) > 1 else "__init__"
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def upward(graph: dict[str, set[str]]) -> list[str]:
+    """Every import from a lower layer into a higher one, as ``a (layer) -> b (layer)``."""
+    rank = {m: LAYERS.get(part(m), NEW_PART) for m in graph}
+    return sorted(f"{a} ({rank[a]}) -> {b} ({rank[b]})" for a, deps in graph.items() for b in deps
+                  if rank[b] > rank[a])
+
+
+def test_no_import_circle():
+    assert circles(import_graph()) == [], "import circles between these modules (docs/architecture.md)"
+
+
+def test_no_import_runs_back_up():
+    assert upward(import_graph()) == [], "these imports run back up a layer (LAYERS in this file)"
+
+
+def test_the_checks_catch_a_circle_and_an_upward_import(tmp_path):
+    """The same checks on a small package with one circle and one upward import find both."""
+    pkg = tmp_path / "mcd"
+    (pkg / "data").mkdir(parents=True)
+    (pkg / "tools").mkdir()
+    for init in (pkg, pkg / "data", pkg / "tools"):
+        (init / "__init__.py").write_text("")
+    (pkg / "data" / "store.py").write_text("def f():\n    from mcd.tools import bench\n")
+    (pkg / "tools" / "bench.py").write_text("from mcd.data.store import f\n")
+    (pkg / "metrics.py").write_text("from . import paths\n")
+    (pkg / "paths.py").write_text("import mcd.metrics\n")
+    graph = import_graph(pkg)
+    assert circles(graph) == [["mcd.data.store", "mcd.tools.bench"], ["mcd.metrics", "mcd.paths"]]
+    assert upward(graph) == ["mcd.data.store (1) -> mcd.tools.bench (5)"]
+
