@@ -28,6 +28,9 @@ LAYERS: dict[str, int] = {
     "tools": 5,
     "bench": 6,
 }
+#: Modules that are commands kept beside their package (``python -m mcd.data.pack``, and what measures it):
+#: they sit with the product's commands, whatever their package's layer.
+COMMAND_MODULES: dict[str, int] = {"mcd.data.pack": 4, "mcd.data.loader_rate": 4}
 #: Where a part not listed above sits: with the product's commands (so it may use the whole product, and
 #: nothing below imports it unnoticed).
 NEW_PART = 4
@@ -107,7 +110,7 @@ def circles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 def upward(graph: dict[str, set[str]]) -> list[str]:
     """Every import from a lower layer into a higher one, as ``a (layer) -> b (layer)``."""
-    rank = {m: LAYERS.get(part(m), NEW_PART) for m in graph}
+    rank = {m: COMMAND_MODULES.get(m, LAYERS.get(part(m), NEW_PART)) for m in graph}
     return sorted(f"{a} ({rank[a]}) -> {b} ({rank[b]})" for a, deps in graph.items() for b in deps
                   if rank[b] > rank[a])
 
