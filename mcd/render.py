@@ -49,7 +49,7 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
     )
 
 
-@hydra.main(config_path="../conf", config_name="config", version_base=None)
+@hydra.main(config_path="conf", config_name="config", version_base=None)
 def main(cfg: DictConfig) -> dict:
     from mcd.lit.transfer import prepare
 

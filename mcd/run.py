@@ -313,7 +313,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     return metrics
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+@hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
     started = time.perf_counter()

@@ -183,7 +183,7 @@ def main() -> None:
     """The Hydra command (module docstring)."""
     import hydra
 
-    @hydra.main(config_path="../../conf", config_name="config", version_base=None)
+    @hydra.main(config_path="../conf", config_name="config", version_base=None)
     def _run(cfg: DictConfig) -> dict:
         from mcd.lit.transfer import prepare
         from mcd.render import requested_buffers

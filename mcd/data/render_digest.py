@@ -14,16 +14,15 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
+from mcd.paths import CONF_DIR
 
 
 def digest_scenes(procedural: bool = False) -> list[str]:
     """The scene configs whose renders are digested: the vendored ones, sorted (and ``procedural``)."""
     from omegaconf import OmegaConf
 
-    names = sorted(p.stem for p in (REPO_ROOT / "conf" / "scene").glob("*.yaml")
+    names = sorted(p.stem for p in (CONF_DIR / "scene").glob("*.yaml")
                    if OmegaConf.load(p).get("vendored", False))
     return names + (["procedural"] if procedural else [])
 
@@ -45,7 +44,7 @@ def render_digests(names: list[str], width: int = 128, height: int = 128, spp: i
         dr.set_thread_count(threads)
     out = {}
     for name in names:
-        cfg = OmegaConf.load(REPO_ROOT / "conf" / "scene" / f"{name}.yaml")
+        cfg = OmegaConf.load(CONF_DIR / "scene" / f"{name}.yaml")
         loaded = SceneSpec.from_cfg(name, cfg, None).load(width, height, 8, segments=1)
         r = SceneRenderer(loaded.scene, width, height, loaded.fov)
         r.set_camera(loaded.nodes[0])

@@ -33,11 +33,11 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.data.camera import look_at, yaw
+from mcd.paths import REPO_ROOT, VENDORED_SCENES_DIR
 
 log = logging.getLogger(__name__)
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-VENDORED_DIR = REPO_ROOT / "scenes"
+VENDORED_DIR = VENDORED_SCENES_DIR
 
 
 class SceneNotFoundError(FileNotFoundError):

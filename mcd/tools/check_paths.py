@@ -65,7 +65,7 @@ def check_scene(
     return problems
 
 
-@hydra.main(config_path="../../conf", config_name="config", version_base=None)
+@hydra.main(config_path="../conf", config_name="config", version_base=None)
 def main(cfg: DictConfig) -> None:
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.store import StoreReader
