@@ -3,7 +3,7 @@ speed; docs/training.md "Throughput"). Each mode is a tool of :mod:`mcd.tools`, 
 ``python -m mcd.bench MODE --help`` shows that tool's own options.
 
 The mode is the first argument; without one the command measures inference speed (``speed``). The older
-flags ``--train`` and ``--profile`` anywhere on the line choose the same modes.
+flags ``--train``, ``--profile`` and ``--loader`` anywhere on the line choose the same modes.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ MODES: dict[str, tuple[str, str]] = {
     "speed": ("mcd.tools.bench", "inference ms/frame of every method (the default mode)"),
     "train": ("mcd.tools.train_bench", "training steps/s of each method and training path"),
     "profile": ("mcd.tools.inference_profile", "where a two-stage row's inference time goes, stage by stage"),
+    "loader": ("mcd.tools.loader_bench", "training clips/s of one loader worker, EXR vs the training store"),
 }
 DEFAULT = "speed"
 
@@ -26,7 +27,8 @@ def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(prog="python -m mcd.bench",
                                   description="The measuring commands: choose a mode; MODE --help shows its "
                                               "options.",
-                                  epilog=f"Without a mode: {DEFAULT}. Old flags: --train, --profile.")
+                                  epilog=f"Without a mode: {DEFAULT}. Old flags: --train, --profile, "
+                                         "--loader.")
     modes = top.add_subparsers(dest="mode", metavar="MODE", title="modes")
     for name, (module, text) in MODES.items():
         modes.add_parser(name, help=f"{text} ({module})", add_help=False)

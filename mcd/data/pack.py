@@ -40,6 +40,7 @@ from mcd.data.store_builder import _write_json_atomic
 from mcd.data.train_store import (
     DTYPES,
     FP16_MAX,
+    TILE,
     VERSION,
     TrainStore,
     TrainStoreSettings,
@@ -47,6 +48,7 @@ from mcd.data.train_store import (
     check_meta,
     frame_digest,
     pack_command,
+    to_tiles,
 )
 
 log = logging.getLogger("mcd.pack")
@@ -79,7 +81,7 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
                 f"{reader.manifest_path(scene)}: {len(absent)} buffer file(s) to pack were never rendered "
                 f"(e.g. frame {absent[0][0]} {absent[0][1]}); render them first: "
                 f"{reader.render_command('render.buffers=[' + ','.join(need) + ']')}")
-    meta = {"version": VERSION, "dtype": settings.dtype, "width": int(cfg.data.width),
+    meta = {"version": VERSION, "dtype": settings.dtype, "tile": TILE, "width": int(cfg.data.width),
             "height": int(cfg.data.height), "profile": str(cfg.data.name),
             "channels": {b: list(r) for b, r in channel_ranges(buffers).items()}}
     meta_path = settings.dir / "store.json"
@@ -121,7 +123,8 @@ def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple
     packed again)."""
     path = store.scene_path(scene)
     n_channels = max(end for _, end in store.ranges.values())
-    shape = (reader.frame_count(scene), n_channels, *size)
+    shape = (reader.frame_count(scene), -(-size[0] // store.tile), -(-size[1] // store.tile), n_channels,
+             store.tile, store.tile)
     if path.is_file():
         mm = np.load(path, mmap_mode="r+")
         if mm.shape == shape and mm.dtype == store.dtype:
@@ -151,7 +154,7 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
             if done.get(str(f), {}).get("sources") == digest:
                 got["reused"] += 1
                 continue
-            frame = np.empty(mm.shape[1:], dtype=np.float32)
+            frame = np.empty((mm.shape[3], *size), dtype=np.float32)
             for b in store.packed:
                 c0, c1 = store.ranges[b]
                 frame[c0:c1] = reader.load(scene, f, b).transpose(2, 0, 1)
@@ -164,7 +167,7 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
                     log.warning("%s frame %d: %d value(s) beyond the float16 range clamped to +-%g "
                                 "(data.train_store.dtype=float16; float32 keeps them)", scene, f, clamped,
                                 FP16_MAX)
-            data = frame.astype(store.dtype) if fp16 else frame
+            data = to_tiles(frame.astype(store.dtype) if fp16 else frame, store.tile)
             mm[f] = data
             mm.flush()
             crc = zlib.crc32(data.tobytes())

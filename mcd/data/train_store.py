@@ -13,9 +13,13 @@ Layout (``data.train_store.dir``, default ``<paths.data_dir>/<data.name>/.train_
 - ``store.json``: what the store was packed with (``dtype``, ``width``, ``height``, ``profile``, the
   ``buffers`` and their channel ranges). A config that differs is refused, naming the key
   (:meth:`TrainStore.open`).
-- ``<scene>.npy``: shape ``(frames, channels, height, width)``, frame index = the EXR store's frame number,
-  channels = the packed buffers' channels one after another in :data:`mcd.data.buffers.BUFFERS` order. Only
-  training and validation frames are written; test frames stay holes of the sparse file (tests read EXR).
+- ``<scene>.npy``: shape ``(frames, tiles_y, tiles_x, channels, tile, tile)``: each frame cut into square
+  tiles of :data:`TILE` pixels (the last row and column of tiles padded with zeros), each tile holding every
+  channel, channel-first; frame index = the EXR store's frame number; channels = the packed buffers' channels
+  one after another in :data:`mcd.data.buffers.BUFFERS` order. A crop of a clip is then, per frame, one
+  contiguous run of tiles per tile row (a 256x256 crop: 5 runs of about 2.5 MB for row F's 31 channels), so a
+  cold read fetches about 1.6 times the crop's bytes instead of whole image rows. Only training and
+  validation frames are written; test frames stay holes of the sparse file (tests read EXR).
 - ``<scene>.json``: per packed frame, the digest of the EXR files it was made from (their manifest SHA-256,
   the scene's exposure and depth scale), the CRC-32 of its bytes, and (float16) how many values were clamped.
   A frame counts as packed only once this record names it (written atomically after the frame's bytes are
@@ -27,13 +31,17 @@ crop of the EXR path. ``float16`` halves the bytes; values beyond its range (``|
 ``+-65504`` and counted at pack time (never an Inf), and a read converts back to float32.
 
 Memory maps are opened lazily on first read in the process that reads (a DataLoader worker), never pickled
-open: :class:`TrainStore` pickles its paths and settings only.
+open: :class:`TrainStore` pickles its paths and settings only. A loader worker that opens one also has glibc
+keep freed memory (:func:`mcd.allocator.keep_freed_memory`): a clip's arrays then reuse the pages the last
+clip freed instead of faulting in fresh zeroed ones, which nearly doubled the clips per CPU second
+(docs/training_store.md).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import mmap
 import shlex
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -44,14 +52,29 @@ import numpy as np
 import torch
 from omegaconf import DictConfig
 
+from mcd.allocator import keep_freed_memory
 from mcd.data.buffers import BUFFERS, CHANNELS
 
 #: ``store.json``'s format; a store of another version is refused (pack it again)
-VERSION = 1
+VERSION = 2
 FORMATS = ("exr", "array")
 DTYPES: dict[str, type[np.floating]] = {"float32": np.float32, "float16": np.float16}
 #: the largest finite float16 (values beyond it are clamped when packing in float16)
 FP16_MAX = float(np.finfo(np.float16).max)
+#: the ``.npy`` header readers by format version (``np.lib.format.open_memmap`` writes 1.0, or 2.0 for a
+#: very long header)
+_NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+#: tile side in pixels (docs/training_store.md, "Layout": the tile size against the bytes a crop reads)
+TILE = 64
+
+
+def to_tiles(frame: np.ndarray, tile: int = TILE) -> np.ndarray:
+    """A ``(C, H, W)`` frame as ``(ceil(H / tile), ceil(W / tile), C, tile, tile)`` tiles, zero-padded."""
+    c, h, w = frame.shape
+    ty, tx = -(-h // tile), -(-w // tile)
+    padded = np.zeros((c, ty * tile, tx * tile), dtype=frame.dtype)
+    padded[:, :h, :w] = frame
+    return np.ascontiguousarray(padded.reshape(c, ty, tile, tx, tile).transpose(1, 3, 0, 2, 4))
 
 
 class TrainStoreError(RuntimeError):
@@ -115,7 +138,16 @@ class TrainStore:
         #: the packed buffers (a frame's channels), and those a clip reads
         self.packed: list[str] = list(self.ranges)
         self.buffers: list[str] = [b for b in self.packed if buffers is None or b in set(buffers)]
-        self._maps: dict[str, np.memmap] = {}
+        self.tile, self.height, self.width = int(meta["tile"]), int(meta["height"]), int(meta["width"])
+        # the channels a clip reads, as runs of consecutive stored channels: (first, end) in the store
+        self._runs: list[tuple[int, int]] = []
+        for b in self.buffers:
+            c0, c1 = self.ranges[b]
+            if self._runs and self._runs[-1][1] == c0:
+                self._runs[-1] = (self._runs[-1][0], c1)
+            else:
+                self._runs.append((c0, c1))
+        self._maps: dict[str, tuple[mmap.mmap, np.ndarray, int]] = {}
 
     # ------------------------------------------------------------------------------------------- opening
     @classmethod
@@ -159,29 +191,71 @@ class TrainStore:
                 f"{scene!r}; pack them: {self.pack_command}")
 
     # ------------------------------------------------------------------------------------------- reading
-    def _map(self, scene: str) -> np.memmap:
-        """The scene's array, memory-mapped read-only on first use in this process."""
+    def _map(self, scene: str) -> tuple[mmap.mmap, np.ndarray, int]:
+        """``(map, array, offset)``: the scene's ``.npy`` mapped read-only on first use in this process, the
+        array over it, and the byte offset of its data. :meth:`clip` asks the kernel for exactly the tile runs
+        it reads (``MADV_WILLNEED``) before copying, so a cold read fetches those, all at once, and little
+        else (``MADV_RANDOM`` on top read no less and cost warm reads their fault-around; the figures are in
+        docs/training_store.md)."""
         if scene not in self._maps:
-            self._maps[scene] = np.load(self.scene_path(scene), mmap_mode="r")
+            if torch.utils.data.get_worker_info() is not None:
+                keep_freed_memory()  # a loader worker: a clip reuses the last one's pages (mcd/allocator.py)
+            with open(self.scene_path(scene), "rb") as f:
+                read_header = _NPY_HEADERS.get(np.lib.format.read_magic(f))
+                if read_header is None:
+                    raise TrainStoreError(f"{self.scene_path(scene)}: not a .npy file of version 1 or 2; "
+                                          f"delete it and pack again: {self.pack_command}")
+                shape, fortran, dtype = read_header(f)
+                offset = f.tell()
+                mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+            if fortran or dtype != self.dtype:
+                raise TrainStoreError(f"{self.scene_path(scene)}: not a {self.dtype} C-order array; delete "
+                                      f"it and pack again: {self.pack_command}")
+            self._maps[scene] = (mm, np.ndarray(shape, dtype, buffer=mm, offset=offset), offset)
         return self._maps[scene]
+
+    def _will_need(self, scene: str, frames: list[int], tile_rows: range, tile_cols: range) -> None:
+        """Ask the kernel for the byte runs of these tiles (one run per frame and tile row) before reading."""
+        mm, arr, offset = self._map(scene)
+        strides = arr.strides
+        for f in frames:
+            for ty in tile_rows:
+                start = offset + f * strides[0] + ty * strides[1] + tile_cols.start * strides[2]
+                end = start + len(tile_cols) * strides[2]
+                first = start - start % mmap.PAGESIZE
+                mm.madvise(mmap.MADV_WILLNEED, first, end - first)
 
     def clip(self, scene: str, frames: list[int], crop: tuple[int, int, int, int] | None) -> dict[str, Any]:
         """``{buffer: float32 tensor [T, C, h, w], "scene": scene, "frame": LongTensor[T]}`` for the crop
         ``(y, x, h, w)`` (None: the whole frame) of ``frames``: what the EXR path's clip gives (the
-        datamodule's contract, docs/architecture.md "Batches"). Reads only the rows the crop covers."""
-        mm = self._map(scene)
-        _, _, height, width = mm.shape
-        y, x, h, w = crop if crop is not None else (0, 0, height, width)
-        if y < 0 or x < 0 or y + h > height or x + w > width:
-            raise ValueError(f"crop {(y, x, h, w)} (y, x, h, w) lies outside the {width}x{height} frames of "
-                             f"{self.scene_path(scene)}")
+        datamodule's contract, docs/architecture.md "Batches"). Reads only the tiles the crop covers, and
+        copies each tile's part once, straight into the clip."""
+        mm, t_ = self._map(scene)[1], self.tile
+        y, x, h, w = crop if crop is not None else (0, 0, self.height, self.width)
+        if y < 0 or x < 0 or h < 1 or w < 1 or y + h > self.height or x + w > self.width:
+            raise ValueError(f"crop {(y, x, h, w)} (y, x, h, w) lies outside the {self.width}x{self.height} "
+                             f"frames of {self.scene_path(scene)}")
+        n_read = sum(c1 - c0 for c0, c1 in self._runs)
+        dst = np.empty((len(frames), n_read, h, w), dtype=np.float32)
+        spans_y, spans_x = _spans(y, h, t_), _spans(x, w, t_)
+        self._will_need(scene, frames, range(spans_y[0][0], spans_y[-1][0] + 1),
+                        range(spans_x[0][0], spans_x[-1][0] + 1))
+        for t, f in enumerate(frames):
+            for ty, y0, y1 in spans_y:
+                tiles = mm[f, ty]  # one contiguous run of the tile row: (tiles_x, channels, tile, tile)
+                for tx, x0, x1 in spans_x:
+                    src = tiles[tx, :, y0 - ty * t_ : y1 - ty * t_, x0 - tx * t_ : x1 - tx * t_]
+                    part = dst[t, :, y0 - y : y1 - y, x0 - x : x1 - x]
+                    d = 0
+                    for c0, c1 in self._runs:
+                        np.copyto(part[d : d + c1 - c0], src[c0:c1], casting="same_kind")
+                        d += c1 - c0
         out: dict[str, Any] = {}
+        d = 0
         for b in self.buffers:
-            c0, c1 = self.ranges[b]
-            dst = np.empty((len(frames), c1 - c0, h, w), dtype=np.float32)
-            for t, f in enumerate(frames):
-                np.copyto(dst[t], mm[f, c0:c1, y : y + h, x : x + w], casting="same_kind")
-            out[b] = torch.from_numpy(dst)
+            n = self.ranges[b][1] - self.ranges[b][0]
+            out[b] = torch.from_numpy(dst[:, d : d + n])
+            d += n
         out["scene"] = scene
         out["frame"] = torch.tensor(frames, dtype=torch.long)
         return out
@@ -189,6 +263,12 @@ class TrainStore:
     def __getstate__(self) -> dict:
         """Pickled without its memory maps: a DataLoader worker opens its own on first read."""
         return {**self.__dict__, "_maps": {}}
+
+
+def _spans(start: int, size: int, tile: int) -> list[tuple[int, int, int]]:
+    """``(tile index, first, end)`` in pixels of each tile that ``[start, start + size)`` covers, clipped."""
+    return [(i, max(start, i * tile), min(start + size, (i + 1) * tile))
+            for i in range(start // tile, -(-(start + size) // tile))]
 
 
 def check_meta(meta: dict, settings: TrainStoreSettings, data_cfg: DictConfig, buffers: Iterable[str],

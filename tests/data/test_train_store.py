@@ -59,6 +59,26 @@ def test_crops_are_bit_identical_to_the_exr_path(cbox_store, tmp_path):
         ts.clip("cbox", [2], (20, 0, 16, 16))
 
 
+def test_crops_across_tiles_of_an_odd_sized_frame_are_bit_identical(tmp_path):
+    """A 203x141 frame is 4x3 tiles of 64, the last ones padded: crops across tile edges, at the frame's far
+    edges and the whole frame read what the EXR path reads, for a subset of the packed buffers."""
+    data_cfg = synthetic_data_cfg("odd", "synth", 203, 141, 11)
+    write_synthetic_store(tmp_path / "exr", data_cfg, ["c1_in", "c4", "ref", "depth", "normal"], seed=3)
+    cfg = OmegaConf.create({"data": data_cfg, "paths": {"data_dir": str(tmp_path / "exr")}})
+    cfg.data.train_store = {"format": "array", "dtype": "float32", "dir": str(tmp_path / "ts")}
+    reader = StoreReader(tmp_path / "exr", cfg.data, overrides=[])
+    pack(cfg, reader, ["c1_in", "c4", "ref", "depth", "normal"])
+    ts = _open(cfg, ["c1_in", "ref", "normal"])  # two runs of stored channels: c1_in, then ref + ... normal
+    assert np.load(ts.scene_path("synth"), mmap_mode="r").shape == (11, 3, 4, 13, 64, 64)
+    exr = ExrClips(reader, ["c1_in", "ref", "normal"], cache=False)
+    for frames, crop in [([1, 2, 3], (60, 60, 70, 80)), ([6], (0, 0, 141, 203)), ([4, 5], (77, 139, 64, 64)),
+                         ([10], (140, 202, 1, 1)), ([2], (0, 63, 141, 2))]:
+        a, b = ts.clip("synth", frames, crop), exr.clip("synth", frames, crop)
+        assert set(a) == set(b)
+        for buf in ("c1_in", "ref", "normal"):
+            assert torch.equal(a[buf], b[buf]), (buf, frames, crop)
+
+
 def test_the_datamodule_reads_the_same_clips_from_either_store(cbox_store, tmp_path):
     cfg_exr, store = cbox_store
     cfg = _array_cfg(store.data_dir, tmp_path / "ts", "data.num_workers=2")
