@@ -7,12 +7,16 @@ import contextlib
 import os
 import platform
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import torch
+if TYPE_CHECKING:
+    import torch
 
 
 def device_name(device: torch.device) -> str:
     """GPU name, or ``CPU <model> (<threads> threads, <cores> cores)``."""
+    import torch  # on first use: importing this module stays fast (docs/architecture.md, "Start-up")
+
     if device.type == "cuda":
         return torch.cuda.get_device_name(device)
     model = platform.processor() or platform.machine()

@@ -20,6 +20,9 @@ Beside the paper's metrics (which stay as they are), docs/benchmark.md ("Metrics
 - colour shift: the largest relative difference of a channel's frame mean from the reference's,
   ``max_c |mean(x_c) / mean(ref_c) - 1|`` on linear HDR (0.05 = 5%; NaN for a black reference channel).
 - Averages: per frame, then over the frames of a scene, then over scenes (each scene weighs the same).
+
+scikit-image and flip-evaluator are imported on first use, so that importing this module (every command
+does) stays fast (docs/architecture.md, "Start-up").
 """
 
 from __future__ import annotations
@@ -27,9 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 
-import flip_evaluator
 import numpy as np
-from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
 #: PSNR of two identical display images is infinite; it is capped here so that averages stay finite.
 PSNR_CAP_DB = 100.0
@@ -72,6 +73,8 @@ def psnr(x: np.ndarray, ref: np.ndarray) -> float:
     dx, dr = to_display(x), to_display(ref)
     if np.array_equal(dx, dr):
         return PSNR_CAP_DB
+    from skimage.metrics import peak_signal_noise_ratio
+
     return min(float(peak_signal_noise_ratio(dr, dx, data_range=1.0)), PSNR_CAP_DB)
 
 
@@ -88,6 +91,8 @@ def ssim(x: np.ndarray, ref: np.ndarray) -> float:
     if min(x.shape[:2]) < SSIM_WINDOW:
         raise ValueError(f"SSIM needs images of at least {SSIM_WINDOW}x{SSIM_WINDOW} pixels, got "
                          f"{x.shape[1]}x{x.shape[0]}")
+    from skimage.metrics import structural_similarity
+
     return float(structural_similarity(to_display(ref), to_display(x), data_range=1.0, channel_axis=-1))
 
 
@@ -123,6 +128,8 @@ def temporal_psnr(x: np.ndarray, x_prev: np.ndarray, ref: np.ndarray, ref_prev: 
 def flip_map(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """Per-pixel LDR-FLIP error (``H x W``, 0..1) of the display images of ``x`` against ``ref``."""
     _check_pair(x, ref)
+    import flip_evaluator
+
     err, _, _ = flip_evaluator.evaluate(to_display(ref).astype(np.float32), to_display(x).astype(np.float32),
                                         "LDR", inputsRGB=True, applyMagma=False, computeMeanError=False)
     return np.asarray(err, dtype=np.float32).reshape(x.shape[:2])

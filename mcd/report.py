@@ -21,18 +21,20 @@ import datetime as dt
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
+if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
+    import pandas as pd
 
-from mcd.reporting import curves, findings, frames, records, seeds, speed, spp, strips, tables
-from mcd.reporting.provenance import Provenance
-from mcd.reporting.runs import Run, Sweep, display_name, find_runs, find_sweeps
-from mcd.reporting.select import to_markdown
+    from mcd.reporting.provenance import Provenance
+    from mcd.reporting.runs import Run, Sweep
 
 DEFAULT_BENCH = Path("reports/bench/bench.csv")
 
 
 def _failures(runs: list[Run], root: Path) -> pd.DataFrame:
+    import pandas as pd
+
     rows = []
     for r in runs:
         if r.status == "ok":
@@ -54,6 +56,10 @@ def _failures(runs: list[Run], root: Path) -> pd.DataFrame:
 
 def _headline(t1: pd.DataFrame) -> list[str]:
     """F against the best other method of Table 1 (ours and the paper's), in words and numbers."""
+    import pandas as pd
+
+    from mcd.reporting.runs import display_name
+
     ours = t1.set_index("experiment")
     lines = []
     if "F" not in ours.index or pd.isna(ours.loc["F", "PSNR"]):
@@ -73,6 +79,8 @@ def _headline(t1: pd.DataFrame) -> list[str]:
 
 def _regenerate_command(out_dir: Path, name: str, root: Path) -> str:
     """The command that regenerates the report at `out_dir` from its run records (mcd.reporting.records)."""
+    from mcd.reporting import records
+
     where = out_dir.resolve()
     where = where.relative_to(root) if where.is_relative_to(root) else where
     out = "" if where.parent == Path("reports") else f" --out {where.parent}"
@@ -92,6 +100,11 @@ def write_readme(
     report_s: float,
 ) -> Path:
     """The report's README: provenance, findings, failures, index."""
+    import pandas as pd
+
+    from mcd.reporting import findings, records, seeds, tables
+    from mcd.reporting.select import to_markdown
+
     n_ok = sum(r.status == "ok" for r in runs)
     fails = _failures(runs, root)
     lines = [
@@ -172,6 +185,10 @@ def make_report(
     command: str | None = None,
 ) -> Path:
     """Write the whole report for the runs under `dirs`; returns the report directory."""
+    from mcd.reporting import curves, frames, records, seeds, speed, spp, strips, tables
+    from mcd.reporting.provenance import Provenance
+    from mcd.reporting.runs import find_runs, find_sweeps
+
     started = time.perf_counter()
     runs = find_runs(dirs)
     if not runs:

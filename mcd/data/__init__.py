@@ -4,25 +4,26 @@ The store has one reader (:class:`StoreReader`: manifest, load, frame count) and
 (:class:`StoreBuilder`, also exported as ``Store``); its buffers are one table, :mod:`mcd.data.buffers`.
 See docs/architecture.md ("The store", "Batches"), docs/benchmark.md ("Data protocol"), docs/data.md and
 docs/scenes.md.
-Importing this package does not import Mitsuba (the variant is chosen when something is first rendered) nor
-Lightning (``MCDDataModule`` is imported on first use), so the store and the loader-rate measurement
-(``mcd.data.loader_rate``) load without them.
+Importing this package imports none of its modules: each name below is imported on first use, so that
+``mcd.data.buffers`` and the other light modules load without the store's dependencies, Mitsuba (the variant
+is chosen when something is first rendered) or Lightning (``MCDDataModule``); docs/architecture.md,
+"Start-up".
 """
 
+from importlib import import_module
 from typing import Any
 
-from mcd.data.buffers import BUFFERS
-from mcd.data.exr import CorruptEXRError
-from mcd.data.store import StoreReader
-from mcd.data.store_builder import Store, StoreBuilder
+#: Where each exported name lives.
+_EXPORTS = {"BUFFERS": "mcd.data.buffers", "CorruptEXRError": "mcd.data.exr",
+            "MCDDataModule": "mcd.data.datamodule", "Store": "mcd.data.store_builder",
+            "StoreBuilder": "mcd.data.store_builder",
+            "StoreReader": "mcd.data.store"}
 
-__all__ = ["BUFFERS", "CorruptEXRError", "MCDDataModule", "Store", "StoreBuilder", "StoreReader"]
+__all__ = sorted(_EXPORTS)
 
 
 def __getattr__(name: str) -> Any:
-    """``MCDDataModule`` on first use (it imports Lightning)."""
-    if name == "MCDDataModule":
-        from mcd.data.datamodule import MCDDataModule
-
-        return MCDDataModule
+    """The exported ``name`` from its module, imported on first use."""
+    if name in _EXPORTS:
+        return getattr(import_module(_EXPORTS[name]), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
