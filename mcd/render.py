@@ -28,7 +28,6 @@ from omegaconf import DictConfig, ListConfig
 
 from mcd.data.buffers import BUFFERS, run_buffers
 from mcd.data.shards import Selection
-from mcd.data.store_builder import StoreBuilder
 
 log = logging.getLogger("mcd.render")
 
@@ -51,6 +50,7 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
 
 @hydra.main(config_path="conf", config_name="config", version_base=None)
 def main(cfg: DictConfig) -> dict:
+    from mcd.data.store_builder import StoreBuilder  # here, not above: a fast --help (docs/architecture.md)
     from mcd.lit.transfer import prepare
 
     cfg, _ = prepare(cfg)  # a transfer run reads its held-out scenes only

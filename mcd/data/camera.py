@@ -15,7 +15,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
 
 @dataclass(frozen=True)
@@ -124,6 +123,8 @@ def interpolate_path(nodes: Sequence[np.ndarray], frames_per_segment: int) -> li
     flip = np.diag([sign, 1.0, 1.0])
     scales = [np.linalg.norm(m[:3, :3], axis=0) for m in mats]
     key_t = np.arange(len(mats), dtype=np.float64)
+    from scipy.spatial.transform import Rotation, Slerp  # on first use: a fast start (docs/architecture.md)
+
     slerp = Slerp(key_t, Rotation.from_matrix(np.stack([r @ flip for r in rots])))
     n_frames = (len(mats) - 1) * frames_per_segment
     ts = np.arange(n_frames) / frames_per_segment
@@ -142,6 +143,8 @@ def yaw(to_world: np.ndarray, degrees: float) -> np.ndarray:
     """The camera turned about its own up axis by `degrees` (positive turns to the left)."""
     m = np.asarray(to_world, dtype=np.float64).copy()
     up = _rotation_part(m)[:, 1]
+    from scipy.spatial.transform import Rotation
+
     r = Rotation.from_rotvec(np.radians(degrees) * up).as_matrix()
     m[:3, :3] = r @ m[:3, :3]
     return m

@@ -13,22 +13,26 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
-import torch
-from torch import nn
+if TYPE_CHECKING:  # torch is imported where used, so that --help starts fast (docs/architecture.md)
+    import torch
+    from torch import nn
 
-from mcd.lit.precision import autocast_to, cpu_bf16_supported
-
-#: ``--precision`` choices and their autocast dtype (None: fp32, no autocast).
-PRECISIONS: dict[str, torch.dtype | None] = {"fp32": None, "bf16": torch.bfloat16, "fp16": torch.float16}
+#: ``--precision`` choices and the name of their autocast dtype in torch (None: fp32, no autocast).
+PRECISIONS: dict[str, str | None] = {"fp32": None, "bf16": "bfloat16", "fp16": "float16"}
 
 
 def check(name: str, device: torch.device) -> torch.dtype | None:
     """The autocast dtype of ``--precision=name`` on ``device``; ValueError (what to use instead) where that
     precision has no fast path there."""
+    import torch
+
+    from mcd.lit.precision import cpu_bf16_supported
+
     if name not in PRECISIONS:
         raise ValueError(f"--precision={name}: use one of {', '.join(PRECISIONS)}")
-    dtype = PRECISIONS[name]
+    dtype = getattr(torch, PRECISIONS[name]) if PRECISIONS[name] else None
     if device.type == "cpu" and dtype is torch.float16:
         raise ValueError("--precision=fp16 runs on a GPU only; on the CPU use --precision bf16 (where the "
                          "CPU has native bf16) or fp32")
@@ -42,17 +46,25 @@ def check(name: str, device: torch.device) -> torch.dtype | None:
 
 def prepare(model: nn.Module, dtype: torch.dtype | None) -> nn.Module:
     """``model`` in the memory format of the precision: channels-last for the half precisions."""
+    import torch
+
     return model if dtype is None else model.to(memory_format=torch.channels_last)
 
 
 def layout(t: torch.Tensor, dtype: torch.dtype | None) -> torch.Tensor:
     """An input image in the memory format of the precision (a 4-D tensor channels-last for the half
     precisions; frame windows, 5-D, as they are)."""
+    import torch
+
     return t.contiguous(memory_format=torch.channels_last) if dtype is not None and t.ndim == 4 else t
 
 
 @contextlib.contextmanager
 def running(device: torch.device, dtype: torch.dtype | None) -> Iterator[None]:
     """Inference mode (where the CPU fast paths apply, docs/inference.md) and autocast to ``dtype``."""
+    import torch
+
+    from mcd.lit.precision import autocast_to
+
     with torch.inference_mode(), autocast_to(device, dtype):
         yield
