@@ -16,7 +16,7 @@ from pathlib import Path
 import torch
 
 from mcd import allocator
-from mcd.denoise import output_folder, precision, weights
+from mcd.denoise import arguments, output_folder, precision, weights, work
 from mcd.denoise.output import SUMMARY, frame_files, write_json
 from mcd.denoise.precision import PRECISIONS
 from mcd.denoise.reference import MAX_SPP, TARGET_DB
@@ -25,8 +25,9 @@ log = logging.getLogger("mcd.denoise")
 
 
 def parser() -> argparse.ArgumentParser:
+    """The command line; every numeric option has its range (mcd/denoise/arguments.py)."""
     p = argparse.ArgumentParser(prog="mcd-denoise", description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter,
+                                formatter_class=arguments.HelpFormatter,
                                 epilog=f"Bundled checkpoints: {', '.join(weights.bundled_names()) or 'none'}")
     p.add_argument("inputs", nargs="*", help="EXR frames of one sequence: a folder, files or a glob pattern "
                    "(layers and sibling files: docs/denoise.md)")
@@ -36,31 +37,39 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--experiment", help="the experiment the checkpoint must be of (e.g. unet, F); without "
                    "--checkpoint, a method without weights (oidn, noisy)")
     p.add_argument("--model", help="the capacity profile the checkpoint must have (cpu, paper)")
-    p.add_argument("--scene", type=Path, help="a Mitsuba 3 scene file to render and denoise (input b)")
-    p.add_argument("--width", type=int, default=None, help="film width (input b; default: the scene's own)")
-    p.add_argument("--height", type=int, default=None, help="film height (input b; default: the scene's own)")
-    p.add_argument("--frames", type=int, default=1,
+    p.add_argument("--scene", type=arguments.scene_file,
+                   help="a Mitsuba 3 scene file to render and denoise (input b)")
+    p.add_argument("--width", type=arguments.side, default=None,
+                   help="film width (input b; default: the scene's own)")
+    p.add_argument("--height", type=arguments.side, default=None,
+                   help="film height (input b; default: the scene's own)")
+    p.add_argument("--frames", type=arguments.int_in(1, 10**6), default=1,
                    help="scene frames: 1 = its own camera, more = a path derived from it (input b)")
-    p.add_argument("--gbuffer-spp", type=int, default=16, help="samples per pixel of the G-buffers (input b)")
-    p.add_argument("--reference-spp", type=int, default=0,
+    p.add_argument("--gbuffer-spp", type=arguments.int_in(1, 2**16), default=16,
+                   help="samples per pixel of the G-buffers (input b)")
+    p.add_argument("--reference-spp", type=arguments.int_in(0, 2**20), default=0,
                    help="score against a reference: its pilot spp on frame 0, raised to --reference-db; 0: "
                    "no scores (input b; docs/denoise.md 'Scores of the real loop')")
-    p.add_argument("--reference-db", type=float, default=TARGET_DB,
+    p.add_argument("--reference-db", type=arguments.float_in(0, 100), default=TARGET_DB,
                    help="target of the reference's own estimated PSNR; 0: every reference at --reference-spp "
                    "(input b)")
-    p.add_argument("--reference-max-spp", type=int, default=MAX_SPP,
+    p.add_argument("--reference-max-spp", type=arguments.int_in(2, 2**20), default=MAX_SPP,
                    help="cap of the reference's spp (input b)")
-    p.add_argument("--exposure", type=float, default=None,
+    p.add_argument("--exposure", type=arguments.float_in(0, 1e12, lo_open=True), default=None,
                    help="one exposure for the network and every score (input b; default: frame 0's reference "
                    "mean, or its input's without a reference, becomes 0.5)")
-    p.add_argument("--seed", type=int, default=0, help="render seed (input b)")
+    p.add_argument("--seed", type=arguments.int_in(0, 2**32 - 1), default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
-                   help="network precision: fp32 (default); bf16 (a CPU with native bf16, or a GPU) or fp16 "
+                   help="network precision: fp32; bf16 (a CPU with native bf16, or a GPU) or fp16 "
                    "(GPU) run under autocast, channels-last (docs/denoise.md 'Speed')")
-    p.add_argument("--max-memory-mb", type=float, default=4096,
+    p.add_argument("--max-memory-mb", type=arguments.float_in(0, 2**24, lo_open=True), default=4096,
                    help="memory cap of one network pass; larger frames go in overlapping tiles (input a)")
-    p.add_argument("--overlap", type=int, default=32, help="tile overlap in pixels (input a)")
+    p.add_argument("--overlap", type=arguments.int_in(0, 1024), default=32,
+                   help="tile overlap in pixels (input a)")
+    p.add_argument("--allow-large", action="store_true",
+                   help="run work above the limits of docs/denoise.md 'Limits' (samples of a scene, pixels "
+                   "of frames)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
 
@@ -76,6 +85,10 @@ def pick_device(name: str) -> torch.device:
 
 def load_model(args: argparse.Namespace) -> weights.Loaded:
     """The checkpoint's model, or (no ``--checkpoint``) an experiment without weights."""
+    from mcd.denoise.configs import check_experiment
+
+    if args.experiment is not None:
+        check_experiment(args.experiment)
     if args.checkpoint:
         return weights.load(args.checkpoint, args.experiment, args.model)
     if not args.experiment:
@@ -126,17 +139,33 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     """Input (b): check ``-o``, render and denoise the scene, print each frame's samples and scores."""
     if args.inputs:
         raise ValueError("give either EXR frames or --scene, not both")
+    from mcd.data.buffers import uniform_buffer
     from mcd.data.scenes import path_scene_name
     from mcd.denoise.scene import denoise_scene, report_lines
 
     name = path_scene_name(args.scene)
+    cfg = loaded.cfg
+    budget = int(cfg.budget)
+    extra = loaded.adaptive and uniform_buffer(budget) in set(loaded.model.required_buffers())
+    levels = int((cfg.method.get("sampling", None) or {}).get("levels", 5))
+
+    def check_work(width: int, height: int) -> None:
+        samples = work.scene_samples(width, height, args.frames, budget, args.gbuffer_spp, args.reference_spp,
+                                     loaded.adaptive, levels, extra)
+        work.check(samples, work.MAX_SAMPLES, f"--scene {args.scene} at {width}x{height}, {args.frames} "
+                   f"frame(s), budget {budget}, --gbuffer-spp {args.gbuffer_spp}, --reference-spp "
+                   f"{args.reference_spp}: samples to trace", args.allow_large)
+
+    if args.width is not None and args.height is not None:
+        check_work(args.width, args.height)          # before the scene is loaded, where the size is given
     outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
     output_folder.check_writable(args.output)
     report = denoise_scene(loaded, args.scene, args.output, device, args.width, args.height,
                            args.frames, args.gbuffer_spp, args.seed, args.reference_spp,
                            progress=not args.no_progress, dtype=dtype, exposure=args.exposure,
-                           reference_db=args.reference_db or None, reference_max_spp=args.reference_max_spp)
+                           reference_db=args.reference_db or None, reference_max_spp=args.reference_max_spp,
+                           check_work=check_work)
     print("\n".join(report_lines(report)))
     return report
 
@@ -146,7 +175,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     """Input (a): find and check the frames and ``-o`` (before any work), denoise (resuming), print."""
     if not args.inputs:
         raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
-    from mcd.denoise.frames import check_frames, find_frames, siblings
+    from mcd.denoise.frames import check_frames, find_frames, read_header, siblings
     from mcd.denoise.resume import Record, file_stamps, weights_digest
     from mcd.denoise.sequence import denoise_frames, wanted_layers
 
@@ -154,6 +183,9 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     inputs = [f for p in paths for f in (p, *siblings(p))]
     outputs = [n for p in paths for n in frame_files(p.stem)]
     output_folder.check_apart(args.output, inputs, [SUMMARY, *outputs])
+    (h, w), _ = read_header(paths[0])
+    work.check(h * w * len(paths), work.MAX_PIXELS, f"{len(paths)} frames of {w}x{h}: pixels to denoise",
+               args.allow_large)
     output_folder.check_writable(args.output)
     check_frames(paths, wanted_layers(loaded))
     settings = {"inputs": file_stamps(inputs), "weights_sha256": weights_digest(loaded.model),

@@ -18,3 +18,15 @@ def model_profile(name: str) -> dict[str, Any]:
         raise ValueError(f"--model={name}: no capacity profile conf/model/{name}.yaml; choose one of "
                          f"{choices}")
     return OmegaConf.to_container(OmegaConf.load(path), resolve=True)  # type: ignore[return-value]
+
+
+def experiments() -> list[str]:
+    """The experiment names of ``conf/experiment/`` (``+experiment=<name>``)."""
+    return sorted(p.stem for p in (CONF_DIR / "experiment").glob("*.yaml"))
+
+
+def check_experiment(name: str) -> None:
+    """ValueError naming ``--experiment=name`` and the valid names, if there is no such experiment."""
+    if name not in experiments():
+        raise ValueError(f"--experiment={name}: no such experiment (conf/experiment/{name}.yaml); choose one "
+                         f"of {', '.join(experiments())}")

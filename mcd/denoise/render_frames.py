@@ -17,6 +17,7 @@ import numpy as np
 
 from mcd.data.buffers import GBUFFERS
 from mcd.data.renderer import derive_seed
+from mcd.denoise import arguments
 from mcd.denoise.frames import write_layers
 
 
@@ -57,21 +58,26 @@ def render_frames(scene_file: Path, out_dir: Path, frames: int = 4, spp: int = 4
 
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="python -m mcd.denoise.render_frames",
-                                description=__doc__.split("\n\n")[0])
-    p.add_argument("scene", type=Path, help="a Mitsuba 3 scene file")
+                                description=__doc__.split("\n\n")[0], formatter_class=arguments.HelpFormatter)
+    p.add_argument("scene", type=arguments.scene_file, help="a Mitsuba 3 scene file")
     p.add_argument("folder", type=Path, help="output folder of the EXR frames")
-    p.add_argument("--frames", type=int, default=4)
-    p.add_argument("--spp", type=int, default=4, help="samples per pixel of the noisy colour")
-    p.add_argument("--width", type=int, default=128)
-    p.add_argument("--height", type=int, default=128)
-    p.add_argument("--gbuffer-spp", type=int, default=16)
-    p.add_argument("--reference-spp", type=int, default=0, help="also write references at this spp")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--frames", type=arguments.int_in(1, 10**5), default=4, help="frames to render")
+    p.add_argument("--spp", type=arguments.int_in(1, 2**16), default=4,
+                   help="samples per pixel of the noisy colour")
+    p.add_argument("--width", type=arguments.side, default=128, help="film width")
+    p.add_argument("--height", type=arguments.side, default=128, help="film height")
+    p.add_argument("--gbuffer-spp", type=arguments.int_in(1, 2**16), default=16,
+                   help="samples per pixel of the G-buffers")
+    p.add_argument("--reference-spp", type=arguments.int_in(0, 2**20), default=0,
+                   help="also write references at this spp; 0: none")
+    p.add_argument("--seed", type=arguments.int_in(0, 2**32 - 1), default=0, help="render seed")
     p.add_argument("--siblings", action="store_true", help="G-buffers as sibling files, not layers")
-    p.add_argument("--dolly", type=float, default=0.3, help="camera path: forward share of the free distance")
-    p.add_argument("--truck", type=float, default=0.15,
+    p.add_argument("--dolly", type=arguments.float_in(-10, 10), default=0.3,
+                   help="camera path: forward share of the free distance")
+    p.add_argument("--truck", type=arguments.float_in(-10, 10), default=0.15,
                    help="camera path: sideways share of the free distance")
-    p.add_argument("--pan-deg", type=float, default=10.0, help="camera path: pan in degrees")
+    p.add_argument("--pan-deg", type=arguments.float_in(-360, 360), default=10.0,
+                   help="camera path: pan in degrees")
     a = p.parse_args(argv)
     path = {"dolly": a.dolly, "truck": a.truck, "pan_deg": a.pan_deg}
     paths = render_frames(a.scene, a.folder, a.frames, a.spp, a.width, a.height, a.gbuffer_spp,

@@ -24,6 +24,7 @@ from __future__ import annotations
 import copy
 import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -103,13 +104,15 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                   gbuffer_spp: int = 16, seed: int = 0, reference_spp: int = 0, progress: bool = True,
                   dtype: torch.dtype | None = None,
                   exposure: float | None = None, reference_db: float | None = TARGET_DB,
-                  reference_max_spp: int = MAX_SPP) -> dict[str, Any]:
+                  reference_max_spp: int = MAX_SPP,
+                  check_work: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Render and denoise ``path`` (module docstring) with autocast to ``dtype`` (None: fp32;
     mcd/denoise/precision.py); returns a summary with per-frame samples and, with ``reference_spp``, scores.
 
     ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: from frame 0's reference when
     there is one, else from frame 0's input (``data.exposure_target``). ``reference_db`` None: every reference
-    at ``reference_spp``.
+    at ``reference_spp``. ``check_work(width, height)``: called once the film size is known, before anything
+    is rendered (mcd-denoise's work limit, mcd/denoise/work.py).
     """
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
@@ -130,6 +133,8 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     if width is None or height is None:
         film_w, film_h = film_size(scene.scene)
         width, height = width or film_w, height or film_h
+    if check_work is not None:
+        check_work(width, height)
     r = SceneRenderer(scene.scene, width, height, scene.fov)
     n = width * height
     target = float(cfg.data.get("exposure_target", 0.5))

@@ -6,7 +6,9 @@ of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.j
 ``python -m mcd.tools.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
 ``weights_only=True`` (:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the
 checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
-it exactly (:func:`mcd.lit.checkpoint.check_fits`). ``--experiment`` / ``--model`` state what the user
+it exactly (:func:`mcd.lit.checkpoint.check_fits`). A bundle's JSON must parse and hold its ``config``, and a
+configuration whose model would have more than :data:`mcd.denoise.work.MAX_PARAMS` parameters is refused
+before it is built (counted on the ``meta`` device). ``--experiment`` / ``--model`` state what the user
 expects: a checkpoint of another method or capacity is refused, naming both.
 """
 
@@ -20,9 +22,12 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
+from mcd.denoise.work import MAX_PARAMS
 from mcd.lit import checkpoint
 
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "bundled"
+#: Keys a bundle's JSON ``config`` must hold (written by :func:`mcd.denoise.bundle.write_bundle`).
+BUNDLE_CONFIG = ("experiment", "method", "model", "budget", "data")
 #: Methods whose first stage samples adaptively: they need a renderer (``--scene``), not frames from disk.
 ADAPTIVE = ("dasr", "ntasad")
 
@@ -66,11 +71,39 @@ def _from_run_ckpt(path: Path) -> tuple[DictConfig, dict[str, Any], dict[str, An
     return OmegaConf.create(cfg), weights, {"checkpoint": str(path), "global_step": state.get("global_step")}
 
 
+def _bundle_json(meta: Path) -> dict[str, Any]:
+    """A bundle's JSON; CheckpointError naming the file if it is not JSON or has no usable ``config``."""
+    try:
+        provenance = json.loads(meta.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise checkpoint.CheckpointError(f"--checkpoint: {meta}: not a readable bundle JSON ({exc}); write "
+                                         "it again with python -m mcd.denoise.bundle") from exc
+    config = provenance.get("config") if isinstance(provenance, dict) else None
+    method = config.get("method") if isinstance(config, dict) else None
+    missing = [k for k in BUNDLE_CONFIG if not isinstance(config, dict) or k not in config]
+    if missing or not isinstance(method, dict) or "name" not in method:
+        raise checkpoint.CheckpointError(
+            f"--checkpoint: {meta}: its 'config' lacks {', '.join(missing) or 'method.name'} (it needs "
+            f"{', '.join(BUNDLE_CONFIG)}, with method.name); write the bundle again with python -m "
+            "mcd.denoise.bundle")
+    return provenance
+
+
 def _from_bundle(pt: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
-    meta = pt.with_suffix(".json")
-    provenance = json.loads(meta.read_text())
+    provenance = _bundle_json(pt.with_suffix(".json"))
     weights = checkpoint.safe_load(pt, "--checkpoint")
     return OmegaConf.create(provenance["config"]), weights, provenance
+
+
+def param_count(cfg: DictConfig) -> int:
+    """Parameters of the model ``cfg`` builds, counted on PyTorch's ``meta`` device (no memory is allocated
+    for them)."""
+    import torch
+
+    from mcd.models import build
+
+    with torch.device("meta"):
+        return sum(p.numel() for p in build(cfg).parameters())
 
 
 def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]:
@@ -126,6 +159,11 @@ def load(spec: str, experiment: str | None = None, capacity: str | None = None) 
                 f"--checkpoint={spec}: its {key} widths are not those of model={capacity} "
                 f"({widths.get(key)} vs {expected[key]}); give a checkpoint trained with model={capacity} "
                 "(or drop --model)")
+    params = param_count(cfg)
+    if params > MAX_PARAMS:
+        raise checkpoint.CheckpointError(
+            f"--checkpoint={spec}: its configuration builds a model of {params:.3g} parameters, above the "
+            f"limit of {MAX_PARAMS:.3g} (mcd.denoise.work.MAX_PARAMS); check the widths in {source}")
     model = build(cfg)
     checkpoint.check_fits(model, weights, "--checkpoint", source)
     model.load_state_dict(weights)
