@@ -160,7 +160,7 @@ def test_bad_reference_settings_are_refused_before_rendering(tmp_path, capsys, m
             str(unet), "--width", "32", "--height", "32", "--no-progress"]
     for extra, named in ((["--reference-spp", "3"], "--reference-spp=3"),
                          (["--reference-spp", "64", "--reference-max-spp", "32"], "--reference-max-spp=32"),
-                         (["--exposure", "-1"], "--exposure=-1.0")):
+                         (["--exposure", "-1"], "argument --exposure: -1 is not a finite number above 0")):
         with pytest.raises(SystemExit) as stop:
             run([*base, *extra])
         assert stop.value.code == 2 and named in capsys.readouterr().err

@@ -59,12 +59,12 @@ def test_render_frames_refuses_bad_numbers_naming_the_flag(tmp_path, capsys, fla
 
 
 def test_large_work_is_refused_unless_allowed(tmp_path, capsys, monkeypatch):
-    size = ("--width", "256", "--height", "256")
-    err = refused(capsys, "--scene", CBOX, "-o", str(tmp_path / "o"), "--experiment", "noisy", *size,
-                  "--reference-spp", "1000000", "--reference-max-spp", "1048576")
+    err = refused(capsys, "--scene", CBOX, "-o", str(tmp_path / "o1"), "--experiment", "noisy",
+                  "--reference-spp", "1000000", "--reference-max-spp", "1048576")  # its own film size
     assert "samples to trace: 6.55e+10, above the limit of 4.29e+09" in err and "--allow-large" in err
-    err = refused(capsys, "--scene", CBOX, "-o", str(tmp_path / "o"), "--experiment", "noisy", "--frames",
-                  "100000")                                          # the scene's own film size
+    assert "at 256x256" in err
+    err = refused(capsys, "--scene", CBOX, "-o", str(tmp_path / "o2"), "--experiment", "noisy", "--frames",
+                  "100000", "--width", "256", "--height", "256")
     assert "100000 frame(s)" in err and "--allow-large" in err
     write_frames(tmp_path / "in", n=3)
     from mcd.denoise import work
@@ -130,6 +130,6 @@ def test_help_shows_every_options_default(capsys):
         parser().parse_args(["--help"])
     out = " ".join(capsys.readouterr().out.split("options:", 1)[1].split())
     assert "(default: None)" not in out and "(default: False)" not in out
-    for flag, default in [("--width", "256"), ("--gbuffer-spp", "16"), ("--max-memory-mb", "4096"),
+    for flag, default in [("--frames", "1"), ("--gbuffer-spp", "16"), ("--max-memory-mb", "4096"),
                           ("--overlap", "32"), ("--precision", "fp32"), ("--device", "cpu")]:
         assert f"(default: {default})" in out.split(flag, 1)[1].split(" --", 1)[0], flag
