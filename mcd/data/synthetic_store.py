@@ -40,13 +40,15 @@ def synthetic_data_cfg(profile: str, scene: str, width: int, height: int, frames
 
 def write_synthetic_store(data_dir: Path, data_cfg: DictConfig, buffers: Iterable[str],
                           seed: int = 0) -> None:
-    """Write every scene of ``data_cfg`` (e.g. :func:`synthetic_data_cfg`) with ``buffers`` into
-    ``data_dir`` (module docstring). Frame ``f`` of a scene is drawn with seed ``seed + f``."""
+    """Write the scenes ``data_cfg`` uses (its train, transfer and test lists; e.g.
+    :func:`synthetic_data_cfg`) with ``buffers`` into ``data_dir`` (module docstring). Frame ``f`` of a scene
+    is drawn with seed ``seed + f``."""
     want = [b for b in BUFFERS if b in set(buffers)]
     h, w = int(data_cfg.height), int(data_cfg.width)
     n = int(data_cfg.segments) * int(data_cfg.frames_per_segment)
     cam = Camera(np.eye(4), 40.0, w, h).to_dict()
-    for scene in data_cfg.scenes:
+    lists = ("train_scenes", "transfer_scenes", "test_scenes")
+    for scene in dict.fromkeys(s for key in lists for s in data_cfg.get(key) or []):
         root = Path(data_dir) / str(data_cfg.name) / str(scene)
         files: dict[str, dict] = {}
         for f in range(n):
