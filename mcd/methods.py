@@ -1,21 +1,86 @@
-"""The paper's published numbers (docs/benchmark.md "The paper's numbers"), as data for the reports and
-``python -m mcd.tools.complexity``. Mitsuba scenes, 4 spp, 1920x1080.
+"""Every method of the benchmark, one entry each (docs/architecture.md, "Methods"): its experiment, the name
+tables and legends show, its config, whether it trains, the paper's numbers for it, its place in Table 1 and
+in the benchmarks. Tables, reports, the bench and ``python -m mcd.tools.complexity`` derive from
+:data:`CATALOGUE`; nothing else lists methods.
+
+The paper's numbers (docs/benchmark.md "The paper's numbers") are data here: Table 1 in each entry's
+``paper``, the component study A-M in :data:`COMPONENTS`. Mitsuba scenes, 4 spp, 1920x1080; PSNR dB, SSIM
+x1e2, L_t x1e2, rMSE x1e3, GMACs, M params.
+
+What a method reads (its buffers) is declared by its model (``required_buffers()``), not here.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from mcd.models.switches import SWITCHES
 
-#: Table 1: method -> PSNR, SSIM x1e2, GMACs, M params. Keys are ``method.name`` values; "two_stage" is "Ours"
-#: (row F of the component study).
-TABLE1: dict[str, dict[str, float]] = {
-    "unet": {"psnr": 31.91, "ssim": 86.00, "gmacs": 316.52, "params_m": 0.972},
-    "fastdvdnet": {"psnr": 32.07, "ssim": 86.02, "gmacs": 1083.5, "params_m": 1.867},
-    "rae": {"psnr": 31.96, "ssim": 86.07, "gmacs": 432.61, "params_m": 1.864},
-    "dasr": {"psnr": 31.97, "ssim": 86.08, "gmacs": 558.00, "params_m": 1.577},
-    "ntasad": {"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578},
-    "two_stage": {"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285},
-}
+
+@dataclass(frozen=True)
+class Method:
+    """One method of the benchmark.
+
+    ``experiment``: ``conf/experiment/<experiment>.yaml`` (``+experiment=<experiment>``); ``display``: its
+    name in tables and legends; ``method``: ``method.name`` (``conf/method/<method>.yaml``, the model
+    registry's name); ``trainable``: it has weights to train; ``paper``: Table 1's numbers (psnr, ssim, gmacs,
+    params_m) or None; ``table1``: a row of Table 1 (in :data:`CATALOGUE`'s order); ``variant_of``: the Table
+    1 row it varies (same paper numbers, shown after it, only where it ran); ``stand_in``: the experiment
+    whose run stands in where this one has none (the same network); ``bench``: measured by default by ``python
+    -m mcd.bench``; ``train_bench``: measured by default by ``python -m mcd.bench train``.
+    """
+
+    experiment: str
+    display: str
+    method: str
+    trainable: bool
+    paper: dict[str, float] | None = None
+    table1: bool = False
+    variant_of: str | None = None
+    stand_in: str | None = None
+    bench: bool = False
+    train_bench: bool = False
+
+
+#: Every method, Table 1's rows in the paper's order first. Rows A-M of the component study are the
+#: ``two_stage`` method with switches (:data:`COMPONENTS`); F, the full method, is also Table 1's "Ours".
+CATALOGUE: tuple[Method, ...] = (
+    Method("unet", "U-Net", "unet", True, table1=True, stand_in="A", bench=True,
+           paper={"psnr": 31.91, "ssim": 86.00, "gmacs": 316.52, "params_m": 0.972}),
+    Method("fastdvdnet", "FastDVDnet", "fastdvdnet", True, table1=True, bench=True, train_bench=True,
+           paper={"psnr": 32.07, "ssim": 86.02, "gmacs": 1083.5, "params_m": 1.867}),
+    Method("rae", "RAE", "rae", True, table1=True, bench=True, train_bench=True,
+           paper={"psnr": 31.96, "ssim": 86.07, "gmacs": 432.61, "params_m": 1.864}),
+    Method("dasr", "DASR", "dasr", True, table1=True, bench=True, train_bench=True,
+           paper={"psnr": 31.97, "ssim": 86.08, "gmacs": 558.00, "params_m": 1.577}),
+    Method("dasr_paper_loss", "DASR (paper's loss)", "dasr", True, variant_of="dasr"),
+    Method("ntasad", "NTASAD", "ntasad", True, table1=True, bench=True, train_bench=True,
+           paper={"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578}),
+    Method("F", "Ours (F)", "two_stage", True, table1=True, bench=True, train_bench=True,
+           paper={"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}),
+    Method("oidn", "OIDN", "oidn", False, table1=True, bench=True),
+    Method("noisy", "Noisy input", "noisy", False, table1=True, bench=True),
+    Method("A", "A", "two_stage", True, train_bench=True),
+    Method("C", "C", "two_stage", True, train_bench=True),
+)
+#: Experiment -> its entry.
+BY_EXPERIMENT: dict[str, Method] = {m.experiment: m for m in CATALOGUE}
+#: Table 1's rows, in the paper's order, then the two references it does not print (OIDN, the noisy input).
+TABLE1_ROWS: tuple[str, ...] = tuple(m.experiment for m in CATALOGUE if m.table1)
+#: A variant of a Table 1 row (experiment -> the row it varies).
+TABLE1_VARIANTS: dict[str, str] = {m.experiment: m.variant_of for m in CATALOGUE if m.variant_of}
+#: Table 1's trained baselines (trainable rows other than the paper's own method).
+TRAINED_BASELINES: tuple[str, ...] = tuple(m.experiment for m in CATALOGUE
+                                           if m.table1 and m.trainable and m.method != "two_stage")
+#: Table 1 by ``method.name``: the paper's numbers of each method it prints.
+TABLE1: dict[str, dict[str, float]] = {m.method: m.paper for m in CATALOGUE if m.table1 and m.paper}
+
+
+def display_name(experiment: str) -> str:
+    """The name tables and legends show for an experiment (rows A-M other than F show as their letter)."""
+    entry = BY_EXPERIMENT.get(experiment)
+    return entry.display if entry is not None else experiment
+
 
 _COMPONENT_ROWS = """
 A 100000 31.92 86.00 2.51 5.58 316.52 0.972
@@ -32,7 +97,6 @@ K 110100 32.46 86.94 2.43 4.73 465.07 1.348
 L 110010 32.43 86.88 2.43 4.72 439.43 1.269
 M 110001 32.39 87.02 2.48 4.68 464.56 1.309
 """
-
 
 
 def _components() -> dict[str, dict]:

@@ -58,7 +58,7 @@ def _headline(t1: pd.DataFrame) -> list[str]:
     """F against the best other method of Table 1 (ours and the paper's), in words and numbers."""
     import pandas as pd
 
-    from mcd.reporting.runs import display_name
+    from mcd.methods import display_name
 
     ours = t1.set_index("experiment")
     lines = []

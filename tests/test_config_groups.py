@@ -11,10 +11,9 @@ from omegaconf import OmegaConf, open_dict
 
 from mcd.lit import budget
 from mcd.losses import LOSSES, build_loss
+from mcd.methods import COMPONENTS, TABLE1_VARIANTS
 from mcd.models import METHODS
 from mcd.models.switches import SWITCHES
-from mcd.paper_numbers import COMPONENTS
-from mcd.reporting.tables import TABLE1_VARIANTS
 from tests.conftest import compose_cfg
 
 CONF = Path(__file__).resolve().parents[1] / "conf"

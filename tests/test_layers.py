@@ -19,7 +19,7 @@ LAYERS: dict[str, int] = {
     # rendering, the store, sampling maps, and the checks a run's config gets before anything renders
     **dict.fromkeys(("data", "sampling", "preflight"), 1),
     # networks and losses
-    **dict.fromkeys(("models", "losses", "paper_numbers"), 2),
+    **dict.fromkeys(("models", "losses", "methods"), 2),
     # training and testing (Lightning)
     **dict.fromkeys(("lit", "run_record"), 3),
     # the product's commands and what they write: train, render, denoise, report

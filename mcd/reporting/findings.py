@@ -15,12 +15,11 @@ import math
 import pandas as pd
 
 from mcd.data.buffers import UNIFORM_BUDGETS
-from mcd.reporting.runs import Run, display_name
+from mcd.methods import TABLE1_VARIANTS, TRAINED_BASELINES, display_name
+from mcd.reporting.runs import Run
 from mcd.reporting.select import pick, scene_mean, train_scenes
-from mcd.reporting.tables import TABLE1_BUDGET, TABLE1_VARIANTS
+from mcd.reporting.tables import TABLE1_BUDGET
 
-#: Table 1's rows that are trained (OIDN comes pretrained, the noisy input is not a method).
-TRAINED_BASELINES = ("unet", "fastdvdnet", "rae", "dasr", "ntasad")
 #: How far below OIDN F may be on the training scenes' test frames and still meet the aim.
 OIDN_AIM_DB = 1.0
 

@@ -12,8 +12,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
+from mcd.methods import display_name  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
-from mcd.reporting.runs import Run, display_name  # noqa: E402
+from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.tables import TABLE1_ROWS, stacked  # noqa: E402
 
 #: Methods drawn: Table 1's and the component chain's first and last rows (A, B, C), at 4 spp.

@@ -1,17 +1,15 @@
-"""The paper's numbers for the reference columns of the tables, read from `mcd.paper_numbers` (never retyped).
+"""The paper's numbers for the reference columns of the tables, read from `mcd.methods` (never retyped).
 
 Units as the paper prints them: PSNR dB, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs at 1920x1080, params in M.
-Keys here follow the run's metrics.json (`macs_g`); `mcd.paper_numbers` says `gmacs`.
+Keys here follow the run's metrics.json (`macs_g`); `mcd.methods` says `gmacs`.
 """
 
 from __future__ import annotations
 
 import math
 
-from mcd import paper_numbers
+from mcd import methods
 
-#: Table 1 is keyed by `method.name`; experiments name them, and `F` is the paper's "Ours" (`two_stage`).
-_TABLE1_KEY = {"F": "two_stage"}
 _FIELDS = {
     "psnr": "psnr",
     "ssim": "ssim",
@@ -29,17 +27,18 @@ def _row(row: dict | None, keys: tuple[str, ...]) -> dict[str, float]:
 
 def table1(experiment: str) -> dict[str, float]:
     """Table 1's row of an experiment (`unet`, `fastdvdnet`, `rae`, `dasr`, `ntasad`, `F`); NaN: none."""
-    row = paper_numbers.TABLE1.get(_TABLE1_KEY.get(experiment, experiment))
+    entry = methods.BY_EXPERIMENT.get(experiment)
+    row = entry.paper if entry is not None else None
     return _row(row, ("psnr", "ssim", "macs_g", "params_m"))
 
 
 def components(experiment: str) -> dict[str, float]:
     """The component study's row `A`..`M`; NaN when the paper has none."""
     return _row(
-        paper_numbers.COMPONENTS.get(experiment), ("psnr", "ssim", "lt", "rmse", "macs_g", "params_m")
+        methods.COMPONENTS.get(experiment), ("psnr", "ssim", "lt", "rmse", "macs_g", "params_m")
     )
 
 
 def switches(experiment: str) -> dict[str, bool]:
     """The component switches that define row `A`..`M` (docs/method.md); {} for other experiments."""
-    return dict(paper_numbers.COMPONENTS.get(experiment, {}).get("switches", {}))
+    return dict(methods.COMPONENTS.get(experiment, {}).get("switches", {}))

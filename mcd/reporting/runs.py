@@ -26,25 +26,6 @@ EDGES_FILE = "edges.json"
 #: The sampling and kernel maps' border figures in that file, where a model has the maps.
 MAP_KEYS = ("map_border_ratio", "index_border", "index_interior")
 
-#: Names shown in tables and legends; experiments not listed here (rows A-M) show as they are.
-DISPLAY_NAMES = {
-    "noisy": "Noisy input",
-    "unet": "U-Net",
-    "fastdvdnet": "FastDVDnet",
-    "rae": "RAE",
-    "dasr": "DASR",
-    "dasr_paper_loss": "DASR (paper's loss)",
-    "ntasad": "NTASAD",
-    "oidn": "OIDN",
-    "F": "Ours (F)",
-}
-
-
-def display_name(experiment: str) -> str:
-    """Legend/table name of an experiment (`F` is the paper's full method, "Ours")."""
-    return DISPLAY_NAMES.get(experiment, experiment)
-
-
 def _load_json(path: Path) -> dict[str, Any] | None:
     """The JSON object in `path`, or None when the file is missing, truncated or not an object."""
     try:

@@ -11,8 +11,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from mcd.methods import (  # noqa: E402
+    BY_EXPERIMENT,
+    CATALOGUE,
+    display_name,  # noqa: E402
+)
 from mcd.reporting.provenance import Provenance  # noqa: E402
-from mcd.reporting.runs import Run, display_name  # noqa: E402
+from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import metric, pick, run_label  # noqa: E402
 from mcd.reporting.tables import COMPONENT_ROWS  # noqa: E402
 
@@ -29,20 +34,22 @@ PANELS = (
 def spp_frame(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     """One row per (experiment, budget) with a finished or failed run, preferring the spp sweep's jobs.
 
-    Where the U-Net has no finished run at a budget, row A's run (the same network, docs/baselines.md) stands
-    in
-    and its ``source`` says A, as in Table 1.
+    Where a method with a ``stand_in`` (mcd.methods: the U-Net is row A's network, docs/baselines.md) has no
+    finished run at a budget, that experiment's run stands in and its ``source`` names it, as in Table 1.
     """
     keys = {(r.experiment, r.budget) for r in runs if r.budget is not None and r.transfer is None}
-    if any(exp == "unet" for exp, _ in keys):  # row A is the U-Net's network: it fills the U-Net's gaps
-        keys |= {("unet", b) for exp, b in keys if exp == "A"}
+    ran = {exp for exp, _ in keys}
+    for m in CATALOGUE:  # the stand-in fills the gaps of a method that ran at some budget
+        if m.stand_in is not None and m.experiment in ran:
+            keys |= {(m.experiment, b) for exp, b in keys if exp == m.stand_in}
     rows = []
     for exp, budget in sorted(keys):
         run = pick(runs, exp, budget, prefer_sweep="spp")
-        stand_in = exp == "unet" and (run is None or run.status != "ok")
+        other = BY_EXPERIMENT[exp].stand_in if exp in BY_EXPERIMENT else None
+        stand_in = other is not None and (run is None or run.status != "ok")
         if stand_in:
-            run = pick(runs, "A", budget, prefer_sweep="ablation")
-        row = {"method": display_name(exp), "experiment": exp, "source": "A" if stand_in else exp,
+            run = pick(runs, other, budget, prefer_sweep="ablation")
+        row = {"method": display_name(exp), "experiment": exp, "source": other if stand_in else exp,
                "budget": budget}
         row.update({key: metric(run, key, scale) for key, scale, _ in PANELS})
         row["status"] = run.status if run is not None else "not run"

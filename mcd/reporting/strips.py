@@ -17,9 +17,13 @@ from matplotlib.patches import Rectangle  # noqa: E402
 
 from mcd.data.exr import read_exr  # noqa: E402
 from mcd.lit.samples import picture  # noqa: E402
+from mcd.methods import (
+    BY_EXPERIMENT,  # noqa: E402
+    display_name,  # noqa: E402
+)
 from mcd.metrics import flip_map, to_display  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
-from mcd.reporting.runs import Run, display_name  # noqa: E402
+from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import pick  # noqa: E402
 from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # noqa: E402
 
@@ -98,13 +102,14 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
     if run is None:
         return written
     others = []
-    # Table 1's methods; the noisy input is already the first column; row A stands in for a U-Net that did
-    # not run (as in table1), under the same title.
+    # Table 1's methods; the noisy input is already the first column; a method's stand-in (mcd.methods: row
+    # A for the U-Net) stands in where it did not run (as in table1), under the same title.
     for exp in (e for e in TABLE1_ROWS if e != "noisy"):
         other = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
         title = display_name(exp)
-        if exp == "unet" and (other is None or other.status != "ok"):
-            other, title = pick(runs, "A", TABLE1_BUDGET, prefer_sweep="ablation"), f"{title} (row A)"
+        alt = BY_EXPERIMENT[exp].stand_in
+        if alt is not None and (other is None or other.status != "ok"):
+            other, title = pick(runs, alt, TABLE1_BUDGET, prefer_sweep="ablation"), f"{title} (row {alt})"
         if other is not None and other.status == "ok":
             others.append((title, samples(other)))
     for scene, frames in sorted(samples(run).items()):

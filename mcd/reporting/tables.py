@@ -1,5 +1,5 @@
 """Table 1 (methods at 4 spp), the component table (A-M) and the transfer table (docs/benchmark.md "Reports"),
-as markdown and CSV, with the paper's numbers in adjacent columns (read from `mcd.paper_numbers`)."""
+as markdown and CSV, with the paper's numbers in adjacent columns (read from `mcd.methods`)."""
 
 from __future__ import annotations
 
@@ -9,16 +9,12 @@ from pathlib import Path
 
 import pandas as pd
 
+from mcd.methods import BY_EXPERIMENT, TABLE1_ROWS, TABLE1_VARIANTS, display_name
 from mcd.models.switches import SWITCHES
 from mcd.reporting import paper
-from mcd.reporting.runs import Run, display_name
+from mcd.reporting.runs import Run
 from mcd.reporting.select import metric, pick, run_label, train_scene_metric, write_table
 
-#: Table 1's rows, in the paper's order, then the two references it does not print.
-TABLE1_ROWS = ("unet", "fastdvdnet", "rae", "dasr", "ntasad", "F", "oidn", "noisy")
-#: A baseline trained with the paper's loss instead of its own (conf/experiment/<name>.yaml): a row of
-#: Table 1, after the row it varies, only where it ran; the paper's numbers are that row's.
-TABLE1_VARIANTS = {"dasr_paper_loss": "dasr"}
 COMPONENT_ROWS = tuple("ABCDEFGHIJKLM")
 #: The chain that adds one component at a time (docs/method.md): B adds AS to A, C adds KP, D PP, E FG, F SA.
 STEPS = ("A", "B", "C", "D", "E", "F")
@@ -85,16 +81,18 @@ def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     training scenes' test frames alone (``PSNR train scenes``: the paper's Table 1 protocol; the mean over all
     test scenes includes the held-out ones).
 
-    U-Net is row A's network (docs/baselines.md); when no `unet` job ran, row A's run stands in and says so.
+    A method with a ``stand_in`` (the U-Net is row A's network, docs/baselines.md) that has no finished job
+    gets that experiment's run, and says so.
     """
     rows = []
     for exp in table1_experiments({r.experiment for r in runs}):
         run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
         source = exp
-        if exp == "unet" and (run is None or run.status != "ok"):
-            alt = pick(runs, "A", TABLE1_BUDGET, prefer_sweep="ablation")
+        other = BY_EXPERIMENT[exp].stand_in if exp in BY_EXPERIMENT else None
+        if other is not None and (run is None or run.status != "ok"):
+            alt = pick(runs, other, TABLE1_BUDGET, prefer_sweep="ablation")
             if alt is not None and alt.status == "ok":
-                run, source = alt, "A"
+                run, source = alt, other
         ref = paper.table1(TABLE1_VARIANTS.get(exp, exp))
         rows.append(
             {

@@ -62,12 +62,13 @@ from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
+from mcd.methods import CATALOGUE
 from mcd.provenance import short_commit
 
 log = logging.getLogger("mcd.bench")
 
-#: Every registered method, as the experiment that selects it (A-M are rows of `two_stage`; F stands for it).
-METHODS = ("F", "unet", "rae", "fastdvdnet", "dasr", "ntasad", "oidn", "noisy")
+#: The methods measured by default, as the experiments that select them (mcd.methods: ``bench``).
+METHODS = tuple(m.experiment for m in CATALOGUE if m.bench)
 SIZES = {"1080p": (1080, 1920), "256": (256, 256)}  # or any "<W>x<H>"
 COLUMNS = (
     "method",

@@ -6,7 +6,7 @@ paper's (docs/benchmark.md "Metrics").
 "unavailable" note in the printed table, for a method whose optional package is missing). It writes nothing
 else: the tracked ``reports/complexity.csv`` changes only when asked for by name. Experiments are the files
 ``conf/experiment/*.yaml``, so a new method only needs its config (and its paper numbers in
-:mod:`mcd.paper_numbers`). The counting itself is :mod:`mcd.models.complexity`.
+:mod:`mcd.methods`). The counting itself is :mod:`mcd.models.complexity`.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import math
 from pathlib import Path
 
 from mcd.config import compose
+from mcd.methods import paper_complexity
 from mcd.models.complexity import complexity
-from mcd.paper_numbers import paper_complexity
 from mcd.paths import CONF_DIR
 
 

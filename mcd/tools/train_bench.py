@@ -50,11 +50,13 @@ import torch
 
 from mcd import allocator
 from mcd.machine import device_name
+from mcd.methods import CATALOGUE
 from mcd.paths import REPO_ROOT
 
 log = logging.getLogger("mcd.tools.train_bench")
 
-METHODS = ("A", "C", "F", "rae", "fastdvdnet", "dasr", "ntasad")
+#: The methods measured by default (mcd.methods: ``train_bench``).
+METHODS = tuple(m.experiment for m in CATALOGUE if m.train_bench)
 PATHS = ("today", "default", "default-fp32", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
          "bf16+channels-last", "compile")
 COLUMNS = ("method", "profile", "path", "steps_per_s", "pixels_per_s", "peak_rss_mb", "threads", "cpu",

@@ -12,9 +12,9 @@ from omegaconf import OmegaConf
 
 from mcd.config import compose
 from mcd.losses import build_loss
+from mcd.methods import TABLE1
 from mcd.models import build
 from mcd.models.complexity import complexity, dummy_batch
-from mcd.paper_numbers import TABLE1
 
 FIVE = ("unet", "rae", "fastdvdnet", "dasr", "ntasad")
 LOSS = {"unet": "paper", "rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad",

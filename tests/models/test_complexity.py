@@ -5,9 +5,9 @@ import csv
 import pytest
 import torch
 
+from mcd.methods import COMPONENTS
 from mcd.models import build
 from mcd.models.complexity import complexity, count_macs
-from mcd.paper_numbers import COMPONENTS
 from mcd.tools.complexity import main
 from tests.models.helpers import ROWS, row_cfg
 

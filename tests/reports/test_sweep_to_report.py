@@ -15,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from mcd.paper_numbers import COMPONENTS
+from mcd.methods import COMPONENTS
 
 REPO = Path(__file__).resolve().parents[2]
 LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")

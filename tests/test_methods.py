@@ -1,0 +1,37 @@
+"""The method catalogue (mcd/methods.py) agrees with the configs and the model registry: every entry composes
+from its experiment to its ``method.name`` and builds, and every experiment that is not a component row has
+an entry, so tables, the bench and the reports cannot miss a method."""
+
+from __future__ import annotations
+
+import pytest
+
+from mcd.config import compose
+from mcd.methods import BY_EXPERIMENT, CATALOGUE, TABLE1, TABLE1_ROWS, TABLE1_VARIANTS, display_name
+from mcd.models import METHODS
+from mcd.paths import CONF_DIR
+
+
+@pytest.mark.parametrize("entry", CATALOGUE, ids=lambda m: m.experiment)
+def test_each_entry_composes_to_its_method(entry):
+    cfg = compose([f"+experiment={entry.experiment}"])
+    assert cfg.method.name == entry.method
+    assert entry.method in METHODS.names()
+
+
+def test_every_experiment_that_is_not_a_component_row_has_an_entry():
+    experiments = {p.stem for p in (CONF_DIR / "experiment").glob("*.yaml")}
+    others = {e for e in experiments if not (len(e) == 1 and e.isupper())}
+    assert others <= set(BY_EXPERIMENT), f"add {sorted(others - set(BY_EXPERIMENT))} to mcd/methods.py"
+    assert set(BY_EXPERIMENT) <= experiments
+
+
+def test_derived_views_follow_the_entries():
+    assert TABLE1_ROWS[:6] == ("unet", "fastdvdnet", "rae", "dasr", "ntasad", "F")  # the paper's order
+    assert all(BY_EXPERIMENT[row].table1 for row in TABLE1_VARIANTS.values())
+    assert TABLE1["two_stage"] == BY_EXPERIMENT["F"].paper
+    assert display_name("F") == "Ours (F)" and display_name("B") == "B"
+    for entry in CATALOGUE:
+        if entry.stand_in is not None:
+            stand_in = compose([f"+experiment={entry.stand_in}"])
+            assert stand_in.method.name in ("two_stage", entry.method)
