@@ -52,11 +52,14 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
 def main(cfg: DictConfig) -> dict:
     from mcd.data.store_builder import StoreBuilder  # here, not above: a fast --help (docs/architecture.md)
     from mcd.lit.transfer import prepare
+    from mcd.plan import announce
 
     cfg, _ = prepare(cfg)  # a transfer run reads its held-out scenes only
     store = StoreBuilder.from_cfg(cfg)
     selection = Selection.from_render_cfg(cfg.render, store.scene_names, store.n_frames)
     buffers = requested_buffers(cfg)
+    units = sum(map(len, selection.units(store.scene_names, store.n_frames).values()))
+    announce(cfg, "mcd.render", train=False, share=units / (len(store.scene_names) * store.n_frames))
     log.info("rendering profile %s into %s: buffers %s; %s", store.profile, store.root,
              ",".join(sorted(buffers)), selection.describe())
     report = store.ensure(buffers, selection=selection)

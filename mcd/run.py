@@ -46,6 +46,7 @@ from mcd.lit.test_recorder import TestRecorder
 from mcd.losses import build_loss
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
+from mcd.plan import announce
 from mcd.preflight import check_run
 from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, is_complete
@@ -146,6 +147,7 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
     buffers = run_buffers(model.required_buffers(), cfg.budget)
+    announce(cfg, "mcd.run", train=bool(cfg.method.get("trainable", True)))  # the plan's line if over 1 h
     store = StoreBuilder.from_cfg(cfg)
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused

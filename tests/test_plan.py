@@ -1,0 +1,74 @@
+"""``python -m mcd.plan`` (issue 30, part 5; mcd/plan.py, docs/scale.md "Plan"): the counts of a profile, the
+measured figures and the one-line summary ``mcd.run`` / ``mcd.render`` print before work over an hour; the
+render's progress lines."""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from mcd.data import Store
+from mcd.plan import announce, main, work
+from tests.conftest import compose_cfg, store32_overrides
+
+
+def test_paper_counts_match_the_protocols_arithmetic():
+    """Row F on the paper profile: 11 stored buffers (31 channels + motion's depth), 19 scenes x 500 frames at
+    1080p; 16 training scenes x (500 - 100 test) packed frames; 76 training clips per scene."""
+    wk = work(compose_cfg("data=paper", "model=paper", "train=paper"))
+    pixels = 1920 * 1080
+    channels = 3 * 8 + 1 + 3 + 3  # c1_in, c1..c32, ref; depth, normal, albedo
+    assert wk["exr_frame_bytes"] == pixels * channels * 4
+    assert wk["exr_bytes"] == pixels * channels * 4 * 500 * 19
+    assert wk["train_store_frames"] == 16 * 400 and wk["train_channels"] == channels
+    assert wk["train_store_bytes"] == {"float32": 6400 * channels * pixels * 4,
+                                       "float16": 6400 * channels * pixels * 2}
+    # spp per pixel per scene: the uniform stack and c1_in every frame, references at 2048 (train) or up to
+    # 16384 (the 100 test frames), the pilot's 2048, G-buffers at 64
+    stack = 1 + (1 + 2 + 4 + 8 + 16 + 32)
+    assert wk["spp_per_scene"] == (500 * (stack + 2048 + 64) + 2048,
+                                   500 * (stack + 64) + 400 * 2048 + 100 * 16384 + 2048)
+    assert wk["samples"] == tuple(s * pixels * 19 for s in wk["spp_per_scene"])
+    assert wk["train_clips"] == 16 * 76 and wk["steps_per_epoch"] == 152 and wk["run_steps"] == 300 * 152
+
+
+def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):
+    """The whole plan on a 32x32 Cornell box profile: a real pilot render, training step and loader rate."""
+    main(compose_cfg(*store32_overrides(tmp_path), "plan.pilot_scale=1"))
+    out = capsys.readouterr().out
+    for start in ("plan for profile test32", "EXR store", "training store", "samples:", "training:",
+                  "pilot render: cbox at 32x32", "render time here", "render on an H100",
+                  "training step memory", "training step time", "loader: a GPU needs", "total: plan test32",
+                  "(measured here"):
+        assert any(line.startswith(start) for line in out.splitlines()), (start, out)
+    assert not (tmp_path / "test32").exists()  # nothing rendered into the store
+
+
+def test_bad_plan_profile_is_named(tmp_path):
+    with pytest.raises(ValueError, match="data.frames_per_segment"):
+        work(compose_cfg(*store32_overrides(tmp_path), "data.segments=1", "data.frames_per_segment=3"))
+
+
+def test_announce_prints_the_summary_only_above_an_hour(tmp_path, caplog):
+    caplog.set_level(logging.INFO, logger="mcd.plan")
+    announce(compose_cfg(*store32_overrides(tmp_path)), "mcd.run", train=True)  # 12 minutes, a tiny render
+    assert not caplog.records
+    paper = compose_cfg("data=paper", "model=paper", f"paths.data_dir={tmp_path}")
+    announce(paper, "mcd.render", train=False)
+    (rec,) = caplog.records
+    assert rec.getMessage().startswith("mcd.render: plan paper: EXR store 2.44 TB")
+    assert " h here" in rec.getMessage()
+
+
+def test_render_prints_a_progress_line_per_scene_and_frame(tmp_path, caplog):
+    caplog.set_level(logging.INFO, logger="mcd.data.store")
+    cfg = compose_cfg(*store32_overrides(tmp_path), "data.ref_spp=8", "data.ref_quality.target_db=null")
+    Store.from_cfg(cfg).ensure({"c1"}, progress=True)
+    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("render 1/1 scene cbox")]
+    assert lines[0] == "render 1/1 scene cbox: 12 of its 12 frames here need rendering (ref,c1)"
+    frames = lines[1:]
+    assert len(frames) == 12 and all("elapsed 0:00:" in m and ", ETA 0:" in m for m in frames)
+    assert frames[-1].startswith("render 1/1 scene cbox: frame 11 done (12/12)")
+    assert frames[-1].endswith("ETA 0:00:00")
+    assert not any("\r" in r.getMessage() for r in caplog.records)
