@@ -417,7 +417,7 @@ def announce(cfg: DictConfig, what: str, train: bool, share: float = 1.0) -> Non
                  "overrides prints the whole plan)", what, summary(p), hours)
 
 
-@hydra.main(config_path="../conf", config_name="config", version_base=None)
+@hydra.main(config_path="conf", config_name="config", version_base=None)
 def main(cfg: DictConfig) -> dict[str, Any]:
     from mcd.lit.transfer import prepare
 
