@@ -5,7 +5,7 @@ The plan counts, from the config alone:
 
 - the EXR store's bytes: per frame (the buffers ``mcd.render`` writes for this config: ``render.buffers``,
   default those the configured method reads plus ``ref`` and the uniform render at the budget,
-  :func:`mcd.render.requested_buffers`; ``motion`` brings ``depth``), per scene and in all, uncompressed
+  :func:`mcd.workload.requested_buffers`; ``motion`` brings ``depth``), per scene and in all, uncompressed
   float32 (G-buffers and motion are stored ZIP-compressed, so smaller: an upper bound);
 - the training store's bytes (:mod:`mcd.data.train_store`: the training and validation frames of
   ``data.train_scenes``, the run's buffers, float32 and float16);
@@ -46,212 +46,25 @@ when the plan puts the work above an hour (a pilot runs only where the work's sa
 
 from __future__ import annotations
 
-import logging
 import math
 import tempfile
 import time
-from pathlib import Path
 from typing import Any
 
 import hydra
-import numpy as np
 from omegaconf import DictConfig
 
-from mcd.data.buffers import CHANNELS, COLOUR_BUFFERS, GBUFFERS, buffer_spp, run_buffers
-from mcd.data.splits import split_frames, test_frame_count
-from mcd.data.store import StoreReader
-
-log = logging.getLogger("mcd.plan")
-
-#: seconds an H100 took per 1920x1080 frame at 256 spp (measured range, docs/scale.md)
-H100_S_PER_FRAME = (1.2, 2.3)
-H100_S_PER_SAMPLE = tuple(s / (1920 * 1080 * 256) for s in H100_S_PER_FRAME)
-HOUR = 3600.0
-#: samples per second no CPU renders faster than, for the cheap test of whether a render could take an hour
-FAST_CPU_SAMPLES_PER_S = 1e8
-
-
-# ------------------------------------------------------------------------------------------------ arithmetic
-def _render_buffers(cfg: DictConfig) -> list[str]:
-    from mcd.render import requested_buffers
-
-    bufs = requested_buffers(cfg)
-    if "motion" in bufs:
-        bufs.add("depth")
-    return [b for b in CHANNELS if b in bufs]
-
-
-def _train_buffers(cfg: DictConfig) -> list[str]:
-    from mcd.models import build
-
-    return [b for b in CHANNELS if b in run_buffers(build(cfg).required_buffers(), cfg.budget)]
-
-
-def work(cfg: DictConfig) -> dict[str, Any]:
-    """The plan's counts from the config alone (module docstring): bytes, samples, steps."""
-    d = cfg.data
-    reader = StoreReader(cfg.paths.data_dir, d, cfg.paths.get("scenes_dir"), overrides=[])
-    scenes, n = reader.scene_names, reader.n_frames
-    w, h = int(d.width), int(d.height)
-    render = _render_buffers(cfg)
-    train = _train_buffers(cfg)
-    frame_bytes = {b: w * h * CHANNELS[b] * 4 for b in render}
-    n_test = test_frame_count(n, float(d.get("test_fraction", 0.2)))
-    q = d.get("ref_quality")
-    quality = q is not None and q.get("target_db") is not None
-    ref_hi = int(q.get("max_spp", d.ref_spp)) if quality else int(d.ref_spp)
-    lo = hi = 0  # samples per pixel of one scene
-    for b in render:
-        if b == "ref":
-            lo += n * int(d.ref_spp) + (int(d.ref_spp) if quality else 0)
-            hi += (n - n_test) * int(d.ref_spp) + n_test * ref_hi + (int(d.ref_spp) if quality else 0)
-        elif b in COLOUR_BUFFERS:
-            lo += n * buffer_spp(b, d)
-            hi += n * buffer_spp(b, d)
-    if any(b in GBUFFERS for b in render):
-        lo += n * int(d.gbuffer_spp)
-        hi += n * int(d.gbuffer_spp)
-    split = split_frames(n, float(d.get("test_fraction", 0.2)), int(d.val_clips), int(d.clip_len))
-    packed_frames = sum(len(c) for c in split["train"] + split["val"]) * len(d.train_scenes)
-    channels = sum(CHANNELS[b] for b in train)
-    clips = len(split["train"]) * len(d.train_scenes)
-    t = cfg.train
-    devices = cfg.trainer.get("devices", 1)
-    ranks = (int(devices) if str(devices).isdigit() else 1) * int(cfg.trainer.get("num_nodes", 1) or 1)
-    batch = int(t.batch_size)
-    steps = math.ceil(clips / ranks / batch)
-    limit = t.get("limit_train_batches", 1.0)
-    steps = min(steps, int(limit)) if isinstance(limit, int) else max(1, int(steps * float(limit)))
-    if t.get("epochs") is not None:
-        run_steps, how = int(t.epochs) * steps, f"train.epochs={int(t.epochs)} x {steps} steps"
-    elif t.get("max_steps") is not None:
-        run_steps, how = int(t.max_steps), f"train.max_steps={int(t.max_steps)}"
-    else:
-        run_steps, how = None, "no train.epochs or train.max_steps"
-    return {
-        "profile": reader.profile, "scenes": scenes, "frames": n, "width": w, "height": h,
-        "render_buffers": render, "train_buffers": train,
-        "exr_frame_bytes": sum(frame_bytes.values()), "exr_scene_bytes": sum(frame_bytes.values()) * n,
-        "exr_bytes": sum(frame_bytes.values()) * n * len(scenes),
-        "train_store_frames": packed_frames, "train_channels": channels,
-        "train_store_bytes": {dt: packed_frames * channels * w * h * size
-                              for dt, size in (("float32", 4), ("float16", 2))},
-        "samples": (lo * w * h * len(scenes), hi * w * h * len(scenes)),
-        "spp_per_scene": (lo, hi),
-        "train_clips": clips, "batch": batch, "ranks": ranks, "steps_per_epoch": steps,
-        "run_steps": run_steps, "run_steps_how": how,
-        "max_minutes": t.get("max_minutes"), "crop": int(d.train_crop), "clip_len": int(d.clip_len),
-    }
-
-
-# ---------------------------------------------------------------------------------------------- measurements
-def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1) -> dict[str, Any]:
-    """Seconds per sample of this machine (module docstring): one real scene of the profile at 1/`scale` of
-    the size, `frames` frames of `spp` spp after a warm-up frame (JIT compilation not timed)."""
-    from mcd.data.camera import interpolate_path
-    from mcd.data.mitsuba_env import select_variant
-    from mcd.data.renderer import SceneRenderer
-
-    d = cfg.data
-    variant = select_variant(str(cfg.render.get("variant", "auto")))
-    reader = StoreReader(cfg.paths.data_dir, d, cfg.paths.get("scenes_dir"), overrides=[])
-    w, h = max(8, int(d.width) // scale), max(8, int(d.height) // scale)
-    tried = []
-    for name in reader.scene_names:
-        spec = reader.specs[name]
-        try:
-            spec.check_exists()
-        except (FileNotFoundError, ValueError) as err:
-            tried.append(f"{name} ({str(err).splitlines()[0][:80]})")
-            continue
-        loaded = spec.load(w, h, None if d.get("max_depth") is None else int(d.max_depth), int(d.segments))
-        cams = interpolate_path(loaded.nodes, int(d.frames_per_segment))
-        r = SceneRenderer(loaded.scene, w, h, loaded.fov)
-        r.set_camera(np.asarray(cams[0], dtype=np.float64))
-        r.color(spp, 0)  # warm-up: the JIT compiles the kernels
-        t0 = time.perf_counter()
-        for k in range(frames):
-            r.set_camera(np.asarray(cams[(k + 1) * len(cams) // (frames + 1)], dtype=np.float64))
-            r.color(spp, k + 1)
-        seconds = time.perf_counter() - t0
-        return {"scene": name, "variant": variant, "width": w, "height": h, "spp": spp, "frames": frames,
-                "seconds": seconds, "s_per_sample": seconds / (w * h * spp * frames)}
-    raise FileNotFoundError(f"plan: no scene of profile {reader.profile} could be loaded for the pilot "
-                            f"render: {'; '.join(tried)}. Set paths.scenes_dir (docs/scenes.md), or "
-                            "plan.measure=false")
-
-
-def _vm(field: str) -> float:
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith(field + ":"):
-            return int(line.split()[1]) / 1024
-    return float("nan")
-
-
-def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
-    """One forward and backward of the configured method and loss, batch 1 (module docstring): seconds and
-    memory in MB of one crop at ``data.train_crop``, and how they were measured.
-
-    On a GPU: measured at the crop (wall time, ``torch.cuda.max_memory_allocated``). On CPU: measured at
-    `step_crop` / 2 and `step_crop` (at most the crop), after a warm-up step, on one thread, as CPU seconds
-    over torch's threads (the step on an idle machine, ideal scaling; a shared machine stretches wall time,
-    not this) and the
-    rise of the peak resident memory; both extrapolated to the crop's pixels along the line through the two
-    (a fixed part plus a part per pixel), or scaled by the pixel ratio where the two are out of order (noise).
-    """
-    import torch
-
-    from mcd.data.synthetic import synthetic_frame
-    from mcd.lit.module import DenoiseModule
-    from mcd.losses import build_loss
-    from mcd.models import build
-
-    device = "cuda" if torch.cuda.is_available() else "cpu"
-    model = build(cfg).to(device)
-    module = DenoiseModule(cfg, model, build_loss(cfg).to(device))
-    names = run_buffers(model.required_buffers(), cfg.budget)
-    crop = min(int(cfg.data.train_crop), int(cfg.data.width), int(cfg.data.height))
-
-    def step(size: int) -> tuple[float, float]:
-        """(seconds, MB) of one step at `size`."""
-        batch = synthetic_frame(names, size, size, lead=(1, int(cfg.data.clip_len)), device=device)
-        if device == "cuda":
-            torch.cuda.synchronize()
-            torch.cuda.reset_peak_memory_stats()
-            base = torch.cuda.memory_allocated()
-        else:
-            Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS
-            base = _vm("VmRSS")
-        t0, c0 = time.perf_counter(), time.process_time()
-        pred = module.run_clip(batch, with_ref=True)
-        module.loss_fn(pred, batch["ref"][:, -pred.shape[1]:])["loss"].backward()
-        model.zero_grad(set_to_none=False)
-        if device == "cuda":
-            torch.cuda.synchronize()
-            return time.perf_counter() - t0, (torch.cuda.max_memory_allocated() - base) / 2**20
-        return (time.process_time() - c0) / threads, _vm("VmHWM") - base
-
-    threads = torch.get_num_threads()
-    if device == "cpu":
-        torch.set_num_threads(1)  # CPU time without the threads' spin-waiting; restored below
-    step(8)  # warm-up: lazy initialisation, gradient buffers
-    if device == "cuda":
-        seconds, memory = step(crop)
-        sizes = [crop]
-        how = "wall time; torch.cuda.max_memory_allocated"
-    else:
-        sizes = sorted({max(8, min(crop, step_crop) // 2), min(crop, step_crop)})
-        (s1, m1), (s2, m2) = [step(c) for c in sizes] if len(sizes) == 2 else [step(sizes[0])] * 2
-        p1, p2, p = sizes[0] ** 2, sizes[-1] ** 2, crop ** 2
-        if p2 > p1 and s2 > s1 and m2 > m1:
-            seconds, memory = s2 + (s2 - s1) / (p2 - p1) * (p - p2), m2 + (m2 - m1) / (p2 - p1) * (p - p2)
-        else:
-            seconds, memory = s2 * p / p2, m2 * p / p2
-        how = f"CPU seconds of one thread / {threads} threads; rise of peak RSS (VmHWM)"
-        torch.set_num_threads(threads)
-    params = sum(p.numel() for p in model.parameters())
-    return {"device": device, "seconds": seconds, "memory_mb": memory, "how": how, "crop": crop,
-            "measured_crops": sizes, "params": params, "state_mb": params * 16 / 2**20}
+from mcd.workload import (
+    H100_S_PER_FRAME,
+    H100_S_PER_SAMPLE,
+    _gb,
+    _range,
+    derive,
+    pilot_render,
+    summary,
+    train_step,
+    work,
+)
 
 
 def loader(cfg: DictConfig, buffers: list[str]) -> dict[str, Any]:
@@ -267,6 +80,8 @@ def loader(cfg: DictConfig, buffers: list[str]) -> dict[str, Any]:
 
 
 # ----------------------------------------------------------------------------------------------------- plan
+
+
 def plan(cfg: DictConfig, measure: bool = True) -> dict[str, Any]:
     """The counts of :func:`work`, and with `measure` the measured figures and the times and GPU-hours
     derived from them (module docstring)."""
@@ -285,37 +100,6 @@ def plan(cfg: DictConfig, measure: bool = True) -> dict[str, Any]:
     p["measure_s"] = {"train_step": t1 - t0, "pilot": t2 - t1, "loader": time.perf_counter() - t2}
     p.update(derive(wk, p["pilot"], p["train_step"], p["loader"]))
     return p
-
-
-def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[str, Any]:
-    """Times, GPU-hours and the loader's need from the counts and the measurements (module docstring)."""
-    here = pilot["s_per_sample"]
-    gpu_measured = pilot["variant"].startswith("cuda")
-    gpu_sps = (here, here) if gpu_measured else H100_S_PER_SAMPLE
-    ratio = here / float(np.mean(H100_S_PER_SAMPLE))  # how many times an H100 renders faster than here
-    cpu_step = step["seconds"] * wk["batch"]  # batch 1 measured; a step of `batch` crops
-    gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
-    steps = wk["run_steps"]
-    out = {
-        "render_hours_here": tuple(s * here / HOUR for s in wk["samples"]),
-        "render_gpu_hours": (wk["samples"][0] * gpu_sps[0] / HOUR, wk["samples"][1] * gpu_sps[1] / HOUR),
-        "gpu_measured": gpu_measured, "ratio": ratio, "gpu_step_s": gpu_step,
-        "step_memory_mb": step["memory_mb"] * wk["batch"] + step["state_mb"],
-        "train_gpu_hours": None if steps is None else steps * gpu_step / HOUR,
-        "need_clips_per_s": wk["batch"] / gpu_step,
-    }
-    if loader_rate is not None:
-        out["loader_clips_per_s"] = loader_rate["clips_per_s"]
-        out["loader_cold_clips_per_s"] = loader_rate["cold_clips_per_s"]
-    return out
-
-
-def _gb(n: float) -> str:
-    return f"{n / 1e12:.2f} TB" if n >= 1e12 else f"{n / 1e9:.2f} GB" if n >= 1e9 else f"{n / 1e6:.1f} MB"
-
-
-def _range(a: float, b: float, unit: str = "") -> str:
-    return f"{a:.3g}{unit}" if math.isclose(a, b, rel_tol=1e-3) else f"{a:.3g}-{b:.3g}{unit}"
 
 
 def lines(p: dict[str, Any]) -> list[str]:
@@ -375,46 +159,6 @@ def lines(p: dict[str, Any]) -> list[str]:
     out.append(f"(measured here in {sum(m.values()):.0f} s: training step {m['train_step']:.0f} s, pilot "
                f"render {m['pilot']:.0f} s, loader {m['loader']:.0f} s; the machine's load stretches them)")
     return out
-
-
-def summary(p: dict[str, Any]) -> str:
-    """The plan in one line."""
-    wk = p["work"]
-    s = (f"plan {wk['profile']}: EXR store {_gb(wk['exr_bytes'])}, training store "
-         f"{_gb(wk['train_store_bytes']['float32'])} (float32); {_range(*wk['samples'])} samples")
-    if "render_hours_here" in p:
-        s += f" = {_range(*p['render_hours_here'], ' h')} here"
-    if "render_gpu_hours" in p:
-        tr = p["train_gpu_hours"]
-        total = [r + (tr or 0.0) for r in p["render_gpu_hours"]]
-        s += (f"; GPU-hours: render {_range(*p['render_gpu_hours'])} + training "
-              f"{'?' if tr is None else f'{tr:.3g}'} = {_range(*total)}"
-              + ("" if p["gpu_measured"] else " (H100, derived)"))
-    return s
-
-
-def announce(cfg: DictConfig, what: str, train: bool, share: float = 1.0) -> None:
-    """Log the plan's one-line summary before `what` starts when the plan puts its work above an hour.
-
-    `share`: the part of the profile's render this process does (a shard's units over all). Cheap first: a
-    pilot render runs only where that share's samples could take an hour even at
-    :data:`FAST_CPU_SAMPLES_PER_S`; the training part counts ``train.max_minutes`` (or, without it, the
-    steps at one measured step each) where `train`."""
-    wk = work(cfg)
-    hours = 0.0
-    p: dict[str, Any] = {"work": wk}
-    if wk["samples"][1] * share / FAST_CPU_SAMPLES_PER_S > HOUR:
-        pilot = pilot_render(cfg, int(cfg.get("plan", {}).get("pilot_scale", 8)), 4, 1)
-        p["render_hours_here"] = tuple(s * pilot["s_per_sample"] / HOUR for s in wk["samples"])
-        hours += p["render_hours_here"][0] * share
-    if train:
-        if wk["max_minutes"] is not None:
-            hours += float(wk["max_minutes"]) / 60
-        elif wk["run_steps"] is not None and wk["run_steps"] * 0.01 > HOUR:  # an hour even at 100 steps/s
-            hours += wk["run_steps"] * train_step(cfg)["seconds"] * wk["batch"] / HOUR
-    if hours > 1.0:
-        log.info("%s: %s; this process: about %.3g h of work on this machine (python -m mcd.plan with these "
-                 "overrides prints the whole plan)", what, summary(p), hours)
 
 
 @hydra.main(config_path="conf", config_name="config", version_base=None)

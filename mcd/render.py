@@ -24,35 +24,19 @@ import logging
 import sys
 
 import hydra
-from omegaconf import DictConfig, ListConfig
+from omegaconf import DictConfig
 
-from mcd.data.buffers import BUFFERS, run_buffers
 from mcd.data.shards import Selection
+from mcd.workload import requested_buffers
 
 log = logging.getLogger("mcd.render")
-
-
-def requested_buffers(cfg: DictConfig) -> set[str]:
-    """The buffer set `render.buffers` asks for (see the module docstring)."""
-    spec = cfg.render.get("buffers", "method")
-    if isinstance(spec, ListConfig | list | tuple):
-        return set(spec) | {"ref"}
-    if spec == "all":
-        return set(BUFFERS)
-    if spec == "method":
-        from mcd.models import build
-
-        return run_buffers(build(cfg).required_buffers(), cfg.budget)
-    raise ValueError(
-        f"render.buffers={spec!r}: expected 'method', 'all' or a list of buffers {list(BUFFERS)}"
-    )
 
 
 @hydra.main(config_path="conf", config_name="config", version_base=None)
 def main(cfg: DictConfig) -> dict:
     from mcd.data.store_builder import StoreBuilder  # here, not above: a fast --help (docs/architecture.md)
     from mcd.lit.transfer import prepare
-    from mcd.plan import announce
+    from mcd.workload import announce
 
     cfg, _ = prepare(cfg)  # a transfer run reads its held-out scenes only
     store = StoreBuilder.from_cfg(cfg)

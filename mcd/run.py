@@ -46,10 +46,10 @@ from mcd.lit.test_recorder import TestRecorder
 from mcd.losses import build_loss
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
-from mcd.plan import announce
 from mcd.preflight import check_run
 from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, is_complete
+from mcd.workload import announce
 
 log = logging.getLogger("mcd.run")
 

@@ -9,7 +9,8 @@ import logging
 import pytest
 
 from mcd.data import Store
-from mcd.plan import announce, main, work
+from mcd.plan import main
+from mcd.workload import announce, work
 from tests.conftest import compose_cfg, store32_overrides
 
 
@@ -51,7 +52,7 @@ def test_bad_plan_profile_is_named(tmp_path):
 
 
 def test_announce_prints_the_summary_only_above_an_hour(tmp_path, caplog):
-    caplog.set_level(logging.INFO, logger="mcd.plan")
+    caplog.set_level(logging.INFO, logger="mcd.workload")
     announce(compose_cfg(*store32_overrides(tmp_path)), "mcd.run", train=True)  # 12 minutes, a tiny render
     assert not caplog.records
     paper = compose_cfg("data=paper", "model=paper", f"paths.data_dir={tmp_path}")
