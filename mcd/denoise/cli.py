@@ -63,6 +63,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
                    help="network precision: fp32; bf16 (a CPU with native bf16, or a GPU) or fp16 "
                    "(GPU) run under autocast, channels-last (docs/denoise.md 'Speed')")
+    p.add_argument("--reference", type=Path,
+                   help="folder of references, one EXR per frame named as the frame, to score input and "
+                   "output against (input a; default: the frames' folder's reference/ when it has one for "
+                   "every frame; docs/denoise.md 'Scores of frames')")
     p.add_argument("--max-memory-mb", type=arguments.float_in(0, 2**24, lo_open=True), default=4096,
                    help="memory cap of one network pass; larger frames go in overlapping tiles (input a)")
     p.add_argument("--overlap", type=arguments.int_in(0, 1024), default=32,
@@ -175,29 +179,39 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     """Input (a): find and check the frames and ``-o`` (before any work), denoise (resuming), print."""
     if not args.inputs:
         raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
+    from mcd.denoise.frame_scores import check_references, find_references, score_text
     from mcd.denoise.frames import check_frames, find_frames, read_header, siblings
     from mcd.denoise.resume import Record, file_stamps, weights_digest
     from mcd.denoise.sequence import denoise_frames, wanted_layers
 
     paths = find_frames(args.inputs)
-    inputs = [f for p in paths for f in (p, *siblings(p))]
+    refs = find_references(paths, args.reference)
+    inputs = [f for p in paths for f in (p, *siblings(p))] + (refs or [])
     outputs = [n for p in paths for n in frame_files(p.stem)]
     output_folder.check_apart(args.output, inputs, [SUMMARY, *outputs])
     (h, w), _ = read_header(paths[0])
     work.check(h * w * len(paths), work.MAX_PIXELS, f"{len(paths)} frames of {w}x{h}: pixels to denoise",
                args.allow_large)
     output_folder.check_writable(args.output)
-    check_frames(paths, wanted_layers(loaded))
+    size = check_frames(paths, wanted_layers(loaded))
+    if refs:
+        check_references(refs, size)
     settings = {"inputs": file_stamps(inputs), "weights_sha256": weights_digest(loaded.model),
                 "experiment": loaded.experiment, "budget": loaded.cfg.budget, "precision": args.precision,
                 "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap}
     record = Record(args.output, settings)
     report = denoise_frames(loaded, paths, args.output, device, args.max_memory_mb, args.overlap,
-                            progress=not args.no_progress, dtype=dtype, record=record, meta=meta)
+                            progress=not args.no_progress, dtype=dtype, record=record, meta=meta,
+                            references=refs)
     bad = sum(report["sanitised"].values())
     if bad:
         print(f"sanitised: {bad} NaN/Inf/negative input values replaced by 0 "
               f"({', '.join(f'{k} {v}' for k, v in report['sanitised'].items())})")
+    if "scores" in report:
+        for row in report["scores"]["frames"]:
+            print(f"frame {row['frame']}: {score_text(row)}")
+        print(f"mean of {len(report['scores']['frames'])} frame(s): {score_text(report['scores']['mean'])} "
+              f"(against {refs[0].parent}; exposure x{report['exposure']:.4g} for all)")
     resumed = f" ({len(report['resumed'])} finished before, kept)" if report["resumed"] else ""
     print(f"{report['frames']} frames denoised in {report['tiles']} tile(s) each{resumed} -> {args.output}")
     return {**report, "record": record}

@@ -22,8 +22,10 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from mcd.data.exr import read_exr
+from mcd.denoise.frame_scores import Scorer
 from mcd.denoise.frames import LAYERS, FrameError, FrameSequence
-from mcd.denoise.output import write_frame
+from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.resume import Record
 from mcd.denoise.tiles import PROBE, TiledModel, bytes_per_pixel, tile_size
@@ -56,11 +58,13 @@ def to_tensor(img: np.ndarray, device: torch.device) -> torch.Tensor:
 def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: torch.device,
                    max_memory_mb: float, overlap: int, progress: bool = True,
                    dtype: torch.dtype | None = None, record: Record | None = None,
-                   meta: dict[str, Any] | None = None) -> dict[str, Any]:
+                   meta: dict[str, Any] | None = None,
+                   references: list[Path] | None = None) -> dict[str, Any]:
     """Denoise ``paths`` (one sequence, checked by :func:`mcd.denoise.frames.check_frames`) into ``out_dir``
     with autocast to ``dtype`` (None: fp32; mcd/denoise/precision.py); returns a summary (frames, tiles,
     sanitised, s, resumed). ``record``: resume and record finished frames (module docstring), its JSON
-    carrying ``meta`` and the summary so far."""
+    carrying ``meta`` and the summary so far. ``references``: one per frame, scored
+    (:mod:`mcd.denoise.frame_scores`; a frame finished before is scored from its written EXR)."""
     model = prepare(loaded.model.to(device), dtype)
     key = colour_key(loaded)
     want = wanted_layers(loaded)
@@ -92,11 +96,13 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
     t0 = time.perf_counter()
     stateful = bool(getattr(model, "temporal_state", True))
     resumed: list[str] = []
+    scorer = Scorer(references, seq.exposure) if references else None
 
     def summary() -> dict[str, Any]:
         return {**(meta or {}), "frames": len(seq), "tiles": len(tiled), "size": [h, w],
                 "exposure": seq.exposure, "sanitised": seq.bad, "seconds": time.perf_counter() - t0,
-                "out_dir": str(out_dir), "resumed": resumed}
+                "out_dir": str(out_dir), "resumed": resumed,
+                **({"scores": scorer.summary()} if scorer else {})}
 
     tiled.reset()
     bar = tqdm(range(len(seq)), desc="denoise", unit="frame", disable=not progress)
@@ -106,6 +112,10 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
             finished = record is not None and record.is_finished(stem, f"{stem}.exr")
             if not finished or stateful:
                 out = tiled(inputs(i))
+            if scorer is not None:
+                denoised = (hwc(out["output"]) if not finished or stateful
+                            else read_exr(out_dir / f"{stem}.exr") * np.float32(seq.exposure))
+                scorer.score(i, stem, hwc(frame(i)[key]), denoised)
             if finished:
                 resumed.append(stem)
                 assert record is not None

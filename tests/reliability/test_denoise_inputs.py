@@ -85,6 +85,20 @@ def test_a_memory_bomb_header_is_refused_before_its_pixels_are_allocated(tmp_pat
     assert "declares a 100000x100000 image" in done.stdout and "MAX_PIXELS" in done.stdout
 
 
+def test_read_exr_names_a_layered_frames_layout_and_never_advises_deleting_it(tmp_path):
+    from mcd.data.exr import EXRLayoutError, read_exr
+
+    path = write_frames(tmp_path, n=1)[0]
+    before = path.read_bytes()
+    with pytest.raises(EXRLayoutError) as exc:
+        read_exr(path)
+    msg = str(exc.value)
+    assert f"{path}: channels ['B', 'G', 'R', 'albedo.B'" in msg and "exactly the channels Y" in msg
+    assert "layered frame" in msg and "mcd.denoise.frames.read_frame" in msg
+    assert "delete" not in msg.lower() and "corrupt" not in msg.lower()
+    assert path.read_bytes() == before
+
+
 def test_hidden_exr_files_in_a_folder_are_not_frames(tmp_path, capsys):
     write_frames(tmp_path / "in", n=2)
     (tmp_path / "in" / "._f0000.exr").write_bytes(b"\x00\x05\x16\x07 AppleDouble resource fork")
