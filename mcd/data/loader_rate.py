@@ -216,7 +216,8 @@ def measure(folder: Path | str, buffers: Sequence[str], *, width: int = 1920, he
     cold = _in_child(_array_worker, store, clips[::-1], seconds, True)
     channels = max(end for _, end in store.ranges.values())
     clip_bytes = clip_len * channels * crop * crop * store.dtype.itemsize
-    frame_bytes = channels * width * height * store.dtype.itemsize
+    t_ = store.tile  # a packed frame's bytes, its tiles padded
+    frame_bytes = channels * -(-width // t_) * t_ * -(-height // t_) * t_ * store.dtype.itemsize
     out: dict[str, Any] = {
         "clips_per_s": warm["clips"] / warm["wall_s"],
         "exr_clips_per_s": exr["clips"] / exr["wall_s"],

@@ -236,7 +236,7 @@ class TrainStore:
             raise ValueError(f"crop {(y, x, h, w)} (y, x, h, w) lies outside the {self.width}x{self.height} "
                              f"frames of {self.scene_path(scene)}")
         n_read = sum(c1 - c0 for c0, c1 in self._runs)
-        dst = np.empty((len(frames), n_read, h, w), dtype=np.float32)
+        dst = np.empty((len(frames), n_read, h, w), dtype=self.dtype)  # float16: converted once, below
         spans_y, spans_x = _spans(y, h, t_), _spans(x, w, t_)
         self._will_need(scene, frames, range(spans_y[0][0], spans_y[-1][0] + 1),
                         range(spans_x[0][0], spans_x[-1][0] + 1))
@@ -248,13 +248,14 @@ class TrainStore:
                     part = dst[t, :, y0 - y : y1 - y, x0 - x : x1 - x]
                     d = 0
                     for c0, c1 in self._runs:
-                        np.copyto(part[d : d + c1 - c0], src[c0:c1], casting="same_kind")
+                        part[d : d + c1 - c0] = src[c0:c1]
                         d += c1 - c0
+        clip = torch.from_numpy(dst).float()  # float16 -> float32 in torch's vectorised conversion
         out: dict[str, Any] = {}
         d = 0
         for b in self.buffers:
             n = self.ranges[b][1] - self.ranges[b][0]
-            out[b] = torch.from_numpy(dst[:, d : d + n])
+            out[b] = clip[:, d : d + n]
             d += n
         out["scene"] = scene
         out["frame"] = torch.tensor(frames, dtype=torch.long)
