@@ -1,15 +1,15 @@
 """Keep freed memory in the process, so full-frame tensors reuse pages instead of faulting in new ones
 (docs/inference.md, "The allocator").
 
-Full-frame inference allocates and frees tensors of 100-800 MB per layer (a 1920x1080 map of 16 fp32
-channels is 133 MB). glibc's ``malloc`` serves every block above its mmap threshold (32 MiB at most) with a
-fresh ``mmap`` and unmaps it on ``free``, so the kernel faults in and zeroes every page of every such tensor
-again on its first write. On the project's 2-core CPU that was half of row F's and of the U-Net's frame time
-at 1080p (docs/inference.md). :func:`keep_freed_memory` has glibc serve large blocks from its heap and
-never trim the heap on its own (``mallopt(M_MMAP_MAX, 0)`` and ``mallopt(M_TRIM_THRESHOLD, -1)``), so the
-next tensor reuses the pages the last one freed; an explicit ``malloc_trim`` still hands them back (the bench
-does, between methods). The process then holds on to its peak memory until it exits or trims. PyTorch's CPU
-performance guide recommends preloading jemalloc or tcmalloc for the same reason; this needs neither.
+Full-frame inference allocates and frees tensors of 100-800 MB per layer (a 1920x1080 map of 16 fp32 channels
+is 133 MB). glibc's ``malloc`` serves every block above its mmap threshold (32 MiB at most) with a fresh
+``mmap`` and unmaps it on ``free``, so the kernel faults in and zeroes every page of every such tensor again
+on its first write, a large share of a full frame's time (docs/inference.md measures it).
+:func:`keep_freed_memory` has glibc serve large blocks from its heap and never trim the heap on its own
+(``mallopt(M_MMAP_MAX, 0)`` and ``mallopt(M_TRIM_THRESHOLD, -1)``), so the next tensor reuses the pages the
+last one freed; an explicit ``malloc_trim`` still hands them back (the bench does, between methods). The
+process then holds on to its peak memory until it exits or trims. PyTorch's CPU performance guide recommends
+preloading jemalloc or tcmalloc for the same reason; this needs neither.
 """
 
 from __future__ import annotations

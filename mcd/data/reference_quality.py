@@ -1,18 +1,18 @@
 """Reference quality per scene (docs/data.md, "Reference quality").
 
 A reference is itself a Monte Carlo render: at a fixed ``data.ref_spp`` an easy scene is clean and a hard one
-(``veach-ajar`` at 256 spp: 22-23 dB) is noisier than a good denoiser's output, which then cannot be scored.
+(``veach-ajar``, lit through a door ajar) is noisier than a good denoiser's output, which then cannot be
+scored.
 Two independent renders ``a`` and ``b`` of ``s / 2`` samples each estimate the noise of their mean (the
 reference at ``s`` spp): their difference holds twice the noise of one, and the mean half of it, so
 
     PSNR(ref_s) ~= PSNR(a, b) + 10 log10(4)
 
 on the display images the metrics use (docs/benchmark.md "Metrics"; the display transform is smooth, so the
-first-order propagation holds while the noise is small). :func:`estimate_psnr` computes it; on the rendered
-scenes it agrees with the PSNR of a 256-spp reference against an independent 256-spp render to 0.1-0.3 dB
-(docs/data.md gives the measurement). Since the noise variance falls as ``1 / s``, :func:`spp_for_target`
-turns a pilot estimate into the samples per pixel that reach ``data.ref_quality.target_db``, capped at
-``data.ref_quality.max_spp``.
+first-order propagation holds while the noise is small). :func:`estimate_psnr` computes it; docs/data.md
+compares it with the PSNR of a reference against an independent render of the same spp. Since the noise
+variance falls as ``1 / s``, :func:`spp_for_target` turns a pilot estimate into the samples per pixel that
+reach ``data.ref_quality.target_db``, capped at ``data.ref_quality.max_spp``.
 """
 
 from __future__ import annotations

@@ -48,8 +48,8 @@ def _load_yaml(path: Path) -> dict[str, Any]:
 
 #: Seconds by which a run's learning-curve clock may exceed its last process's training time before the run
 #: counts as resumed (``Run.segments``). In a run trained in one go the clock's last row comes within a second
-#: of ``train_s``, which starts earlier; the resumed runs of ``multirun/*/small_converged`` exceed it by 84 s
-#: to 45 min.
+#: of ``train_s``, which starts earlier; a process that stopped and another that resumed leave a gap of
+#: minutes.
 RESUMED_SLACK_S = 30.0
 
 

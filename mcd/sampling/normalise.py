@@ -6,8 +6,8 @@
 remainder (ties to the lower pixel index). Everything here is a non-differentiable integer map; the gradient
 is :mod:`mcd.sampling.dasr_grad`'s job.
 
-Neither step sorts the ``N`` pixels (two sorts of 2 M doubles took ~0.5-1 s of a 1080p frame on one CPU
-thread; docs/inference.md): water-filling grows the capped set until it is stable (a few passes), and the
+Neither step sorts the ``N`` pixels (a sort of a 1080p frame's pixels is a large share of the frame's time;
+docs/inference.md): water-filling grows the capped set until it is stable (a few passes), and the
 largest remainders are those above the ``k``-th largest (``kthvalue``, linear time).
 """
 
