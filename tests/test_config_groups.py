@@ -47,17 +47,26 @@ def test_experiment_composes_to_its_method_and_loss_files(experiment: str) -> No
     assert kwargs["gradient_clip_val"] == cfg.train.grad_clip
 
 
-def test_two_stage_keys_keep_their_defaults() -> None:
-    """Row F's settings, including the later keys (mean_match, denoiser_output, colour, sampling, kp)."""
-    m = group_file("method", "two_stage")
-    assert m["name"] == "two_stage" and all(m[s] for s in SWITCHES)
-    assert (m["mean_match"], m["denoiser_output"], m["colour"], m["sampling"]) == (
-        True, "residual", "log1p", {"levels": 5})
-    assert m["kp"] == {"denoiser_reads_adaptive": False, "head_output": "rms_centred", "temperature": 1.0,
-                       "pool_init_scale": 1.0}
-    unet = group_file("method", "unet")
-    assert {k: v for k, v in unet.items() if k not in ("name", *SWITCHES)} == {
-        k: v for k, v in m.items() if k not in ("name", *SWITCHES)}
+def test_the_default_method_builds_row_f_as_documented_and_unet_is_row_a() -> None:
+    """What the default config builds (docs/method.md "Output", docs/kernel_pool.md): row F with a residual
+    ``F_d`` on ``log1p`` colour, the stack of 5 levels, ``F_d`` reading ``i_bar`` (not ``i``), the centred RMS
+    kernel-map head and the output steps; the U-Net experiment builds row A's network and gives its output."""
+    import torch
+
+    from mcd.models import build
+    from mcd.models.complexity import dummy_batch
+
+    f = build(compose_cfg())
+    assert f.sw == dict.fromkeys(SWITCHES, True)
+    assert (f.residual, f.colour, f.levels, f.reads_adaptive) == (True, "log1p", 5, False)
+    assert f.sampler.head.output == "rms_centred" and len(f._forward_hooks) == 1
+    torch.manual_seed(0)
+    unet = build(compose_cfg("+experiment=unet")).eval()
+    torch.manual_seed(0)
+    row_a = build(compose_cfg("+experiment=A")).eval()
+    x = dummy_batch(unet, 24, 24, "cpu")
+    with torch.no_grad():
+        torch.testing.assert_close(unet(x)["output"], row_a(x)["output"])
 
 
 def test_every_group_file_names_a_registered_entry() -> None:

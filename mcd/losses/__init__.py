@@ -26,16 +26,14 @@ LossFactory = Callable[..., nn.Module]
 LOSSES: Registry[LossFactory] = Registry("loss", ("mcd.losses.paper", "mcd.losses.baselines"))
 register_loss = LOSSES.register
 
-#: Keys of older loss configs that are no longer settings (``module``: the registry imports its built-ins).
-RETIRED_KEYS = ("name", "module")
-
-
 def build_loss(cfg: DictConfig) -> nn.Module:
     """The loss named ``cfg.loss.name``, constructed from the other keys of ``cfg.loss``."""
     settings = OmegaConf.to_container(cfg.loss, resolve=True)
     assert isinstance(settings, dict)
     constructor = LOSSES.get(str(settings["name"]))
-    kwargs = {k: v for k, v in settings.items() if k not in RETIRED_KEYS}
+    # every other key is a setting, but ``module``, which older configs carry (the registry imports its
+    # built-ins itself)
+    kwargs = {k: v for k, v in settings.items() if k not in ("name", "module")}
     try:
         return constructor(**kwargs)
     except TypeError as err:

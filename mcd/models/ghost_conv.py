@@ -289,11 +289,6 @@ def add_border_correction(y: Tensor, taps: Tensor, padding: tuple[int, ...]) -> 
     fix(slice(top.stop, bottom.start), right)
 
 
-def split_depthwise_point(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:
-    """``point(group(x))`` computed by :func:`split_depthwise`."""
-    return split_depthwise(x, group.weight, group.bias, group.groups, group.padding, point.weight, point.bias)
-
-
 def point_into(y: Tensor, weight: Tensor, bias: Tensor | None, out: Tensor | None) -> Tensor:
     """The 1x1 conv ``F.conv2d(y, weight, bias)``, added in place to ``out`` when given (returned); in CPU
     inference the add is a post-op of the conv (:mod:`mcd.models.fused_conv`)."""

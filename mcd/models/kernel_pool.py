@@ -1,8 +1,7 @@
 """Kernel pool: adjustment, interpolation, per-pixel application (paper Sec. 4.1; docs/method.md "Kernel
 pool").
 
-- Pool ``pi``: ``q`` learnable ``l x l`` kernels, initialised Bernoulli(0.5) in {0, 1} (times
-  ``pool_init_scale``, default 1 = the paper; a larger scale gives sharper kernels under the softmax).
+- Pool ``pi``: ``q`` learnable ``l x l`` kernels, initialised Bernoulli(0.5) in {0, 1} (the paper).
 - Adjustment: ``F_s``'s coarsest features -> adaptive average pool to ``l x l`` -> MLP lifting channels to
   ``q`` -> 1-D convolution over the kernel index (window 5) = residual ``r``; gate ``alpha = sigmoid(MLP(pi +
   r))`` per kernel; ``pi_bar = (1 - alpha) pi + alpha r``.
@@ -10,12 +9,11 @@ pool").
 - Kernel map ``h`` (2 channels, tanh): from ``F_s``'s finest features, ``g``, the adaptive image ``i`` and the
   descriptor (broadcast over the image), through a few conv blocks (Fast GhostConv when FG is on, as every
   block of ``F_s``). What enters the final ``tanh`` is ``method.kp.head_output`` (docs/kernel_pool.md):
-  ``tanh`` = the head's output ``z`` as it is (the paper's text), ``tempered`` = ``z / temperature``, ``rms``
-  = ``z`` divided by its root mean square over the image, per channel: ``tanh`` then cannot saturate
-  everywhere, so the pool keeps receiving gradient (without it the map saturates at the identity within ~100
-  steps and the pool is never used); ``rms_centred`` (default) = ``rms`` after removing the kernel index's
-  (channel 0's) mean over the image, so the index spreads across the pool instead of settling on one kernel
-  everywhere (with ``rms``, row J's index collapsed to one kernel).
+  ``tanh`` = the head's output ``z`` as it is (the paper's text); ``rms_centred`` (default) = ``z`` with the
+  kernel index's (channel 0's) mean over the image removed, then divided by its root mean square over the
+  image, per channel: ``tanh`` then cannot saturate everywhere, so the pool keeps receiving gradient, and the
+  index spreads across the pool instead of settling on one kernel everywhere (docs/kernel_pool.md tells how
+  the map saturated without it).
 - Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
   over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
   between that kernel and the identity.
@@ -97,12 +95,11 @@ class KernelPool(nn.Module):
     """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features."""
 
     def __init__(self, coarse_channels: int, q: int = 128, size: int = 5, lift_hidden: int = 128,
-                 alpha_hidden: int = 64, window: int = 5, descriptor: int = 16,
-                 pool_init_scale: float = 1.0) -> None:
+                 alpha_hidden: int = 64, window: int = 5, descriptor: int = 16) -> None:
         super().__init__()
         self.q, self.size = q, size
         taps = size * size
-        self.pool = nn.Parameter(pool_init_scale * torch.bernoulli(torch.full((q, taps), 0.5)))
+        self.pool = nn.Parameter(torch.bernoulli(torch.full((q, taps), 0.5)))
         self.lift = nn.Sequential(nn.Linear(coarse_channels, lift_hidden), nn.ReLU(inplace=True),
                                   nn.Linear(lift_hidden, q))
         self.neighbours = nn.Conv1d(taps, taps, window, padding=window // 2)
@@ -130,20 +127,39 @@ class KernelPool(nn.Module):
 
 
 #: What enters the kernel-map head's final ``tanh`` (``method.kp.head_output``; see the module docstring).
-HEAD_OUTPUTS = ("tanh", "tempered", "rms", "rms_centred")
+HEAD_OUTPUTS = ("tanh", "rms_centred")
+#: Options that earlier configs (run checkpoints, bundled checkpoints) still carry, each with the one value
+#: that remains: the behaviour they chose otherwise is gone (docs/kernel_pool.md has its measurements).
+REMOVED_OPTIONS = {"denoiser_reads_adaptive": False, "temperature": 1.0, "pool_init_scale": 1.0}
+
+
+def kp_options_of(options: dict | None) -> dict[str, str]:
+    """``method.kp`` as the kernel pool reads it: ``{"head_output": ...}`` (default ``rms_centred``).
+
+    A removed option (:data:`REMOVED_OPTIONS`) is accepted at its remaining value and refused otherwise,
+    naming the key; an unknown key is refused too.
+    """
+    options = dict(options or {})
+    for key, kept in REMOVED_OPTIONS.items():
+        if key in options and options.pop(key) != kept:
+            raise ValueError(f"method.kp.{key}: this option was removed and only {key}={kept} remains; this "
+                             f"config (or checkpoint) was made with another value, which this version cannot "
+                             f"build (check out the commit it records)")
+    head_output = str(options.pop("head_output", "rms_centred"))
+    if options:
+        raise ValueError(f"method.kp: unknown option(s) {sorted(options)}; the one option is head_output "
+                         f"({' | '.join(HEAD_OUTPUTS)})")
+    return {"head_output": head_output}
 
 
 class KernelMapHead(nn.Module):
     """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor)."""
 
-    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms_centred",
-                 temperature: float = 1.0) -> None:
+    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms_centred") -> None:
         super().__init__()
         if output not in HEAD_OUTPUTS:
             raise ValueError(f"method.kp.head_output={output!r}: expected one of {HEAD_OUTPUTS}")
-        if not temperature > 0:
-            raise ValueError(f"method.kp.temperature={temperature!r}: expected a positive number")
-        self.output, self.temperature = output, float(temperature)
+        self.output = output
         layers: list[nn.Module] = []
         for w in widths:
             layers.append(block(cin, w))
@@ -152,16 +168,13 @@ class KernelMapHead(nn.Module):
         self.out = nn.Conv2d(cin, 2, 3, padding=1)
 
     def scale(self, z: Tensor) -> Tensor:
-        """What enters ``tanh`` for the head's raw output ``z`` (``output``: as is, tempered, RMS, or RMS with
-        the kernel index's mean over the image removed first)."""
-        if self.output == "tempered":
-            return z / self.temperature
-        if self.output == "rms_centred":
-            index = z[:, :1]
-            z = torch.cat([index - index.mean((-2, -1), keepdim=True), z[:, 1:]], dim=1)
-        if self.output in ("rms", "rms_centred"):
-            return z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
-        return z
+        """What enters ``tanh`` for the head's raw output ``z`` (``output``: as is, or RMS-normalised with the
+        kernel index's mean over the image removed first)."""
+        if self.output == "tanh":
+            return z
+        index = z[:, :1]
+        z = torch.cat([index - index.mean((-2, -1), keepdim=True), z[:, 1:]], dim=1)
+        return z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
 
     def forward(self, parts: list[Tensor], constant: Tensor) -> Tensor:
         """``h`` from the channel concatenation of ``parts`` (finest features, g, i) and of ``constant``

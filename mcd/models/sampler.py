@@ -15,7 +15,13 @@ from torch.profiler import record_function
 
 from mcd.models.blocks import BlockFactory, ConvReLU
 from mcd.models.ghost_conv import FastGhostConv
-from mcd.models.kernel_pool import KernelMapHead, KernelPool, apply_pixel_kernels, interpolate_kernels
+from mcd.models.kernel_pool import (
+    KernelMapHead,
+    KernelPool,
+    apply_pixel_kernels,
+    interpolate_kernels,
+    kp_options_of,
+)
 from mcd.models.unet import UNet
 
 #: Channels the sampling network reads: c_1 (3) + G-buffers (7) + grey c_1 + grey albedo.
@@ -36,13 +42,10 @@ class SamplingNetwork(nn.Module):
         if kernel_pool:
             kp = dict(kp_cfg or {})
             head_widths = list(kp.pop("head_widths", [32, 32]))
-            options = dict(kp_options or {})
-            self.pool = KernelPool(widths[-1], **kp,
-                                   pool_init_scale=float(options.get("pool_init_scale", 1.0)))
+            options = kp_options_of(kp_options)
+            self.pool = KernelPool(widths[-1], **kp)
             head_in = widths[0] + 7 + 3 + self.pool.describe.out_channels
-            self.head = KernelMapHead(head_in, head_widths, block,
-                                      output=str(options.get("head_output", "rms_centred")),
-                                      temperature=float(options.get("temperature", 1.0)))
+            self.head = KernelMapHead(head_in, head_widths, block, output=options["head_output"])
 
     def forward(self, x: Tensor) -> dict[str, Tensor]:
         """``{"logits", "finest", "coarsest"}`` for the 12-channel sampler input."""

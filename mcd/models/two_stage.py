@@ -6,10 +6,8 @@
   sampling map ``m`` and the adaptive image ``i``; ``F_d`` sees ``i``, ``g`` and ``m / (s - 1)``.
 - KP (needs AS): ``F_s`` also predicts the kernel map; the kernel pool's per-pixel kernels give ``i_bar``;
   ``F_d`` sees ``i_bar``, ``g`` and ``m / (s - 1)`` (paper Sec. 4.1: each pixel of ``i_bar`` switches between
-  the filtered and the raw adaptive pixel, so ``F_d`` does not read ``i`` itself). ``method.kp`` holds the
-  kernel pool's options (docs/kernel_pool.md): ``denoiser_reads_adaptive: true`` feeds ``i`` to ``F_d``
-  beside ``i_bar`` (this project's behaviour before; the map then bypasses the pool), ``head_output``,
-  ``temperature`` and ``pool_init_scale`` (mcd.models.kernel_pool).
+  the filtered and the raw adaptive pixel, so ``F_d`` does not read ``i`` itself). ``method.kp.head_output``
+  chooses what enters the kernel map's ``tanh`` (mcd.models.kernel_pool, docs/kernel_pool.md).
 - PP: position-aware pooling in ``F_d``'s encoder. FG (needs AS): Fast GhostConv blocks in ``F_s``.
   SA: semantic alignment at ``F_d``'s deepest level (state across frames until :meth:`reset`).
 Colour is compressed inside (``method.colour``, default ``log1p``); inputs and outputs are linear HDR.
@@ -71,7 +69,7 @@ class TwoStage(nn.Module):
                 list(smp["widths"]), smp["convs"], kernel_pool=self.sw["KP"], ghost=self.sw["FG"],
                 ghost_cfg=dict(widths.get("ghost", {})), kp_cfg=dict(widths.get("kernel_pool", {})),
                 kp_options=kp)
-            self.reads_adaptive = not self.sw["KP"] or bool((kp or {}).get("denoiser_reads_adaptive", False))
+            self.reads_adaptive = not self.sw["KP"]
             cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
         else:
             self.sampler = None

@@ -168,24 +168,37 @@ def test_cpu_training_path_of_grouped_convs_equals_the_grouped_conv():
 
 
 def test_kernel_map_head_outputs_bound_what_enters_tanh():
-    """``method.kp.head_output`` (docs/kernel_pool.md): ``rms`` gives each channel RMS 1 over the image;
-    ``rms_centred`` also removes the kernel index's mean, so a head whose index channel is one large offset
-    plus small variations (row J's case) still spreads the index across the pool; ``tempered`` divides."""
+    """``method.kp.head_output`` (docs/kernel_pool.md): ``rms_centred`` removes the kernel index's mean and
+    gives each channel RMS 1 over the image, so a head whose index channel is one large offset plus small
+    variations (row J's case) still spreads the index across the pool; ``tanh`` passes ``z`` as it is."""
     from mcd.models.blocks import ConvReLU
     from mcd.models.kernel_pool import KernelMapHead
 
     torch.manual_seed(0)
     z = torch.stack([50.0 + 0.1 * torch.randn(2, 9, 11), 3.0 * torch.randn(2, 9, 11)], dim=1)
-    heads = {o: KernelMapHead(4, [4], ConvReLU, output=o, temperature=8.0)
-             for o in ("tanh", "tempered", "rms", "rms_centred")}
-    rms = heads["rms"].scale(z)
-    assert torch.allclose(rms.square().mean((-2, -1)), torch.ones(2, 2), atol=1e-4)
-    assert torch.tanh(rms[:, 0]).std((-2, -1)).max() < 1e-3          # one kernel everywhere
+    heads = {o: KernelMapHead(4, [4], ConvReLU, output=o) for o in ("tanh", "rms_centred")}
+    assert torch.tanh(z[:, 0]).std((-2, -1)).max() < 1e-3             # as is: one kernel everywhere
     centred = heads["rms_centred"].scale(z)
     assert centred[:, 0].mean((-2, -1)).abs().max() < 0.05             # up to fp32 cancellation
     assert torch.allclose(centred.square().mean((-2, -1)), torch.ones(2, 2), atol=1e-3)
     assert torch.tanh(centred[:, 0]).std((-2, -1)).min() > 0.5        # the index spreads across the pool
-    assert torch.equal(centred[:, 1], rms[:, 1])                       # the identity channel as with rms
-    assert torch.allclose(heads["tempered"].scale(z), z / 8) and torch.equal(heads["tanh"].scale(z), z)
+    identity = z[:, 1] * torch.rsqrt(z[:, 1].square().mean((-2, -1), keepdim=True) + 1e-6)
+    torch.testing.assert_close(centred[:, 1], identity)                # the identity channel: RMS only
+    assert torch.equal(heads["tanh"].scale(z), z)
     with pytest.raises(ValueError, match="head_output"):
         KernelMapHead(4, [4], ConvReLU, output="softsign")
+
+
+def test_removed_kernel_pool_options_load_at_their_one_value_and_are_refused_otherwise():
+    """Older configs (run and bundled checkpoints) carry ``method.kp`` options that were removed: at the value
+    that remains they build, at another they are refused naming the key, and an unknown key is refused."""
+    from mcd.models.kernel_pool import REMOVED_OPTIONS, kp_options_of
+
+    assert kp_options_of({**REMOVED_OPTIONS, "head_output": "tanh"}) == {"head_output": "tanh"}
+    assert kp_options_of(None) == {"head_output": "rms_centred"}
+    with pytest.raises(ValueError, match="method.kp.denoiser_reads_adaptive"):
+        kp_options_of({"denoiser_reads_adaptive": True})
+    with pytest.raises(ValueError, match="method.kp.temperature"):
+        kp_options_of({"temperature": 8.0})
+    with pytest.raises(ValueError, match="unknown option"):
+        kp_options_of({"head_outptu": "tanh"})

@@ -20,7 +20,6 @@ from mcd.models.ghost_conv import (
     lane_stride,
     primary_and_ghost,
     split_depthwise,
-    split_depthwise_point,
     splits,
 )
 from mcd.models.inputs import cat_channels
@@ -66,7 +65,7 @@ def test_inference_mode_runs_the_fast_path_with_the_same_result():
 
 @pytest.mark.parametrize(("cin", "cout", "groups"), [(16, 8, 4), (12, 8, 4), (16, 24, 4), (6, 4, 2)])
 @pytest.mark.parametrize("bias", [True, False])
-def test_split_depthwise_point_is_the_group_conv_then_the_point_conv(cin, cout, groups, bias):
+def test_split_depthwise_is_the_group_conv_then_the_point_conv(cin, cout, groups, bias):
     torch.manual_seed(cin + cout)
     group = torch.nn.Conv2d(cin, cout, 7, padding=3, groups=groups, bias=bias)
     point = torch.nn.Conv2d(cout, cout // 2 + 1, 1, bias=bias)
@@ -74,7 +73,8 @@ def test_split_depthwise_point_is_the_group_conv_then_the_point_conv(cin, cout, 
     with torch.no_grad():
         ref = point(group(x))
         for fmt in (torch.contiguous_format, torch.channels_last):
-            fast = split_depthwise_point(group, point, x.contiguous(memory_format=fmt))
+            fast = split_depthwise(x.contiguous(memory_format=fmt), group.weight, group.bias, group.groups,
+                                   group.padding, point.weight, point.bias)
             torch.testing.assert_close(fast, ref, rtol=1e-5, atol=1e-4)
 
 
