@@ -15,7 +15,8 @@
 # multirun/*/small_plateau and reports/small_plateau (same budget), ran before the baselines took the output
 # steps of rows A-M and before pixels without geometry kept the render's value (docs/baselines.md "Output").
 #
-# Runs two jobs at a time with one thread each (docs/training.md "CPU threads"). Safe to stop and run again:
+# Each stage is one Hydra multirun on the joblib launcher (hydra-joblib-launcher, `pip install 'mcd[cluster]'`),
+# JOBS (default 2) jobs at a time with one thread each (docs/training.md "CPU threads"). Safe to stop and run again:
 # a sweep skips its finished jobs and resumes unfinished ones from their last.ckpt (ckpt_path=auto), so the
 # whole set can span several sessions of a 2-core machine. Needs MCD_SCENES_DIR for the small profile's
 # non-vendored scenes (docs/scenes.md). MULTIRUN (default ./multirun) is where the job directories go.
@@ -26,32 +27,28 @@ ROOT=$(realpath -m "${MULTIRUN:-multirun}")
 TAG=_converged
 STEPS=${BUDGET_STEPS:-6000}  # the budget stage's steps
 COMMON=(data=small train=plateau trainer.enable_progress_bar=false)
+LAUNCH=(hydra/launcher=joblib "hydra.launcher.n_jobs=${JOBS:-2}")  # one sweep, its jobs JOBS at a time
 export OMP_NUM_THREADS=1
 
-sweep() {  # [SUFFIX=<tag suffix>] sweep <name> <experiments of process 1> <experiments of process 2> [overrides...]
-  local name=$1 a=$2 b=$3; shift 3
+sweep() {  # [SUFFIX=<tag suffix>] sweep <name> <experiments> [overrides...]
+  local name=$1 experiments=$2; shift 2
   local tag=$TAG${SUFFIX:-}
-  local dir="hydra.sweep.dir=$ROOT/$name/small$tag"
-  "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$a" "${COMMON[@]}" "sweep_tag=$tag" "$dir" "$@" &
-  local p1=$!
-  # the second process starts later: Hydra writes the sweep directory's multirun.yaml as a process starts, and
-  # two writes at once leave it corrupt
-  if [ -n "$b" ]; then sleep 15; "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$b" "${COMMON[@]}" "sweep_tag=$tag" "$dir" "$@"; fi
-  wait "$p1"
+  "$PY" -m mcd.run -m "+sweep=$name" "+experiment=$experiments" "${COMMON[@]}" "sweep_tag=$tag" \
+    "hydra.sweep.dir=$ROOT/$name/small$tag" "${LAUNCH[@]}" "$@"
 }
 
 stage() {
   case $1 in
-    ablation) sweep ablation A,C,E B,D,F ;;                      # the component chain: the paper's two claims
-    baselines) sweep baselines rae,dasr,dasr_paper_loss,oidn fastdvdnet,ntasad,noisy ;;  # U-Net = row A
-    transfer) sweep transfer F A "transfer.init_from=$ROOT/ablation/small$TAG/\${experiment}_spp4" ;;
-    seeds) sweep seeds A,F B,C seed=1,2,3,4 ;;                  # seed 0: the ablation jobs; A+F and B+C balance the two processes
-    spp) sweep spp F,ntasad,noisy A,oidn budget=2,8,16,32 ;;
-    rest) sweep ablation G,I,K,M H,J,L ;;
-    budget) SUFFIX=_s$STEPS sweep baselines F ntasad "train.max_steps=$STEPS" ;;  # is 3000 steps enough?
+    ablation) sweep ablation A,B,C,D,E,F ;;                     # the component chain: the paper's two claims
+    baselines) sweep baselines rae,dasr,dasr_paper_loss,oidn,fastdvdnet,ntasad,noisy ;;  # U-Net = row A
+    transfer) sweep transfer F,A "transfer.init_from=$ROOT/ablation/small$TAG/\${experiment}_spp4" ;;
+    seeds) sweep seeds A,F,B,C seed=1,2,3,4 ;;                   # seed 0: the ablation jobs
+    spp) sweep spp F,ntasad,noisy,A,oidn budget=2,8,16,32 ;;
+    rest) sweep ablation G,H,I,J,K,L,M ;;
+    budget) SUFFIX=_s$STEPS sweep baselines F,ntasad "train.max_steps=$STEPS" ;;  # is 3000 steps enough?
     part2)  # the rows the first machine did not finish, with the noisy input and OIDN to check the store matches
-      SUFFIX=_part2 sweep baselines noisy oidn
-      SUFFIX=_part2 sweep ablation I,K L,M ;;
+      SUFFIX=_part2 sweep baselines noisy,oidn
+      SUFFIX=_part2 sweep ablation I,K,L,M ;;
     report)
       local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/tools/edge_effect.py)
       for d in "$ROOT"/*/small$TAG/*/ "$ROOT"/*/small${TAG}_s[0-9]*/*/ "$ROOT"/*/small${TAG}_part2/*/; do
