@@ -12,14 +12,16 @@ import argparse
 import logging
 import sys
 from pathlib import Path
-
-import torch
+from typing import TYPE_CHECKING
 
 from mcd import allocator
 from mcd.denoise import arguments, output_folder, precision, weights, work
 from mcd.denoise.output import SUMMARY, frame_files, write_json
 from mcd.denoise.precision import PRECISIONS
 from mcd.denoise.reference import MAX_SPP, TARGET_DB
+
+if TYPE_CHECKING:  # torch is imported where used, so that --help starts fast (docs/architecture.md)
+    import torch
 
 log = logging.getLogger("mcd.denoise")
 
@@ -79,6 +81,8 @@ def parser() -> argparse.ArgumentParser:
 
 
 def pick_device(name: str) -> torch.device:
+    import torch
+
     if name == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
     device = torch.device(name)

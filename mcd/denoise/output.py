@@ -19,14 +19,14 @@ import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from matplotlib.image import imsave
-from torch import Tensor
 
 from mcd.data.exr import umask_mode, write_exr
-from mcd.lit.samples import picture
+
+if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
+    from torch import Tensor
 
 COLOUR = ("output", "adaptive", "initial", "reference")
 MAPS = ("sampling_map", "kernel_map")
@@ -66,6 +66,10 @@ def write_json(path: Path, content: dict[str, Any]) -> None:
 
 def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: float) -> list[Path]:
     """Write one frame's outputs (module docstring), each atomically; returns the EXR paths written."""
+    from matplotlib.image import imsave
+
+    from mcd.lit.samples import picture
+
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
     for name in (*COLOUR, *MAPS):

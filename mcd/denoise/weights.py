@@ -17,13 +17,15 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from omegaconf import DictConfig, OmegaConf
-from torch import nn
 
 from mcd.denoise.work import MAX_PARAMS
 from mcd.lit import checkpoint
+
+if TYPE_CHECKING:  # torch is imported where used, so that --help starts fast (docs/architecture.md)
+    from torch import nn
 
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "bundled"
 #: Keys a bundle's JSON ``config`` must hold (written by :func:`mcd.denoise.bundle.write_bundle`).

@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import pickle
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import torch
-from torch import nn
+if TYPE_CHECKING:  # torch is imported where used, so that --help starts fast (docs/architecture.md)
+    import torch
+    from torch import nn
 
 
 class CheckpointError(ValueError):
@@ -28,6 +29,8 @@ def safe_load(path: str | Path, key: str) -> dict[str, Any]:
     Raises :class:`CheckpointError` when the file holds objects other than weights (unpickling them could
     run code) or is not a checkpoint at all.
     """
+    import torch
+
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except pickle.UnpicklingError as err:

@@ -81,9 +81,9 @@ def test_an_unwritable_output_is_named_before_any_work(tmp_path, capsys, frames,
 
 
 def _interrupt_after(monkeypatch, frames_written: int) -> None:
-    """Make the PNG writer of mcd.denoise.output fail half-way through frame ``frames_written`` (a kill
-    mid-write: half the bytes are on disk when it stops)."""
-    import mcd.denoise.output as output
+    """Make the PNG writer that mcd.denoise.output imports (matplotlib's ``imsave``, on first use) fail
+    half-way through frame ``frames_written`` (a kill mid-write: half the bytes are on disk when it stops)."""
+    import matplotlib.image as output
 
     real = output.imsave
     calls = {"n": 0}
