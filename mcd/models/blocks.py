@@ -1,6 +1,6 @@
 """The basic building block of both networks: a 3x3 convolution followed by ReLU (paper Sec. 4); in CPU
 inference mode with the ReLU and a decoder block's concatenation fused into the convolution
-(:mod:`mcd.models.fused_conv`, docs/inference.md)."""
+(:mod:`mcd.models.cpu_fast.fused_conv`, docs/inference.md)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from collections.abc import Callable, Sequence
 import torch
 from torch import Tensor, nn
 
-from mcd.models import fused_conv
+from mcd.models.cpu_fast import fused_conv
 from mcd.models.inputs import with_constant
 
 #: ``block(in_channels, out_channels) -> module`` builds one conv block of a U-Net.
@@ -32,7 +32,7 @@ class ConvReLU(nn.Module):
     def forward_parts(self, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
         """The block on the channel concatenation of ``parts`` and of ``constant`` ``[B, D]`` broadcast over
         the image; in CPU inference mode without building the concatenation
-        (:func:`mcd.models.fused_conv.conv_on_parts`)."""
+        (:func:`mcd.models.cpu_fast.fused_conv.conv_on_parts`)."""
         whole = with_constant(parts, constant)
         if fused_conv.applies(self.conv.weight, whole):
             return fused_conv.conv_on_parts(self.conv, whole, relu=True)

@@ -82,7 +82,7 @@ def test_fastdvdnet_reads_its_window_of_neighbours(sequence, tmp_path):
 
 
 def test_models_run_under_inference_mode_where_the_cpu_fast_paths_apply(sequence, tmp_path, monkeypatch):
-    """The CPU fast paths of mcd/models/ghost_conv.py apply only under torch.inference_mode
+    """The CPU fast paths of mcd/models/cpu_fast/ghost_conv.py apply only under torch.inference_mode
     (docs/inference.md); docs/denoise.md "Speed" has what no_grad cost F. The first call is the tile planner's
     memory probe (mcd/denoise/tiles.py), which runs plain no_grad so that every submodule's output counts."""
     import torch

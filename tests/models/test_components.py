@@ -5,7 +5,8 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from mcd.models.ghost_conv import FastGhostConv, grouped_conv
+from mcd.models.cpu_fast.ghost_conv import grouped_conv
+from mcd.models.ghost_conv import FastGhostConv
 from mcd.models.kernel_pool import KernelPool, apply_pixel_kernels, identity_kernel, interpolate_kernels
 from mcd.models.position_pooling import PositionAwarePool
 from mcd.models.semantic_alignment import SemanticAlignment

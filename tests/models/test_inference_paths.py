@@ -10,10 +10,10 @@ import torch
 import torch.nn.functional as F
 
 from mcd.lit.precision import cpu_bf16_supported
-from mcd.models import build, fused_conv
+from mcd.models import build
 from mcd.models.blocks import ConvReLU
-from mcd.models.ghost_conv import (
-    FastGhostConv,
+from mcd.models.cpu_fast import fused_conv
+from mcd.models.cpu_fast.ghost_conv import (
     fast_path_applies,
     group_then_point,
     lane_filled_conv,
@@ -22,6 +22,7 @@ from mcd.models.ghost_conv import (
     split_depthwise,
     splits,
 )
+from mcd.models.ghost_conv import FastGhostConv
 from mcd.models.inputs import cat_channels
 from mcd.models.kernel_pool import KernelMapHead, apply_pixel_kernels
 from mcd.models.position_pooling import PositionAwarePool, position_features
