@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 
 from mcd.paths import CONF_DIR
 
@@ -28,8 +29,9 @@ def digest_scenes(procedural: bool = False) -> list[str]:
 
 
 def render_digests(names: list[str], width: int = 128, height: int = 128, spp: int = 2, seed: int = 0,
-                   threads: int | None = None) -> dict[str, str]:
-    """``{scene: sha256 of its float32 (H, W, 3) colour render}`` for the scene configs ``names``."""
+                   threads: int | None = None, scenes_dir: str | None = None) -> dict[str, str]:
+    """``{scene: sha256 of its float32 (H, W, 3) colour render}`` for the scene configs ``names``
+    (``scenes_dir``: the folder of the scenes that are not vendored, as ``paths.scenes_dir``)."""
     import numpy as np
     from omegaconf import OmegaConf
 
@@ -45,7 +47,7 @@ def render_digests(names: list[str], width: int = 128, height: int = 128, spp: i
     out = {}
     for name in names:
         cfg = OmegaConf.load(CONF_DIR / "scene" / f"{name}.yaml")
-        loaded = SceneSpec.from_cfg(name, cfg, None).load(width, height, 8, segments=1)
+        loaded = SceneSpec.from_cfg(name, cfg, scenes_dir).load(width, height, 8, segments=1)
         r = SceneRenderer(loaded.scene, width, height, loaded.fov)
         r.set_camera(loaded.nodes[0])
         img = np.ascontiguousarray(r.color(spp, derive_seed(seed, name, "colour")), dtype=np.float32)
@@ -63,9 +65,11 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--procedural", action="store_true", help="also the procedural room (seed 0)")
     p.add_argument("--scene", action="append", default=None,
                    help="a scene config name of conf/scene/ (repeatable; default: the vendored ones)")
+    p.add_argument("--scenes-dir", default=os.environ.get("MCD_SCENES_DIR"),
+                   help="folder of the scenes that are not vendored (default: $MCD_SCENES_DIR)")
     a = p.parse_args(argv)
     names = a.scene or digest_scenes(a.procedural)
-    print(json.dumps(render_digests(names, a.size, a.size, a.spp, a.seed, a.threads), indent=1))
+    print(json.dumps(render_digests(names, a.size, a.size, a.spp, a.seed, a.threads, a.scenes_dir), indent=1))
 
 
 if __name__ == "__main__":
