@@ -242,3 +242,22 @@ def test_a_killed_pack_loses_nothing_and_resumes(tmp_path):
     clean = np.load(tmp_path / "clean" / "synth.npy", mmap_mode="r")
     assert np.array_equal(resumed[1:], clean[1:])
     assert json.loads(record.read_text()) == json.loads((tmp_path / "clean" / "synth.json").read_text())
+
+
+def test_mcd_run_packs_then_trains_from_the_training_store(cbox_store, tmp_path):
+    """``mcd.run``'s build packs the run's buffers into the training store after rendering, and its fit trains
+    on clips read from it (row A, two steps)."""
+    from mcd.run import build, fit
+
+    _, store = cbox_store
+    cfg = _array_cfg(store.data_dir, tmp_path / "ts", "+experiment=A", "train.max_steps=2",
+                     "train.max_minutes=null", "train.batch_size=1", "train.val_every_steps=2",
+                     "train.sample_frames=[]", "trainer.enable_progress_bar=false",
+                     "trainer.precision=32-true")
+    job = build(cfg, tmp_path / "run")
+    record = json.loads((tmp_path / "ts" / "cbox.json").read_text())
+    assert sorted(record["frames"], key=int) == [str(f) for f in range(2, 12)]
+    assert job.datamodule.train_store is not None and job.datamodule.train_store.root == tmp_path / "ts"
+    fitted = fit(job)
+    assert job.trainer.global_step == 2 and fitted.best_val_psnr is not None
+    assert isinstance(job.datamodule.train_set.frames, TrainStore)
