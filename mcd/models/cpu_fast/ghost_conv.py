@@ -103,8 +103,8 @@ def lane_filled(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int, pad
 
 #: :func:`group_then_point` splits a part into depth-wise convs where a group has at most this many outputs
 #: and the part at most :data:`SPLIT_MAX_IN` channels: the widths where that measured faster than
-#: :func:`lane_filled` (docs/inference.md, "Measured: the group convolutions"; oneDNN's depth-wise rate
-#: falls for wider inputs).
+#: :func:`lane_filled` (reports/bench_1080p/notes.md, "Measured: the group convolutions"; oneDNN's depth-wise
+#: rate falls for wider inputs).
 SPLIT_MAX_OUT = 2
 SPLIT_MAX_IN = 16
 
