@@ -1,7 +1,8 @@
 """``python -m mcd.bench``: inference speed of every method (docs/benchmark.md "Metrics", speed), beside
-Intel Open
-Image Denoise on the same frames; writes ``reports/bench/bench.csv`` (read by ``mcd.report``'s speed-against-
-error plot) and prints a table.
+Intel Open Image Denoise on the same frames; prints a table and writes it as CSV with a README beside it, to
+``--out`` (default ``outputs/bench/bench.csv`` under the working directory: a measurement never rewrites the
+tracked ``reports/bench/bench.csv``, which ``mcd.report``'s speed-against-error plot reads, unless given as
+``--out``).
 
 Per method (built by ``mcd.models.build`` from the composed Hydra config ``+experiment=<X> model=<profile>``),
 device (CPU; CUDA when present), resolution (1920x1080 and 256x256 by default) and inference path:
@@ -69,6 +70,8 @@ log = logging.getLogger("mcd.bench")
 
 #: The methods measured by default, as the experiments that select them (mcd.methods: ``bench``).
 METHODS = tuple(m.experiment for m in CATALOGUE if m.bench)
+#: Where a measurement goes unless ``--out`` says otherwise (Hydra's ``outputs/``, not a tracked file).
+DEFAULT_OUT = Path("outputs/bench/bench.csv")
 SIZES = {"1080p": (1080, 1920), "256": (256, 256)}  # or any "<W>x<H>"
 COLUMNS = (
     "method",
@@ -561,7 +564,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
-    parser.add_argument("--out", type=Path, default=Path("reports/bench/bench.csv"))
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT,
+                        help=f"CSV to write, README.md beside it (default: {DEFAULT_OUT}; the report reads "
+                             f"reports/bench/bench.csv)")
     allocator.add_option(parser)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")

@@ -1,5 +1,6 @@
 """``python -m mcd.bench train``: training throughput of each method and training path on real batches of
-the store (docs/training.md, "Throughput"); writes ``reports/bench/train.csv`` and prints each path's ratio to
+the store (docs/training.md, "Throughput"); writes ``--out`` (default ``outputs/bench/train.csv`` under the
+working directory, never a tracked file unless named) and prints each path's ratio to
 ``today`` (this project's fp32 training path before the throughput work).
 
 A path is a set of training settings; each (method, profile, path) is measured in its own process (so that
@@ -176,7 +177,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--warmup", type=int, default=4)
     ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--pair", action="store_true", help="also two concurrent 1-thread fp32 jobs")
-    ap.add_argument("--out", type=Path, default=REPO_ROOT / "reports/bench/train.csv")
+    ap.add_argument("--out", type=Path, default=Path("outputs/bench/train.csv"),
+                    help="CSV to write (default: outputs/bench/train.csv)")
     ap.add_argument("--allocators", default="keep",
                     help="comma-separated: keep (mcd.run's setting, mcd/allocator.py) and/or system "
                          "(glibc's default)")

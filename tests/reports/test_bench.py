@@ -57,6 +57,16 @@ def test_bench_cpu_writes_the_interface_columns(tmp_path):
     assert "python -m mcd.bench" in readme and "| F | cpu | 32x32 |" in readme
 
 
+
+def test_bench_without_out_writes_under_outputs_not_reports(tmp_path, monkeypatch):
+    """A measurement changes no tracked file unless asked (issue 32 item 8): without ``--out`` the CSV and
+    its README go to ``outputs/bench/`` under the working directory."""
+    monkeypatch.chdir(tmp_path)
+    bench.main(["--methods", "noisy", "--sizes", "16x16", "--devices", "cpu", "--warmup", "0", "--reps", "1",
+                "--synthetic", "--allocator", "system", "model=cpu"])
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file()) == [
+        "outputs/bench/README.md", "outputs/bench/bench.csv"]
+
 def test_unknown_method_is_a_row_not_a_crash(tmp_path):
     rows = bench.run(["no_such_method"], ["32x32"], ["cpu"], ["model=cpu"], 0, 1, 1, 1, False, None)
     assert len(rows) == 1 and rows[0].ms_median is None and rows[0].status.startswith("failed to build")
