@@ -190,9 +190,9 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
 
     paths = find_frames(args.inputs)
     refs = find_references(paths, args.reference)
-    inputs = [f for p in paths for f in (p, *siblings(p))] + (refs or [])
+    inputs = [f for p in paths for f in (p, *siblings(p))]     # what the outputs depend on
     outputs = [n for p in paths for n in frame_files(p.stem)]
-    output_folder.check_apart(args.output, inputs, [SUMMARY, *outputs])
+    output_folder.check_apart(args.output, inputs + (refs or []), [SUMMARY, *outputs])
     (h, w), _ = read_header(paths[0])
     work.check(h * w * len(paths), work.MAX_PIXELS, f"{len(paths)} frames of {w}x{h}: pixels to denoise",
                args.allow_large)

@@ -132,3 +132,14 @@ def test_a_rerun_with_other_settings_or_changed_inputs_denoises_every_frame_agai
 
     chans = read_channels(frames / "f0000.exr")
     assert np.allclose(read_exr(out / "f0000.exr"), np.stack([chans[c] for c in "RGB"], -1), rtol=1e-5)
+
+
+def test_the_references_folder_is_an_input_too(tmp_path, capsys, frames):
+    (frames / "reference").mkdir()
+    for name in ("f0000.exr", "f0001.exr"):
+        (frames / "reference" / name).write_bytes((frames / name).read_bytes())
+    before = snapshot(tmp_path)
+    refs = frames / "reference"
+    err = refused(capsys, str(frames), "-o", str(refs), *NOISY)
+    assert f"-o {refs}: is the folder of the input {refs / 'f0000.exr'}" in err
+    assert snapshot(tmp_path) == before
