@@ -18,6 +18,7 @@ Sweeps (``-m``): a job whose output directory already holds a complete ``metrics
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
@@ -35,10 +36,11 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from hydra.utils import instantiate
 from lightning.pytorch.callbacks import ModelCheckpoint
+from lightning.pytorch.utilities import rank_zero_only
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
-from mcd import allocator
+from mcd import allocator, run_dir
 from mcd.data import MCDDataModule
 from mcd.lit import DenoiseModule, budget
 from mcd.lit.segments import TrainingSegments
@@ -48,10 +50,11 @@ from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
 from mcd.provenance import git_commit
-from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, is_complete
+from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
 from mcd.workload import announce
 
 log = logging.getLogger("mcd.run")
+run_dir.register_resolvers()  # ${run_id:} of conf/config.yaml's hydra.run.dir
 
 
 def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseException) -> Path:
@@ -300,6 +303,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     """The whole run: build, fit, test, and (global rank 0) write ``metrics.json``; returns what it wrote
     (None on the other ranks of a DDP run)."""
     code = git_commit()  # the commit of the code this process imported (a sweep's first job asks first)
+    claim_run_dir(out_dir, cfg, choices)  # refuses an interrupted run of another job, before anything else
     job = build(cfg, out_dir)
     fitted = fit(job)
     test_s = run_test(job, fitted.checkpoint)
@@ -323,17 +327,21 @@ def main(cfg: DictConfig) -> None:
     hydra_cfg = HydraConfig.get()
     out_dir = Path(hydra_cfg.runtime.output_dir)
     choices = dict(hydra_cfg.runtime.choices)
-    try:
-        if is_complete(out_dir / "metrics.json"):
-            check_same_job(out_dir / "metrics.json", cfg, choices)
-            log.info("skip: %s already holds a complete metrics.json", out_dir)
-            return
-        train_and_test(cfg, out_dir, choices, started)
-    except Exception as err:
-        path = write_error(out_dir, cfg, list(hydra_cfg.overrides.task), err)
-        if hydra_cfg.mode != RunMode.MULTIRUN:
-            raise
-        log.error("job failed (%s: %s); details in %s; the sweep goes on", type(err).__name__, err, path)
+    # one owner per run directory (mcd/run_dir.py): a second process is refused here, before it touches the
+    # directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
+    owner = run_dir.hold(out_dir) if rank_zero_only.rank == 0 else contextlib.nullcontext()
+    with owner:
+        try:
+            if is_complete(out_dir / "metrics.json"):
+                check_same_job(out_dir / "metrics.json", cfg, choices)
+                log.info("skip: %s already holds a complete metrics.json", out_dir)
+                return
+            train_and_test(cfg, out_dir, choices, started)
+        except Exception as err:
+            path = write_error(out_dir, cfg, list(hydra_cfg.overrides.task), err)
+            if hydra_cfg.mode != RunMode.MULTIRUN:
+                raise
+            log.error("job failed (%s: %s); details in %s; the sweep goes on", type(err).__name__, err, path)
 
 
 if __name__ == "__main__":

@@ -6,7 +6,8 @@ averages first as top-level keys named as in ``mcd.metrics`` (``psnr`` ... ``inp
 ``kp_identity``, ``kp_index_std``, null for a model without a kernel map). NaN and infinity are written as
 ``null`` (JSON has no NaN). The reports (``mcd.reporting``) read these keys. A sweep skips a job whose
 ``metrics.json`` holds every key of :data:`REQUIRED_KEYS` (:func:`is_complete`) when it is the same job
-(:func:`job_identity`; another job's is an error, :func:`check_same_job`).
+(:func:`job_identity`; another job's is an error, :func:`check_same_job`). A directory holding an
+interrupted run of another job is refused too (:func:`claim_run_dir`, ``job.json``).
 """
 
 from __future__ import annotations
@@ -123,9 +124,39 @@ def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
 
 def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
     """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped)."""
-    done = json.loads(path.read_text())
-    differs = {k: (done[k], v) for k, v in job_identity(cfg, choices).items() if k in done and done[k] != v}
+    _refuse_another_job(json.loads(path.read_text()), cfg, choices, path.parent, "a finished run")
+
+
+#: The job identity (:func:`job_identity`) of the run that trains in a run directory, written before training.
+JOB_FILE = "job.json"
+
+
+def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
+    """Record this job's identity in ``run_dir/job.json``, after refusing a directory that holds an
+    interrupted run (``checkpoints/last.ckpt``, no ``metrics.json``) of another job: resuming it with another
+    budget, seed, experiment, switches or data profile would test a checkpoint trained under the old settings
+    and label it with the new ones (docs/reliability.md). FileExistsError names the keys that differ; a
+    ``job.json`` that is not a JSON object is named too (ValueError)."""
+    path = run_dir / JOB_FILE
+    if (run_dir / "checkpoints" / "last.ckpt").is_file() and path.is_file():
+        try:
+            recorded = json.loads(path.read_text())
+        except ValueError as err:
+            raise ValueError(f"{path}: not readable JSON ({err}); it records which job trained in "
+                             f"{run_dir}: restore it, or give this run its own directory") from None
+        if not isinstance(recorded, dict):
+            raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
+        _refuse_another_job(recorded, cfg, choices, run_dir, "an interrupted run")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(job_identity(cfg, choices), indent=2))
+
+
+def _refuse_another_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], run_dir: Path,
+                        what: str) -> None:
+    """FileExistsError naming each key of :func:`job_identity` whose value in ``recorded`` differs."""
+    differs = {k: (recorded[k], v) for k, v in job_identity(cfg, choices).items()
+               if k in recorded and recorded[k] != v}
     if differs:
         detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
-        raise FileExistsError(f"{path.parent} holds a finished run of another job ({detail}); give this run "
-                              "its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")
+        raise FileExistsError(f"{run_dir} holds {what} of another job ({detail}); give this run its own "
+                              "directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")

@@ -1,0 +1,76 @@
+"""One owner per run directory: a unique default directory, and an exclusive lock held while a run uses it
+(docs/architecture.md, "Run directory"; docs/reliability.md, "One owner per run directory").
+
+- :func:`register_resolvers` adds ``${run_id:}`` to OmegaConf: a short token drawn once per process (6 hex
+  digits), which ``conf/config.yaml`` appends to the default ``hydra.run.dir``, so two runs started in the
+  same second get two directories. Every Hydra entry point that composes ``conf/config.yaml`` calls it at
+  import.
+- :func:`hold` takes ``<run dir>/run.lock`` with ``fcntl.flock`` for as long as the run lives; a second
+  process on the same directory (two ``ckpt_path=auto`` resumes, a ``hydra.run.dir`` given twice, two copies
+  of one sweep) is refused with :class:`RunDirInUse`, naming the owner's pid. The kernel drops the lock when
+  the owner dies, so a killed run never leaves a stale lock behind.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import secrets
+import socket
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+#: The lock file inside a run directory.
+LOCK_NAME = "run.lock"
+_RUN_ID = secrets.token_hex(3)
+
+
+class RunDirInUse(RuntimeError):
+    """Another live process holds the run directory's lock."""
+
+
+def run_id() -> str:
+    """This process's token of ``${run_id:}`` (the same for every call in one process)."""
+    return _RUN_ID
+
+
+def register_resolvers() -> None:
+    """Register ``${run_id:}`` with OmegaConf (idempotent)."""
+    from omegaconf import OmegaConf
+
+    if not OmegaConf.has_resolver("run_id"):
+        OmegaConf.register_new_resolver("run_id", run_id)
+
+
+@contextlib.contextmanager
+def hold(run_dir: Path) -> Iterator[None]:
+    """Hold ``run_dir/run.lock`` exclusively while the block runs; :class:`RunDirInUse` at once if another
+    process holds it (its pid, host and start time, as it wrote them into the file, are in the message).
+
+    The directory is made if missing. A ``run.lock`` that is not a regular file is refused naming it.
+    """
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = run_dir / LOCK_NAME
+    if path.exists() and not path.is_file():
+        raise RunDirInUse(f"{path} is not a regular file: remove it (the run directory's lock file, "
+                          "docs/reliability.md) and start the run again")
+    with open(path, "a+") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            owner = f.read().strip() or "pid unknown"
+            raise RunDirInUse(
+                f"{run_dir} is in use by another run ({owner}); wait for it to finish, or give this run its "
+                "own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)") from None
+        try:
+            f.seek(0)
+            f.truncate()
+            f.write(f"pid {os.getpid()} on {socket.gethostname()}, since "
+                    f"{time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+            f.flush()
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
