@@ -12,6 +12,9 @@ of one or more sweeps (docs/benchmark.md "Reports"), generated from the run dire
 - ``README.md``: provenance (commands, config, data profile, commit, device, wall time), the paper's claims
   checked against our numbers, F against the trained baselines, OIDN and its noisy input
   (``mcd.reporting.findings``), failed jobs with their error, and an index of the files.
+
+A job whose ``metrics.json`` is corrupt (``mcd.reporting.runs.metrics_problem``) is reported as failed, and
+the command then exits 1 naming each such file on stderr (docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -255,6 +258,11 @@ def main(argv: list[str] | None = None) -> None:
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command)
     print(f"report written to {out_dir}/README.md")
+    corrupt = [r.corrupt for r in find_runs(args.dirs) if r.corrupt]
+    if corrupt:  # the report lists these jobs as failed; the exit status says the inputs were damaged
+        for problem in corrupt:
+            print(f"error: {problem}; the job is reported as failed: run it again", file=sys.stderr)
+        sys.exit(1)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -87,9 +88,13 @@ class RunRecord:
         return {k: _json_safe(v) for k, v in {**self.scores, **fields}.items()}
 
     def write(self, run_dir: Path) -> dict[str, Any]:
-        """Write ``run_dir/metrics.json``; returns what it wrote."""
+        """Write ``run_dir/metrics.json`` atomically (a temporary file renamed over it: a killed write
+        leaves no half file under that name, so a damaged one is damage, mcd.reporting.runs); returns what
+        it wrote."""
         data = self.as_dict()
-        (run_dir / "metrics.json").write_text(json.dumps(data, indent=2))
+        tmp = run_dir / ".metrics.json.tmp"
+        tmp.write_text(json.dumps(data, indent=2))
+        os.replace(tmp, run_dir / "metrics.json")
         return data
 
 

@@ -11,16 +11,35 @@ them.
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from mcd.data.buffers import NEGATIVE_OK
 from mcd.data.exr import sanitise
 
+log = logging.getLogger(__name__)
 
-def auto_exposure(frame0: np.ndarray, target: float) -> float | None:
-    """The scale that brings the mean of ``frame0`` (colour, sanitised first) to ``target``; None if black."""
+
+#: Values of frame 0 above this are clamped to it before its mean is taken (and counted, and named in a
+#: warning): far above any radiance a scene of the benchmark renders, low enough that the mean, and so the
+#: exposure, stay finite and non-zero in float32 even for a frame of float32's largest values.
+EXPOSURE_CLAMP = 1e8
+
+
+def auto_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> float | None:
+    """The scale that brings the mean of ``frame0`` (colour, sanitised first) to ``target``; None if black.
+
+    The mean is accumulated in float64 over values clamped to :data:`EXPOSURE_CLAMP`; how many were clamped
+    is logged, naming ``name`` (the file or frame). A float32 mean of a frame holding values near 3e38
+    overflowed to inf and gave an exposure of 0 (issue 33, defect 15).
+    """
     clean, _ = sanitise(np.asarray(frame0, dtype=np.float32), allow_negative=False)
-    mean = float(clean.mean())
+    clamped = int(np.count_nonzero(clean > EXPOSURE_CLAMP))
+    if clamped:
+        log.warning("%s: %d of %d values above %g clamped to it for the exposure (a broken render? "
+                    "check the file)", name, clamped, clean.size, EXPOSURE_CLAMP)
+    mean = float(np.minimum(clean, EXPOSURE_CLAMP).mean(dtype=np.float64))
     return target / mean if mean > 0 else None
 
 

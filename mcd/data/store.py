@@ -63,6 +63,31 @@ def check_name(name: str, key: str) -> str:
     return name
 
 
+def manifest_problem(man: object) -> str | None:
+    """What makes ``man`` (a parsed ``manifest.json``) unusable, or None: the schema the store reads, checked
+    on read so that damage is named with its fix instead of failing later (docs/data.md, "The store"):
+    ``files`` an object of ``"<frame>/<buffer>.exr"`` entries, each an object with an integer ``bytes`` and a
+    string ``sha256``; ``cameras`` a list of objects; ``exposure`` and ``depth_scale`` numbers or null."""
+    if not isinstance(man, dict):
+        return f"a JSON {type(man).__name__}, not an object"
+    files = man.get("files")
+    if not isinstance(files, dict):
+        return f"'files' is {files!r}, not an object of file entries" if "files" in man else "no 'files'"
+    for name, rec in files.items():
+        if not isinstance(rec, dict):
+            return f"files[{name!r}] is {rec!r}, not an object"
+        if not isinstance(rec.get("bytes"), int) or not isinstance(rec.get("sha256"), str):
+            return f"files[{name!r}] lacks an integer 'bytes' and a string 'sha256'"
+    cameras = man.get("cameras", [])
+    if not isinstance(cameras, list) or not all(isinstance(c, dict) for c in cameras):
+        return "'cameras' is not a list of camera objects"
+    for key in ("exposure", "depth_scale"):
+        value = man.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)):
+            return f"{key!r} is {value!r}, not a number"
+    return None
+
+
 class StoreReader:
     """Reads one data profile's scenes from the store. See the module docstring."""
 
@@ -196,9 +221,11 @@ class StoreReader:
                 f"{path}: truncated or corrupt manifest ({type(err).__name__}: {err}). Fix: "
                 f"{self.render_command('render.verify=true')} (renders the scene's files again)"
             ) from err
-        if not isinstance(man, dict) or "files" not in man:
-            raise CorruptManifestError(f"{path}: not a store manifest (no 'files'). Fix: "
-                                       f"{self.render_command('render.verify=true')}")
+        problem = manifest_problem(man)
+        if problem:
+            raise CorruptManifestError(f"{path}: not a store manifest ({problem}). Fix: "
+                                       f"{self.render_command('render.verify=true')} (renders the scene's "
+                                       "files again)")
         return man
 
     def cameras(self, scene: str) -> list[Camera]:

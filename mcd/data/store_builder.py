@@ -151,7 +151,8 @@ class StoreBuilder(StoreReader):
         halves = [r.color(pilot // 2, derive_seed(s["seed"], spec.name, 0, "ref_pilot", k)) for k in (0, 1)]
         target = float(self.data_cfg.get("exposure_target", 0.5))
         exposure = (float(spec.exposure) if spec.exposure != "auto"
-                    else auto_exposure((halves[0] + halves[1]) / 2, target) or 1.0)
+                    else auto_exposure((halves[0] + halves[1]) / 2, target,
+                                       f"scene {spec.name}: frame 0's pilot reference") or 1.0)
         db = estimate_psnr(halves[0], halves[1], exposure)
         spp = spp_for_target(pilot, db, quality["target_db"], quality["max_spp"])
         log.info("scene %s: reference of frame 0 at %d spp estimated at %.1f dB; test-frame references at %d "
@@ -423,7 +424,11 @@ class StoreBuilder(StoreReader):
         """
         folder = self.root / scene
         folder.mkdir(parents=True, exist_ok=True)
-        with open(folder / ".lock", "a") as f:
+        lock = folder / ".lock"
+        if lock.exists() and not lock.is_file():
+            raise RuntimeError(f"{lock}: the scene's lock file is not a regular file; remove it (`rm -r "
+                               f"{lock}`, after checking it holds nothing you need) and run again")
+        with open(lock, "a") as f:
             try:
                 fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -546,7 +551,8 @@ class StoreBuilder(StoreReader):
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
             return
-        exposure = auto_exposure(ref0, float(self.data_cfg.get("exposure_target", 0.5)))
+        exposure = auto_exposure(ref0, float(self.data_cfg.get("exposure_target", 0.5)),
+                                 str(self.path(spec.name, 0, "ref")))
         man["exposure"] = exposure or 1.0
         if exposure is None:
             log.warning("scene %s: frame 0's reference is black; exposure left at 1", spec.name)

@@ -175,6 +175,11 @@ class Run:
         return [{"commit": None, "dirty": None, "start_step": 0, "end_step": None, "seconds": earlier}, last]
 
     @property
+    def corrupt(self) -> str | None:
+        """What is damaged in the run's records (a corrupt ``metrics.json``), else None."""
+        return None if self.error is None else self.error.get("corrupt")
+
+    @property
     def error_message(self) -> str:
         """One line naming what went wrong (for failed and incomplete jobs)."""
         if self.error is not None:
@@ -185,9 +190,36 @@ class Run:
         return ""
 
 
+def metrics_problem(path: Path) -> str | None:
+    """What is wrong with the ``metrics.json`` at ``path`` (None: absent or sound): not readable JSON, not an
+    object, or a score (``mcd.metrics.FRAME_METRICS``) that is not a number or null (``"psnr": "NaN"``).
+    mcd.run writes it atomically (mcd/run_record.py), so a damaged one is not a run still writing it."""
+    if not path.exists():
+        return None
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        return f"{path} is corrupt (not readable JSON: {err})"
+    if not isinstance(data, dict):
+        return f"{path} is corrupt (a JSON {type(data).__name__}, not an object)"
+    from mcd.metrics import FRAME_METRICS  # here: mcd.metrics imports the metric libraries
+
+    bad = [f"{k}={data[k]!r}" for k in FRAME_METRICS if k in data and not _is_score(data[k])]
+    if bad:
+        return f"{path} is corrupt (not a number: {', '.join(bad)})"
+    return None
+
+
+def _is_score(value: object) -> bool:
+    """A number (JSON null stands for NaN in a run record)."""
+    return value is None or (isinstance(value, int | float) and not isinstance(value, bool))
+
+
 def load_run(path: Path) -> Run:
-    """Read one run directory."""
-    metrics = _load_json(path / "metrics.json")
+    """Read one run directory. A corrupt ``metrics.json`` (:func:`metrics_problem`) makes the job failed, the
+    file named in its error; one without ``psnr`` is incomplete (mcd.run reruns it)."""
+    problem = metrics_problem(path / "metrics.json")
+    metrics = None if problem else _load_json(path / "metrics.json")
     if metrics is not None and "psnr" not in metrics:
         metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
     edges = _load_json(path / EDGES_FILE)  # measured after the run by python -m mcd.tools.edge_effect
@@ -196,6 +228,8 @@ def load_run(path: Path) -> Run:
     error = _load_json(path / "error.json")
     if error is None and (path / "error.json").exists():
         error = {"error": f"{path / 'error.json'} exists but is not readable JSON"}
+    if problem:
+        error = {**(error or {}), "error": problem, "corrupt": problem}
     overrides_file = path / ".hydra" / "overrides.yaml"
     overrides = [str(o) for o in OmegaConf.load(overrides_file)] if overrides_file.is_file() else []
     if not overrides and error is not None and isinstance(error.get("overrides"), list):

@@ -43,8 +43,9 @@ def test_runs_of_every_status_are_found(tmp_path):
         "ok": "ok",
         "failed": "failed",
         "killed": "incomplete",
-        "truncated": "incomplete",
+        "truncated": "failed",  # a corrupt record (mcd.run writes it atomically): named, not "killed"
     }
+    assert runs["truncated"].error_message.startswith(f"{runs['truncated'].path / 'metrics.json'} is corrupt")
     assert runs["failed"].error_message == "ValueError: KP needs AS"
     assert runs["failed"].overrides == ["+experiment=C"]
     assert "killed" in runs["killed"].error_message
