@@ -117,11 +117,13 @@ def resume_checkpoint(ckpt_path: str | None, out_dir: Path) -> str | None:
     return None
 
 
-def build(cfg: DictConfig, out_dir: Path) -> Job:
+def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None) -> Job:
     """Check the config, render (or reuse) the data, and build model, datamodule, module and trainer.
 
     Everything that can fail on the config alone fails before anything is rendered: impossible switches, the
-    budget and image size (mcd.preflight), a missing or unfitting ``ckpt_path``.
+    budget and image size (mcd.preflight), a missing or unfitting ``ckpt_path``, a run directory holding an
+    interrupted run of another job (``mcd.run_record.claim_run_dir``; ``choices``: Hydra's config-group
+    choices, for the job's data profile).
     """
     from mcd.data import StoreBuilder
     from mcd.data.buffers import run_buffers
@@ -138,6 +140,7 @@ def build(cfg: DictConfig, out_dir: Path) -> Job:
     if resume and not Path(resume).is_file():
         raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
                                 "(give a run's checkpoints/last.ckpt)")
+    claim_run_dir(out_dir, cfg, choices or {})  # refuses an interrupted run of another job; writes job.json
     L.seed_everything(int(cfg.seed), workers=True)
     cfg, transfer_info = transfer.prepare(cfg)  # held-out scenes from trained weights (mcd/lit/transfer.py)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -303,8 +306,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     """The whole run: build, fit, test, and (global rank 0) write ``metrics.json``; returns what it wrote
     (None on the other ranks of a DDP run)."""
     code = git_commit()  # the commit of the code this process imported (a sweep's first job asks first)
-    claim_run_dir(out_dir, cfg, choices)  # refuses an interrupted run of another job, before anything else
-    job = build(cfg, out_dir)
+    job = build(cfg, out_dir, choices)
     fitted = fit(job)
     test_s = run_test(job, fitted.checkpoint)
     if not job.trainer.is_global_zero:

@@ -88,6 +88,21 @@ def manifest_problem(man: object) -> str | None:
     return None
 
 
+#: Values of ``data.verify_checksums`` (docs/data.md, "The store"): ``once`` (the default) checks each
+#: file's SHA-256 against the manifest on its first load in a process (again if its size or mtime changed);
+#: ``always`` on every load; ``never`` not at all (true and false, the old spellings, mean always and never).
+VERIFY_MODES = ("once", "always", "never")
+
+
+def verify_mode(value: object) -> str:
+    """The :data:`VERIFY_MODES` entry ``data.verify_checksums`` names; ValueError naming the key otherwise."""
+    if isinstance(value, bool):
+        return "always" if value else "never"
+    if value not in VERIFY_MODES:
+        raise ValueError(f"data.verify_checksums={value!r}: expected one of {', '.join(VERIFY_MODES)}")
+    return str(value)
+
+
 class StoreReader:
     """Reads one data profile's scenes from the store. See the module docstring."""
 
@@ -120,6 +135,8 @@ class StoreReader:
                     )
         self._manifests: dict[str, dict] = {}
         self._warned: set[str] = set()
+        self.verify_mode = verify_mode(data_cfg.get("verify_checksums", "once"))
+        self._verified: set[tuple[str, int, int]] = set()  # (path, bytes, mtime_ns) checked in this process
         shaping = ([o for o in overrides if STORE_OVERRIDE.match(o)] if overrides is not None
                    else self._settings_overrides())
         data_dir = f"paths.data_dir={self.data_dir}"
@@ -235,8 +252,10 @@ class StoreReader:
     def load(self, scene: str, frame: int, buffer: str, verify: bool | None = None) -> np.ndarray:
         """One stored buffer as float32 ``(H, W, C)``: checked, sanitised, exposure / depth normalised.
 
-        Raises :class:`CorruptEXRError` (naming the fix command) for a truncated, unreadable or (with
-        ``data.verify_checksums``) checksum-mismatched file, FileNotFoundError for a buffer never rendered.
+        Raises :class:`CorruptEXRError` (naming the fix command) for a truncated, unreadable or
+        checksum-mismatched file, FileNotFoundError for a buffer never rendered. The checksum is checked as
+        ``data.verify_checksums`` says (:func:`verify_mode`; by default on the first load of each file in this
+        process); ``verify`` True or False overrides it for this call.
         """
         man = self.manifest(scene)
         p = self.path(scene, frame, buffer)
@@ -250,9 +269,14 @@ class StoreReader:
         if size != rec["bytes"]:
             raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}",
                                   self.fix_command(buffer))
-        verify = bool(self.data_cfg.get("verify_checksums", False)) if verify is None else verify
-        if verify and sha256(p) != rec["sha256"]:
-            raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command(buffer))
+        seen = (str(p), size, p.stat().st_mtime_ns)
+        if verify is None:
+            once = self.verify_mode == "once" and seen not in self._verified
+            verify = self.verify_mode == "always" or once
+        if verify:
+            if sha256(p) != rec["sha256"]:
+                raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command(buffer))
+            self._verified.add(seen)
         img = read_exr(p, self.fix_command(buffer))
         if img.shape[-1] != CHANNELS[buffer]:
             raise CorruptEXRError(
