@@ -42,7 +42,7 @@ from torch import nn
 
 from mcd import allocator, run_dir
 from mcd.data import MCDDataModule
-from mcd.lit import DenoiseModule, budget
+from mcd.lit import DenoiseModule, budget, progress
 from mcd.lit.segments import TrainingSegments
 from mcd.lit.test_recorder import TestRecorder
 from mcd.losses import build_loss
@@ -51,6 +51,7 @@ from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
 from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
+from mcd.run_summary import summary
 from mcd.workload import announce
 
 log = logging.getLogger("mcd.run")
@@ -175,7 +176,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
     trainer_kwargs = budget.trainer_kwargs(cfg)
     trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
-                        callbacks=[best, last, curve, segments, recorder, *budget.callbacks(cfg.train)],
+                        callbacks=[best, last, curve, segments, recorder, *budget.callbacks(cfg.train),
+                                   *progress.callbacks(cfg)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
     trainable = trainable and (transfer_info is None or transfer_info["finetune"])  # 0 epochs: test as is
@@ -318,6 +320,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
              job.cfg.experiment, metrics["psnr"], metrics["input_psnr"], metrics["ssim"], metrics["rmse"],
              metrics["lt"] or math.nan, metrics["macs_g"] or math.nan,
              math.nan if metrics["params_m"] is None else metrics["params_m"], metrics["wall_s"], out_dir)
+    train = OmegaConf.to_container(job.cfg.train, resolve=True)
+    log.info("%s", summary(metrics, out_dir, train))  # type: ignore[arg-type]  # the last thing printed
     return metrics
 
 

@@ -12,6 +12,7 @@ validates where the budget ended when the last validation came before it (then r
 from __future__ import annotations
 
 import csv
+import logging
 import math
 import time
 from pathlib import Path
@@ -22,6 +23,9 @@ from lightning.pytorch.callbacks import Callback, EarlyStopping, ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.lit import precision
+from mcd.lit.csv_log import ResumableCSVLogger, drop_rows_after
+
+log = logging.getLogger(__name__)
 
 #: Columns of ``curve.csv``: one row per validation.
 CURVE_COLUMNS = ("step", "epoch", "seconds", "lr", "train_loss", "val_loss", "val_psnr", "val_ssim")
@@ -142,6 +146,19 @@ class LearningCurve(Callback):
         self.last_step = -1  # the optimiser step of the last validation
 
     def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        """A resumed run first drops the rows a killed process wrote past the restored step from
+        ``curve.csv`` and the CSV logger's ``metrics.csv`` (mcd/lit/csv_log.py), then continues the clock
+        from the last row kept."""
+        if trainer.global_step > 0 and trainer.is_global_zero:
+            # curve.csv counts optimiser steps done; Lightning logs the rows of step k (from 1) at step k - 1
+            kept = [(self.path, trainer.global_step)]
+            kept += [(Path(lg.experiment.metrics_file_path), trainer.global_step - 1)
+                     for lg in trainer.loggers if isinstance(lg, ResumableCSVLogger)]
+            for path, last in kept:
+                dropped = drop_rows_after(path, last)
+                if dropped:
+                    log.info("%s: %d rows past the resumed checkpoint (logged by the interrupted process) "
+                             "dropped", path, dropped)
         offset = 0.0  # a resumed run continues its clock from the last row written
         if trainer.global_step > 0 and self.path.is_file():
             with self.path.open(newline="") as f:

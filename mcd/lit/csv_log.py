@@ -2,13 +2,17 @@
 
 Lightning's ``CSVLogger`` deletes an existing ``metrics.csv`` when a run resumes into the same directory, so
 the curve before the resume is lost. :class:`ResumableCSVLogger` appends to it instead, keeping its columns
-(a column new in the resumed run rewrites the header over the union; earlier rows leave it empty). Steps
-logged after the checkpoint a run resumed from appear twice (once from each process).
+(a column new in the resumed run rewrites the header over the union; earlier rows leave it empty). The rows a
+killed process logged after the checkpoint a run resumes from are dropped when the resumed run starts
+(:func:`drop_rows_after`, called by ``mcd.lit.budget.LearningCurve`` for ``metrics.csv`` and ``curve.csv``),
+so each step appears once.
 """
 
 from __future__ import annotations
 
 import csv
+import os
+from pathlib import Path
 
 from lightning.fabric.loggers.logger import rank_zero_experiment
 from lightning.pytorch.loggers import CSVLogger
@@ -35,3 +39,27 @@ class ResumableCSVLogger(CSVLogger):
             self._fs.makedirs(self.root_dir, exist_ok=True)
             self._experiment = _AppendingWriter(log_dir=self.log_dir)
         return self._experiment
+
+
+def drop_rows_after(path: Path, step: int) -> int:
+    """Rewrite the CSV file at ``path`` (atomically) without its rows whose ``step`` column exceeds ``step``
+    (those of a killed process, past the checkpoint a run resumed from); returns how many were dropped. A
+    missing file, or one without a ``step`` column, is left alone."""
+    if not path.is_file():
+        return 0
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        rows = list(reader)
+        fields = reader.fieldnames or []
+    if "step" not in fields:
+        return 0
+    kept = [r for r in rows if not r["step"] or float(r["step"]) <= step]
+    if len(kept) == len(rows):
+        return 0
+    tmp = path.with_name(f".{path.name}.tmp")
+    with tmp.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(kept)
+    os.replace(tmp, path)
+    return len(rows) - len(kept)
