@@ -153,7 +153,9 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
             raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
         _refuse_another_job(recorded, cfg, choices, run_dir, "an interrupted run")
     run_dir.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(job_identity(cfg, choices), indent=2))
+    tmp = run_dir / f".{JOB_FILE}.{os.getpid()}.tmp"  # atomic: the processes of a DDP run all write it
+    tmp.write_text(json.dumps(job_identity(cfg, choices), indent=2))
+    os.replace(tmp, path)
 
 
 def _refuse_another_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], run_dir: Path,
