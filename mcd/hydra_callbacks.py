@@ -1,4 +1,5 @@
-"""Hydra callbacks of ``python -m mcd.run`` (registered in ``conf/config.yaml``, ``hydra.callbacks``).
+"""Hydra callbacks of ``python -m mcd.run`` (registered in ``conf/config.yaml``, ``hydra.callbacks``), and
+the place that registers ``${run_id:}`` for every command composing that config (see below).
 
 :class:`FailedJobs`: a sweep runs every job (a failing job writes ``error.json`` and the sweep goes on,
 ``mcd.run``), then exits with status 1 naming how many jobs failed, so that scripts and CI see the failure.
@@ -15,7 +16,12 @@ from typing import Any
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig
 
+from mcd import run_dir
+
 log = logging.getLogger("mcd.run")
+# Hydra instantiates this module's callbacks before it resolves hydra.run.dir or hydra.sweep.dir, so every
+# command composing conf/config.yaml gets the ${run_id:} of their defaults (mcd/run_dir.py) from here
+run_dir.register_resolvers()
 
 
 class FailedJobs(Callback):

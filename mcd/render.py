@@ -26,12 +26,10 @@ import sys
 import hydra
 from omegaconf import DictConfig
 
-from mcd import run_dir
 from mcd.data.shards import Selection
 from mcd.workload import requested_buffers
 
 log = logging.getLogger("mcd.render")
-run_dir.register_resolvers()  # ${run_id:} of conf/config.yaml's hydra.run.dir
 
 
 @hydra.main(config_path="conf", config_name="config", version_base=None)

@@ -258,6 +258,8 @@ def main(argv: list[str] | None = None) -> None:
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command)
     print(f"report written to {out_dir}/README.md")
+    from mcd.reporting.runs import find_runs
+
     corrupt = [r.corrupt for r in find_runs(args.dirs) if r.corrupt]
     if corrupt:  # the report lists these jobs as failed; the exit status says the inputs were damaged
         for problem in corrupt:

@@ -55,7 +55,6 @@ from mcd.run_summary import summary
 from mcd.workload import announce
 
 log = logging.getLogger("mcd.run")
-run_dir.register_resolvers()  # ${run_id:} of conf/config.yaml's hydra.run.dir
 
 
 def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseException) -> Path:

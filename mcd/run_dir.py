@@ -3,8 +3,9 @@
 
 - :func:`register_resolvers` adds ``${run_id:}`` to OmegaConf: a short token drawn once per process (6 hex
   digits), which ``conf/config.yaml`` appends to the default ``hydra.run.dir``, so two runs started in the
-  same second get two directories. Every Hydra entry point that composes ``conf/config.yaml`` calls it at
-  import.
+  same second get two directories (and an ad-hoc ``-m`` sweep's). ``mcd.hydra_callbacks`` calls it at
+  import: Hydra instantiates the callbacks of ``conf/config.yaml`` before it resolves those directories, so
+  every command composing that config has it.
 - :func:`hold` takes ``<run dir>/run.lock`` with ``fcntl.flock`` for as long as the run lives; a second
   process on the same directory (two ``ckpt_path=auto`` resumes, a ``hydra.run.dir`` given twice, two copies
   of one sweep) is refused with :class:`RunDirInUse`, naming the owner's pid. The kernel drops the lock when

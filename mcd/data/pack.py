@@ -186,10 +186,6 @@ def main() -> None:
     """The Hydra command (module docstring)."""
     import hydra
 
-    from mcd import run_dir
-
-    run_dir.register_resolvers()  # ${run_id:} of conf/config.yaml's hydra.run.dir
-
     @hydra.main(config_path="../conf", config_name="config", version_base=None)
     def _run(cfg: DictConfig) -> dict:
         from mcd.lit.transfer import prepare

@@ -17,13 +17,11 @@ import hydra
 import numpy as np
 from omegaconf import DictConfig
 
-from mcd import run_dir
 from mcd.data.camera import interpolate_path
 from mcd.data.renderer import SceneRenderer
 from mcd.data.scenes import SceneSpec
 
 log = logging.getLogger("mcd.check_paths")
-run_dir.register_resolvers()  # ${run_id:} of conf/config.yaml's hydra.run.dir
 
 
 def frame_stats(img: np.ndarray, depth: np.ndarray) -> tuple[float, float, float]:
