@@ -119,7 +119,8 @@ def lines(p: dict[str, Any]) -> list[str]:
         f"pixels x {ns} scenes = {_range(*wk['samples'])}",
         f"training: {wk['train_clips']} clips / batch {wk['batch']} / {wk['ranks']} rank(s) = "
         f"{wk['steps_per_epoch']} steps per epoch; run: {wk['run_steps'] or '?'} steps "
-        f"({wk['run_steps_how']})",
+        f"({wk['run_steps_how']})" if wk["train_error"] is None else
+        f"training: none on this profile: {wk['train_error']}",
     ]
     if "pilot" not in p:
         return [*out, "(not measured: plan.measure=false)"]

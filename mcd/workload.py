@@ -65,7 +65,7 @@ def _train_buffers(cfg: DictConfig) -> list[str]:
 def work(cfg: DictConfig) -> dict[str, Any]:
     """The plan's counts from the config alone (:mod:`mcd.plan`): bytes, samples, steps."""
     d = cfg.data
-    reader = StoreReader(cfg.paths.data_dir, d, cfg.paths.get("scenes_dir"), overrides=[])
+    reader = StoreReader.from_cfg(cfg, overrides=[])  # registers scenes given by path
     scenes, n = reader.scene_names, reader.n_frames
     w, h = int(d.width), int(d.height)
     render = _render_buffers(cfg)
@@ -86,7 +86,11 @@ def work(cfg: DictConfig) -> dict[str, Any]:
     if any(b in GBUFFERS for b in render):
         lo += n * int(d.gbuffer_spp)
         hi += n * int(d.gbuffer_spp)
-    split = split_frames(n, float(d.get("test_fraction", 0.2)), int(d.val_clips), int(d.clip_len))
+    try:  # a profile too short to train on still renders and tests (e.g. a transfer run's held-out scenes)
+        split, train_error = split_frames(n, float(d.get("test_fraction", 0.2)), int(d.val_clips),
+                                          int(d.clip_len)), None
+    except ValueError as err:
+        split, train_error = {"train": [], "val": []}, str(err)
     packed_frames = sum(len(c) for c in split["train"] + split["val"]) * len(d.train_scenes)
     channels = sum(CHANNELS[b] for b in train)
     clips = len(split["train"]) * len(d.train_scenes)
@@ -96,7 +100,7 @@ def work(cfg: DictConfig) -> dict[str, Any]:
     batch = int(t.batch_size)
     steps = math.ceil(clips / ranks / batch)
     limit = t.get("limit_train_batches", 1.0)
-    steps = min(steps, int(limit)) if isinstance(limit, int) else max(1, int(steps * float(limit)))
+    steps = min(steps, int(limit)) if isinstance(limit, int) else math.ceil(steps * float(limit))
     if t.get("epochs") is not None:
         run_steps, how = int(t.epochs) * steps, f"train.epochs={int(t.epochs)} x {steps} steps"
     elif t.get("max_steps") is not None:
@@ -114,7 +118,7 @@ def work(cfg: DictConfig) -> dict[str, Any]:
         "samples": (lo * w * h * len(scenes), hi * w * h * len(scenes)),
         "spp_per_scene": (lo, hi),
         "train_clips": clips, "batch": batch, "ranks": ranks, "steps_per_epoch": steps,
-        "run_steps": run_steps, "run_steps_how": how,
+        "run_steps": run_steps, "run_steps_how": how, "train_error": train_error,
         "max_minutes": t.get("max_minutes"), "crop": int(d.train_crop), "clip_len": int(d.clip_len),
     }
 
@@ -129,7 +133,7 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
 
     d = cfg.data
     variant = select_variant(str(cfg.render.get("variant", "auto")))
-    reader = StoreReader(cfg.paths.data_dir, d, cfg.paths.get("scenes_dir"), overrides=[])
+    reader = StoreReader.from_cfg(cfg, overrides=[])  # registers scenes given by path
     w, h = max(8, int(d.width) // scale), max(8, int(d.height) // scale)
     tried = []
     for name in reader.scene_names:

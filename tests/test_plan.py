@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import logging
 
-import pytest
-
 from mcd.data import Store
 from mcd.plan import main
 from mcd.workload import announce, work
@@ -46,9 +44,16 @@ def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):
     assert not (tmp_path / "test32").exists()  # nothing rendered into the store
 
 
-def test_bad_plan_profile_is_named(tmp_path):
-    with pytest.raises(ValueError, match="data.frames_per_segment"):
-        work(compose_cfg(*store32_overrides(tmp_path), "data.segments=1", "data.frames_per_segment=3"))
+def test_a_profile_too_short_to_train_on_is_planned_without_training(tmp_path, capsys):
+    """A profile that only renders and tests (a transfer run's held-out scene) gets a plan whose training line
+    says why there is none, naming the keys; ``mcd.render`` of it is not refused by the plan."""
+    cfg = compose_cfg(*store32_overrides(tmp_path), "data.segments=1", "data.frames_per_segment=3")
+    wk = work(cfg)
+    assert wk["train_clips"] == 0 and wk["train_store_bytes"]["float32"] == 0 and wk["exr_bytes"] > 0
+    assert "data.frames_per_segment" in wk["train_error"]
+    main(compose_cfg(*store32_overrides(tmp_path), "data.segments=1", "data.frames_per_segment=3",
+                     "plan.measure=false"))
+    assert "training: none on this profile: a 3-frame sequence" in capsys.readouterr().out
 
 
 def test_announce_prints_the_summary_only_above_an_hour(tmp_path, caplog):
