@@ -27,25 +27,15 @@ import time
 import traceback
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import hydra
-import lightning as L
-import torch
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from hydra.utils import instantiate
-from lightning.pytorch.callbacks import ModelCheckpoint
-from lightning.pytorch.utilities import rank_zero_only
 from omegaconf import DictConfig, OmegaConf
-from torch import nn
 
 from mcd import allocator, run_dir
-from mcd.data import MCDDataModule
-from mcd.lit import DenoiseModule, budget, progress
-from mcd.lit.segments import TrainingSegments
-from mcd.lit.test_recorder import TestRecorder
-from mcd.losses import build_loss
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
@@ -53,6 +43,16 @@ from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
 from mcd.run_summary import summary
 from mcd.workload import announce
+
+if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
+    import lightning as L
+    from lightning.pytorch.callbacks import ModelCheckpoint
+    from torch import nn
+
+    from mcd.data import MCDDataModule
+    from mcd.lit import DenoiseModule, budget
+    from mcd.lit.segments import TrainingSegments
+    from mcd.lit.test_recorder import TestRecorder
 
 log = logging.getLogger("mcd.run")
 
@@ -125,11 +125,17 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     interrupted run of another job (``mcd.run_record.claim_run_dir``; ``choices``: Hydra's config-group
     choices, for the job's data profile).
     """
-    from mcd.data import StoreBuilder
+    import lightning as L
+    from lightning.pytorch.callbacks import ModelCheckpoint
+
+    from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.data.pack import pack
     from mcd.data.train_store import TrainStoreSettings
-    from mcd.lit import checkpoint, transfer
+    from mcd.lit import DenoiseModule, budget, checkpoint, progress, transfer
+    from mcd.lit.segments import TrainingSegments
+    from mcd.lit.test_recorder import TestRecorder
+    from mcd.losses import build_loss
     from mcd.models import build as build_model
 
     if cfg.method.name in SWITCHED_METHODS:
@@ -192,6 +198,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
 def agreed_best(trainer: L.Trainer, best: ModelCheckpoint) -> tuple[str, float | None]:
     """The best checkpoint and its ``val/psnr``; RuntimeError on every process where the processes of a DDP
     run picked different ones (their validation metrics were not averaged over all of them)."""
+    import torch
+
     score = None if best.best_model_score is None else float(best.best_model_score)
     ours = (best.best_model_path, score)
     picks: list[object] = [ours]
@@ -209,6 +217,8 @@ def fit(job: Job) -> Fitted:
     """Train within the budget (mcd.lit.budget), keep the best validation checkpoint, and say what to test;
     a method that is not trained (``method.trainable=false``, a transfer without fine-tuning) is tested as
     built."""
+    from mcd.lit import budget
+
     trainer = job.trainer
     t0 = time.perf_counter()
     if not job.trainable:
@@ -252,6 +262,8 @@ def run_test(job: Job, checkpoint: str | None) -> float:
 def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str], code: dict[str, object],
                started: float) -> RunRecord:
     """The :class:`~mcd.run_record.RunRecord` of a tested job (rank 0: it holds the test's averages)."""
+    import torch
+
     from mcd.models.complexity import complexity, count_params
 
     cfg, model, trainer, averages = job.cfg, job.model, job.trainer, job.recorder.averages
@@ -327,6 +339,8 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
 @hydra.main(version_base="1.3", config_path="conf", config_name="config")
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
+    from lightning.pytorch.utilities import rank_zero_only
+
     started = time.perf_counter()
     allocator.keep_freed_memory()  # training steps and full test frames reuse freed pages (mcd/allocator.py)
     hydra_cfg = HydraConfig.get()

@@ -21,7 +21,7 @@ REPO = Path(__file__).resolve().parents[1]
 #: Libraries that take seconds to import; none belongs on the path to ``--help``.
 HEAVY = ("torch", "lightning", "mitsuba", "drjit", "pandas", "matplotlib", "skimage", "scipy")
 #: The commands whose ``--help`` must be fast (``mcd-denoise`` is ``python -m mcd.denoise``).
-COMMANDS = ("mcd.report", "mcd.render", "mcd.bench", "mcd.denoise")
+COMMANDS = ("mcd.run", "mcd.render", "mcd.report", "mcd.bench", "mcd.denoise")
 CPU_LIMIT_S = 3.0
 
 #: Runs module ``argv[1]`` as ``python -m`` does with the rest of argv, then prints the top-level packages
