@@ -436,7 +436,7 @@ def write_csv(rows: list[Row], path: Path) -> None:
         writer.writeheader()
         for r in rows:
             d = asdict(r)
-            for key, spec in (("ms_median", ".4f"), ("fps", ".3f"), ("gmacs", ".2f"), ("gmac_per_s", ".2f"),
+            for key, spec in (("ms_median", ".4f"), ("fps", ".5g"), ("gmacs", ".2f"), ("gmac_per_s", ".2f"),
                               ("peak_rss_gb", ".3f")):
                 d[key] = _fmt(d[key], spec)
             writer.writerow(d)
