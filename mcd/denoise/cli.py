@@ -130,7 +130,7 @@ def run(argv: list[str] | None = None) -> dict:
             report = _scene(args, loaded, device, dtype)
         else:
             report = _frames(args, loaded, device, dtype, meta)
-    except (ValueError, FileNotFoundError, RuntimeError) as err:
+    except (ValueError, FileNotFoundError, RuntimeError, ImportError) as err:  # ImportError: a missing extra
         print(f"mcd-denoise: error: {err}", file=sys.stderr)
         raise SystemExit(2) from err
     report.update(meta)

@@ -125,6 +125,13 @@ def test_adaptive_checkpoint_needs_a_scene(tmp_path, capsys, frames):
     assert "samples adaptively" in err and "--scene path/to/scene.xml" in err
 
 
+def test_oidn_without_its_optional_package_says_how_to_install_it(tmp_path, capsys, frames, monkeypatch):
+    monkeypatch.setitem(__import__("sys").modules, "pyoidn", None)   # import pyoidn now raises ImportError
+    err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--experiment", "oidn")
+    assert "needs the optional package pyoidn" in err and "pip install" in err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").glob("*.exr"))
+
+
 def test_unknown_checkpoint_lists_the_bundled_ones(tmp_path, capsys, frames):
     err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--checkpoint", "no-such-model")
     assert "--checkpoint=no-such-model: no such file or folder, and not a bundled checkpoint" in err
