@@ -49,10 +49,10 @@ def store32_overrides(data_dir: Path | str) -> list[str]:
 
 @pytest.fixture(scope="session")
 def cbox_store(tmp_path_factory):
-    from mcd.data import BUFFERS, Store
+    from mcd.data import BUFFERS, StoreBuilder
 
     cfg = compose_cfg(*store32_overrides(tmp_path_factory.mktemp("store")))
-    store = Store.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg)
     store.ensure(set(BUFFERS), progress=False)
     return cfg, store
 

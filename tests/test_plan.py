@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import logging
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.plan import main
 from mcd.workload import announce, work
 from tests.conftest import compose_cfg, store32_overrides
@@ -70,7 +70,7 @@ def test_announce_prints_the_summary_only_above_an_hour(tmp_path, caplog):
 def test_render_prints_a_progress_line_per_scene_and_frame(tmp_path, caplog):
     caplog.set_level(logging.INFO, logger="mcd.data.store")
     cfg = compose_cfg(*store32_overrides(tmp_path), "data.ref_spp=8", "data.ref_quality.target_db=null")
-    Store.from_cfg(cfg).ensure({"c1"}, progress=True)
+    StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=True)
     lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("render 1/1 scene cbox")]
     assert lines[0] == "render 1/1 scene cbox: 12 of its 12 frames here need rendering (ref,c1)"
     frames = lines[1:]

@@ -1,7 +1,7 @@
 """Benchmark data path: scenes, camera paths, Mitsuba rendering, the EXR store and the datamodule.
 
 The store has one reader (:class:`StoreReader`: manifest, load, frame count) and a builder that renders
-(:class:`StoreBuilder`, also exported as ``Store``); its buffers are one table, :mod:`mcd.data.buffers`.
+(:class:`StoreBuilder`); its buffers are one table, :mod:`mcd.data.buffers`.
 See docs/architecture.md ("The store", "Batches"), docs/benchmark.md ("Data protocol"), docs/data.md and
 docs/scenes.md.
 Importing this package imports none of its modules: each name below is imported on first use, so that
@@ -15,8 +15,7 @@ from typing import Any
 
 #: Where each exported name lives.
 _EXPORTS = {"BUFFERS": "mcd.data.buffers", "CorruptEXRError": "mcd.data.exr",
-            "MCDDataModule": "mcd.data.datamodule", "Store": "mcd.data.store_builder",
-            "StoreBuilder": "mcd.data.store_builder",
+            "MCDDataModule": "mcd.data.datamodule", "StoreBuilder": "mcd.data.store_builder",
             "StoreReader": "mcd.data.store"}
 
 __all__ = sorted(_EXPORTS)

@@ -21,8 +21,6 @@ each scene (frame 0 as two independent halves of ``data.ref_spp``) estimates its
 (:mod:`mcd.data.reference_quality`), and the references of the scene's test frames are rendered at the spp
 that reaches the target (at most ``data.ref_quality.max_spp``), as two halves whose difference gives each
 one's achieved PSNR (``psnr_estimate`` in the manifest). Training and validation frames keep ``data.ref_spp``.
-
-``Store`` is this class under the name most callers use (``mcd.data.Store``).
 """
 
 from __future__ import annotations
@@ -386,13 +384,7 @@ class StoreBuilder(StoreReader):
             return
         tally.variant = tally.variant or self._variant()
         frame = _FrameRenderer(self, spec, loader, seen, want, tally)
-        if spec.exposure == "auto" and man.get("exposure") is None and any(
-            f != 0 and "ref" in todo[f] and self._quality_frame(man, f) for f in work
-        ):
-            frame.run(0, todo.get(0, ["ref"]), blocking=True)
-            work = [f for f in work if f != 0]
-            todo.pop(0, None)
-        t0, done, pending = time.perf_counter(), 0, list(work)
+        t0, done, total = time.perf_counter(), 0, len(work)
 
         def report(f: int) -> None:
             nonlocal done
@@ -400,8 +392,18 @@ class StoreBuilder(StoreReader):
             if position is not None:
                 dt = time.perf_counter() - t0
                 log.info("render %s scene %s: frame %d done (%d/%d); %.2f Msamples/s; elapsed %s, ETA %s",
-                         position, name, f, done, len(work), frame.samples / 1e6 / max(dt, 1e-9),
-                         _clock(dt), _clock(dt / done * (len(work) - done)))
+                         position, name, f, done, total, frame.samples / 1e6 / max(dt, 1e-9),
+                         _clock(dt), _clock(dt / done * (total - done)))
+
+        if spec.exposure == "auto" and man.get("exposure") is None and any(
+            f != 0 and "ref" in todo[f] and self._quality_frame(man, f) for f in work
+        ):
+            frame.run(0, todo.get(0, ["ref"]), blocking=True)
+            if 0 in work:  # this process's frame 0, rendered first for the auto exposure
+                report(0)
+            work = [f for f in work if f != 0]
+            todo.pop(0, None)
+        pending = list(work)
 
         while pending:
             for f in list(pending):
@@ -649,6 +651,3 @@ def _fmt(c: Counter[str]) -> str:
     if not c:
         return "nothing"
     return ", ".join(f"{b} x{c[b]}" for b in BUFFERS if c.get(b))
-
-
-Store = StoreBuilder

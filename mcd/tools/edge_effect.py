@@ -131,7 +131,7 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
     """The edge effect of a finished run (``metrics.json``) on its test frames (``resolved_config.yaml``),
     with the weights it tested: its checkpoint; a transfer job tested as loaded, ``transfer.init_from``; a
     method without weights (OIDN, the noisy input), as built. Returns the ``edges.json`` record."""
-    from mcd.data import Store
+    from mcd.data import StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.data.datamodule import MCDDataModule
     from mcd.denoise.weights import load
@@ -154,7 +154,7 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
     else:
         raise FileNotFoundError(f"{metrics_file}: names no checkpoint and no transfer.init_from; the weights "
                                 "this run tested are unknown")
-    store = Store.from_cfg(cfg, overrides=[])
+    store = StoreBuilder.from_cfg(cfg, overrides=[])
     buffers = run_buffers(model.required_buffers(), cfg.budget)
     store.ensure(buffers, progress=False)
     datamodule = MCDDataModule(cfg, store, buffers, model.window)

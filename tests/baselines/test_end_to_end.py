@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.metrics import psnr
 from tests.conftest import compose_cfg
 
@@ -48,7 +48,7 @@ def sweep(tmp_path_factory) -> Path:
 
 def _black_psnr(root: Path) -> dict[int, float]:
     """PSNR of an all-black output on each test frame of the sweep's store (the floor a real output beats)."""
-    store = Store.from_cfg(compose_cfg(f"paths.data_dir={root / 'data'}", *DATA))
+    store = StoreBuilder.from_cfg(compose_cfg(f"paths.data_dir={root / 'data'}", *DATA))
     frames = pd.read_csv(root / "runs" / "noisy" / "frames.csv")["frame"]
     black = np.zeros((32, 32, 3), np.float32)
     return {int(f): psnr(black, store.load("cbox", int(f), "ref")) for f in frames}

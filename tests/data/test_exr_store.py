@@ -9,7 +9,7 @@ import shlex
 import numpy as np
 import pytest
 
-from mcd.data import CorruptEXRError, Store
+from mcd.data import CorruptEXRError, StoreBuilder
 from mcd.data.exr import count_bad, read_exr, sanitise, write_exr
 from mcd.data.renderer import SceneRenderer
 from tests.conftest import compose_cfg, store32_overrides
@@ -17,11 +17,11 @@ from tests.conftest import compose_cfg, store32_overrides
 FAST = ["data.ref_spp=8", "data.gbuffer_spp=2"]
 
 
-def _store(tmp_path, *extra: str) -> Store:
+def _store(tmp_path, *extra: str) -> StoreBuilder:
     """The 32x32 test store with every reference at ``data.ref_spp``: these tests count renders and files;
     reference quality has its own (tests/data/test_reference_quality.py)."""
-    return Store.from_cfg(compose_cfg(*store32_overrides(tmp_path), *FAST, "data.ref_quality.target_db=null",
-                                      *extra))
+    return StoreBuilder.from_cfg(
+        compose_cfg(*store32_overrides(tmp_path), *FAST, "data.ref_quality.target_db=null", *extra))
 
 
 @pytest.mark.parametrize("channels", [1, 2, 3])
@@ -246,7 +246,7 @@ def test_killed_render_process_resumes(tmp_path):
     assert 2 <= n_done < 6
     root = manifest.parent
     mtimes = {k: (root / k).stat().st_mtime_ns for k in done}
-    resumed = Store.from_cfg(compose_cfg(*args[:-1])).ensure({"c1"}, progress=False)
+    resumed = StoreBuilder.from_cfg(compose_cfg(*args[:-1])).ensure({"c1"}, progress=False)
     assert resumed["reused"]["ref"] == len([k for k in done if k.endswith("ref.exr")])
     assert resumed["rendered"]["ref"] == 6 - resumed["reused"]["ref"]
     assert all((root / k).stat().st_mtime_ns == t for k, t in mtimes.items())

@@ -44,11 +44,11 @@ def test_spp_for_target_scales_with_the_noise_and_respects_the_bounds():
 
 
 def _store(tmp_path, *extra):
-    from mcd.data import Store
+    from mcd.data import StoreBuilder
     from tests.conftest import compose_cfg, store32_overrides
 
     overrides = [o for o in store32_overrides(tmp_path) if not o.startswith("data.ref_spp")]
-    return Store.from_cfg(compose_cfg(*overrides, "data.ref_spp=16", *extra))
+    return StoreBuilder.from_cfg(compose_cfg(*overrides, "data.ref_spp=16", *extra))
 
 
 def test_test_frames_get_the_spp_their_scene_needs_and_training_frames_keep_ref_spp(tmp_path):

@@ -84,7 +84,7 @@ def test_procedural_room_is_reproducible_and_varied():
 
 
 def test_procedural_room_renders_inside(tmp_path):
-    from mcd.data import Store
+    from mcd.data import StoreBuilder
 
     cfg = compose_cfg(
         "data=medium",
@@ -98,7 +98,7 @@ def test_procedural_room_renders_inside(tmp_path):
         "data.transfer_scenes=[]",
         "data.test_scenes=[room1]",
     )
-    store = Store.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg)
     store.ensure({"c4"}, progress=False)
     ref = store.load("room1", 1, "ref")
     assert (ref.mean(-1) > 1e-3).mean() > 0.9 and store.manifest("room1")["source"]["kind"] == "procedural"

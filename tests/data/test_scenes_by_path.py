@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.data.scenes import VENDORED_DIR, SceneNotFoundError, register_paths
 from tests.conftest import compose_cfg, store32_overrides
 
@@ -31,13 +31,13 @@ def my_scene(tmp_path_factory) -> Path:
 
 def test_a_path_in_the_scene_list_registers_the_scene(tmp_path, my_scene):
     cfg = compose_cfg(*store32_overrides(tmp_path), *SMALL, f"data.test_scenes=[{my_scene}]")
-    store = Store.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg)
     assert list(cfg.data.test_scenes) == ["mybox"] and store.specs["mybox"].file == my_scene.resolve()
     report = store.ensure({"c4"}, scenes=["mybox"], progress=False)
     assert report["rendered"]["c4"] == 2
     assert store.load("mybox", 1, "c4").shape == (32, 32, 3)
     again = compose_cfg(*store32_overrides(tmp_path), *SMALL, f"data.test_scenes=[{my_scene}]")
-    assert Store.from_cfg(again).ensure({"c4"}, scenes=["mybox"], progress=False)["rendered"] == {}
+    assert StoreBuilder.from_cfg(again).ensure({"c4"}, scenes=["mybox"], progress=False)["rendered"] == {}
 
 
 def test_a_name_clash_is_refused(tmp_path, my_scene):
@@ -52,7 +52,7 @@ def test_a_name_clash_is_refused(tmp_path, my_scene):
 def test_an_unregistered_name_says_how_to_register_it(tmp_path):
     cfg = compose_cfg("data=tiny", f"paths.data_dir={tmp_path}", "data.test_scenes=[kitchen]")
     with pytest.raises(ValueError) as err:
-        Store.from_cfg(cfg)
+        StoreBuilder.from_cfg(cfg)
     msg = str(err.value)
     assert "data.test_scenes=[path/to/scene.xml]" in msg and "+data.scenes.kitchen=" in msg
     assert "conf/" not in msg  # never: edit the repository's configs
@@ -62,7 +62,7 @@ def test_a_scene_outside_the_repository_needs_the_scenes_folder(tmp_path, monkey
     monkeypatch.delenv("MCD_SCENES_DIR", raising=False)
     cfg = compose_cfg("data=small", f"paths.data_dir={tmp_path}")
     assert cfg.paths.scenes_dir is None
-    store = Store.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg)
     with pytest.raises(SceneNotFoundError, match=r"'staircase2'|'bathroom'") as err:
         store.ensure({"c4"}, progress=False)
     assert "MCD_SCENES_DIR" in str(err.value) and "docs/scenes.md" in str(err.value)

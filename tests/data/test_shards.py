@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.data.shards import Selection
 from tests.conftest import compose_cfg, store32_overrides
 
@@ -97,7 +97,7 @@ def test_three_shards_two_processes_at_once_equal_a_one_process_render(tmp_path)
          "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={sweep}"],
         cwd=REPO, env=_env(), capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    Store.from_cfg(compose_cfg(*_overrides(single))).ensure(ASKED, progress=False)
+    StoreBuilder.from_cfg(compose_cfg(*_overrides(single))).ensure(ASKED, progress=False)
 
     one = json.loads((single / "test32" / "cbox" / "manifest.json").read_text())
     many = json.loads((sharded / "test32" / "cbox" / "manifest.json").read_text())
@@ -143,7 +143,7 @@ def test_a_killed_shard_resumes_beside_a_live_one(tmp_path):
     assert 2 <= len({k.split("/")[0] for k in done if k.endswith("motion.exr")} & mine) < 6
     root = manifest.parent
     mtimes = {k: (root / k).stat().st_mtime_ns for k in done}
-    resumed = Store.from_cfg(compose_cfg(*args)).ensure(
+    resumed = StoreBuilder.from_cfg(compose_cfg(*args)).ensure(
         ASKED, progress=False, selection=Selection(0, 2))
     assert sum(resumed["rendered"].values()) + sum(resumed["reused"].values()) == 6 * 4
     assert sum(resumed["rendered"].values()) == 6 * 4 - len([k for k in done if k.split("/")[0] in mine])
@@ -151,4 +151,4 @@ def test_a_killed_shard_resumes_beside_a_live_one(tmp_path):
     files = json.loads(manifest.read_text())["files"]
     assert len(files) == 12 * 4
     assert not list(root.rglob(".*.tmp*"))
-    assert Store.from_cfg(compose_cfg(*args)).ensure(ASKED, progress=False)["rendered"] == {}
+    assert StoreBuilder.from_cfg(compose_cfg(*args)).ensure(ASKED, progress=False)["rendered"] == {}

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 import torch
 
-from mcd.data import MCDDataModule, Store
+from mcd.data import MCDDataModule, StoreBuilder
 from mcd.data.exr import sha256, write_exr
 from mcd.lit import DenoiseModule
 from mcd.lit.test_recorder import TestRecorder
@@ -26,7 +26,7 @@ def parts(data_dir, *overrides):
     cfg = compose_cfg(data_dir, *overrides)
     model = build(cfg)
     buffers = set(model.required_buffers()) | {"ref", f"c{cfg.budget}"}
-    store = Store.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg)
     dm = MCDDataModule(cfg, store, buffers, model.window)
     return cfg, DenoiseModule(cfg, model, build_loss(cfg)), dm
 
@@ -82,7 +82,7 @@ def test_nan_in_a_rendered_frame_is_sanitised_and_never_reaches_the_loss(tiny_st
     data = tmp_path / "data"
     shutil.copytree(tiny_store, data)
     cfg = compose_cfg(data, "+experiment=A")
-    store = Store.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg)
     frame = store.frame_count("cbox") - 1  # the last frame is in the training clip
     path = store.path("cbox", frame, "c4")
     img = store.load("cbox", frame, "c4")

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from mcd.config import compose
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.data.buffers import run_buffers
 from mcd.data.datamodule import MCDDataModule
 from mcd.denoise.weights import load
@@ -45,7 +45,7 @@ def _rows(model, experiment: str, data_dir) -> list[dict[str, object]]:
         "+scene@data.scenes.cornell-box-picture=cornell-box-picture",
         f"data.train_scenes=[{','.join(SCENES)}]", f"data.test_scenes=[{','.join(SCENES)}]",
     ])
-    store = Store.from_cfg(cfg, overrides=[])
+    store = StoreBuilder.from_cfg(cfg, overrides=[])
     buffers = run_buffers(model.required_buffers(), cfg.budget)
     store.ensure(buffers, progress=False)
     datamodule = MCDDataModule(cfg, store, buffers, model.window)

@@ -7,7 +7,7 @@ import shutil
 import pytest
 from omegaconf import open_dict
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 
 
 @pytest.fixture
@@ -18,4 +18,4 @@ def own_store(cbox_store, tmp_path):
     cfg = cfg.copy()
     with open_dict(cfg):
         cfg.paths.data_dir = str(tmp_path / "data")
-    return cfg, Store.from_cfg(cfg)
+    return cfg, StoreBuilder.from_cfg(cfg)

@@ -10,7 +10,7 @@ import logging
 import numpy as np
 import pytest
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.data.exposure import EXPOSURE_CLAMP, auto_exposure
 from mcd.data.exr import read_exr, sha256, write_exr
 
@@ -46,7 +46,7 @@ def test_the_store_sets_a_finite_exposure_from_an_overflowing_frame_0(own_store,
     man["files"]["0000/ref.exr"].update(bytes=path.stat().st_size, sha256=sha256(path))
     man_path.write_text(json.dumps(man))
     with caplog.at_level(logging.WARNING, logger="mcd.data.exposure"):
-        Store.from_cfg(cfg).ensure({"c1"}, progress=False)
+        StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
     exposure = json.loads(man_path.read_text())["exposure"]
     assert 0 < exposure < 1e-7  # not 0, and not the silent fallback of 1
     assert f"{path}: 1536 of 3072 values above" in caplog.text

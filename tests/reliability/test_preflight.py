@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.data.scenes import SceneNotFoundError
 from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
@@ -54,5 +54,5 @@ def test_a_missing_scene_file_fails_before_the_first_scene_renders(tmp_path):
                       "data.train_scenes=[cbox,bathroom]", f"paths.scenes_dir={tmp_path / 'empty'}")
     missing = r"scene 'bathroom': file .*empty.* not found; set paths\.scenes_dir"
     with pytest.raises(SceneNotFoundError, match=missing):
-        Store.from_cfg(cfg).ensure({"ref"}, progress=False)
+        StoreBuilder.from_cfg(cfg).ensure({"ref"}, progress=False)
     assert not (tmp_path / "data").exists()  # cbox, listed first, was not rendered

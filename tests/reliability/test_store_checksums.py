@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 import mcd.data.store as store_module
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.data.exr import CorruptEXRError
 
 
@@ -25,7 +25,7 @@ def test_a_same_size_bitflip_is_refused_by_default(own_store):
     _flip_a_byte(path)
     assert path.stat().st_size == size
     with pytest.raises(CorruptEXRError, match="checksum differs from the manifest") as err:
-        Store.from_cfg(cfg).load("cbox", 2, "c1")
+        StoreBuilder.from_cfg(cfg).load("cbox", 2, "c1")
     assert str(path) in str(err.value) and "python -m mcd.render" in str(err.value)
 
 
@@ -34,7 +34,7 @@ def test_each_file_is_hashed_once_per_reader_unless_it_changes(own_store, monkey
     hashed: list[str] = []
     real = store_module.sha256
     monkeypatch.setattr(store_module, "sha256", lambda p: hashed.append(p.name) or real(p))
-    reader = Store.from_cfg(cfg)
+    reader = StoreBuilder.from_cfg(cfg)
     for _ in range(3):
         reader.load("cbox", 1, "c1")
         reader.load("cbox", 1, "ref")
@@ -49,7 +49,7 @@ def test_each_file_is_hashed_once_per_reader_unless_it_changes(own_store, monkey
 def test_the_setting_can_turn_it_off_or_on_for_every_load(own_store, value, mode):
     cfg, store = own_store
     cfg.data.verify_checksums = value
-    reader = Store.from_cfg(cfg)
+    reader = StoreBuilder.from_cfg(cfg)
     assert reader.verify_mode == mode
     _flip_a_byte(store.path("cbox", 2, "c1"))
     if mode == "never":
@@ -63,4 +63,4 @@ def test_a_bad_setting_is_named(own_store):
     cfg, _ = own_store
     cfg.data.verify_checksums = "sometimes"
     with pytest.raises(ValueError, match=r"verify_checksums='sometimes': expected one of once, always"):
-        Store.from_cfg(cfg)
+        StoreBuilder.from_cfg(cfg)

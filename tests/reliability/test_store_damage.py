@@ -10,7 +10,7 @@ import re
 import pytest
 from omegaconf import open_dict
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from mcd.data.store import CorruptManifestError
 
 
@@ -29,9 +29,9 @@ def test_a_manifest_that_breaks_the_schema_is_named_with_its_fix(own_store, dama
     path.write_text(json.dumps(man))
     named = rf"{re.escape(str(path))}: not a store manifest \({re.escape(problem)}.*render\.verify=true"
     with pytest.raises(CorruptManifestError, match=named):
-        Store.from_cfg(cfg).load("cbox", 0, "ref")
+        StoreBuilder.from_cfg(cfg).load("cbox", 0, "ref")
     with pytest.raises(CorruptManifestError, match=named):
-        Store.from_cfg(cfg).ensure({"c1"}, progress=False)
+        StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
 
 
 def test_following_the_fix_of_a_schema_break_repairs_the_store(own_store):
@@ -40,9 +40,9 @@ def test_following_the_fix_of_a_schema_break_repairs_the_store(own_store):
     path.write_text(json.dumps({**json.loads(path.read_text()), "files": 5}))
     with open_dict(cfg):
         cfg.render.verify = True
-    report = Store.from_cfg(cfg).ensure({"c1"}, progress=False)
+    report = StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
     assert report["rendered"] == {"ref": 12, "c1": 12}
-    assert Store.from_cfg(cfg).load("cbox", 0, "c1").shape == (32, 32, 3)
+    assert StoreBuilder.from_cfg(cfg).load("cbox", 0, "c1").shape == (32, 32, 3)
 
 
 def test_a_lock_that_is_a_directory_is_named_with_its_fix(own_store):
@@ -52,4 +52,4 @@ def test_a_lock_that_is_a_directory_is_named_with_its_fix(own_store):
     lock.mkdir()
     with pytest.raises(RuntimeError, match=rf"{re.escape(str(lock))}: the scene's lock file is not a regular "
                                            rf"file; remove it \(`rm -r {re.escape(str(lock))}`"):
-        Store.from_cfg(cfg).ensure({"c1"}, progress=False, scenes=["cbox"])
+        StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False, scenes=["cbox"])

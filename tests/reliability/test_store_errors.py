@@ -16,7 +16,7 @@ from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import open_dict
 
-from mcd.data import CorruptEXRError, Store
+from mcd.data import CorruptEXRError, StoreBuilder
 from mcd.data.store import CorruptManifestError
 from tests.conftest import CONF_DIR, store32_overrides
 
@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[2]
 def test_following_the_fix_command_repairs_the_same_store(own_store, tmp_path):
     cfg, _ = own_store
     overrides = [*store32_overrides(cfg.paths.data_dir), "+experiment=F", "train.epochs=1"]
-    store = Store.from_cfg(cfg, overrides)
+    store = StoreBuilder.from_cfg(cfg, overrides)
     damaged = store.path("cbox", 1, "c4")
     damaged.write_bytes(damaged.read_bytes()[:100])
     with pytest.raises(CorruptEXRError) as err:
@@ -40,7 +40,7 @@ def test_following_the_fix_command_repairs_the_same_store(own_store, tmp_path):
     proc = subprocess.run([sys.executable, *args[1:], f"hydra.run.dir={tmp_path / 'log'}"], cwd=REPO, env=env,
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    assert Store.from_cfg(cfg).load("cbox", 1, "c4").shape == (32, 32, 3)  # repaired at the store's size
+    assert StoreBuilder.from_cfg(cfg).load("cbox", 1, "c4").shape == (32, 32, 3)  # repaired, store's size
     assert {p: p.stat().st_mtime_ns for p in others} == others  # nothing else re-rendered
 
 
@@ -50,7 +50,7 @@ def test_a_hydra_apps_overrides_reach_the_fix_command(tmp_path):
         cfg = compose("config", overrides=overrides, return_hydra_config=True)
     HydraConfig.instance().set_config(cfg)
     try:
-        store = Store.from_cfg(cfg)
+        store = StoreBuilder.from_cfg(cfg)
     finally:
         HydraConfig.instance().cfg = None
     shaping = [o for o in overrides if not o.startswith(("+experiment=", "paths.data_dir="))]
@@ -63,11 +63,11 @@ def test_a_garbage_manifest_is_named_with_its_fix_which_verify_carries_out(own_s
     manifest.write_text('{"version": 1, "files": {"0000/ref.e')  # truncated
     named = rf"{re.escape(str(manifest))}: truncated or corrupt manifest .*render\.verify=true"
     with pytest.raises(CorruptManifestError, match=named):
-        Store.from_cfg(cfg).load("cbox", 0, "ref")
+        StoreBuilder.from_cfg(cfg).load("cbox", 0, "ref")
     with pytest.raises(CorruptManifestError):
-        Store.from_cfg(cfg).ensure({"c1"}, progress=False)
+        StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
     with open_dict(cfg):
         cfg.render.verify = True
-    report = Store.from_cfg(cfg).ensure({"c1"}, progress=False)
+    report = StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
     assert report["rendered"] == {"ref": 12, "c1": 12}
-    assert Store.from_cfg(cfg).load("cbox", 0, "c1").shape == (32, 32, 3)
+    assert StoreBuilder.from_cfg(cfg).load("cbox", 0, "c1").shape == (32, 32, 3)

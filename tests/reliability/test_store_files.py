@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from tests.conftest import compose_cfg, store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]
@@ -23,7 +23,7 @@ def test_store_files_get_the_umasks_mode(own_store, umask, mode):
     store.path("cbox", 0, "c1").unlink()  # one file to render again
     old = os.umask(umask)
     try:
-        report = Store.from_cfg(cfg).ensure({"c1"}, progress=False)
+        report = StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
     finally:
         os.umask(old)
     assert report["rendered"] == {"c1": 1}
@@ -37,7 +37,7 @@ def test_a_stale_manifest_temp_file_is_removed(own_store):
     stale = [scene / ".manifest.json.abc123.tmp", scene / "0003" / ".ref.exr.x.tmp.exr"]
     for path in stale:
         path.write_text("left by a killed render")
-    report = Store.from_cfg(cfg).ensure({"c1"}, progress=False)
+    report = StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
     assert report["rendered"] == {} and not any(p.exists() for p in stale)
 
 
@@ -60,4 +60,4 @@ def test_two_concurrent_renders_of_one_store_both_finish_with_a_complete_manifes
     for buffer in ("ref", "c4", "c8"):
         assert sum(k.endswith(f"/{buffer}.exr") for k in files) == 12, buffer
     cfg = compose_cfg(*[a for a in store32_overrides(data) if a != "data.ref_spp=256"], "data.ref_spp=1024")
-    assert Store.from_cfg(cfg).ensure({"c4", "c8"}, progress=False)["rendered"] == {}  # nothing lost
+    assert StoreBuilder.from_cfg(cfg).ensure({"c4", "c8"}, progress=False)["rendered"] == {}  # nothing lost

@@ -5,14 +5,14 @@ from __future__ import annotations
 import pytest
 from omegaconf import open_dict
 
-from mcd.data import Store
+from mcd.data import StoreBuilder
 from tests.conftest import compose_cfg, store32_overrides
 
 
 def test_a_profile_name_with_dots_is_refused_before_writing(tmp_path):
     cfg = compose_cfg(*store32_overrides(tmp_path / "data"), "data.name=../../outside")
     with pytest.raises(ValueError, match=r"data\.name='\.\./\.\./outside': not a plain folder name"):
-        Store.from_cfg(cfg).ensure({"ref"}, progress=False)
+        StoreBuilder.from_cfg(cfg).ensure({"ref"}, progress=False)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -23,7 +23,7 @@ def test_a_scene_key_with_dots_is_refused_before_writing(tmp_path):
         cfg.data.train_scenes = ["../../x"]
         cfg.data.test_scenes = ["../../x"]
     with pytest.raises(ValueError, match=r"data\.scenes key='\.\./\.\./x': not a plain folder name"):
-        Store.from_cfg(cfg).ensure({"ref"}, progress=False)
+        StoreBuilder.from_cfg(cfg).ensure({"ref"}, progress=False)
     assert list(tmp_path.iterdir()) == []
 
 

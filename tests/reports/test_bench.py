@@ -78,7 +78,7 @@ def test_unknown_scene_is_named_before_any_work():
 
 
 def test_store_frames_are_read_through_the_store_and_tiled(cbox_store):
-    """The inputs are what the models see (Store.load: exposure, sanitising), tiled to the target size."""
+    """The inputs are what the models see (StoreBuilder.load: exposure, sanitised), tiled to size."""
     _, store = cbox_store
     source = bench.StoreFrame(store, "cbox", 1)
     buffers, inputs = bench.frame_buffers({"c1", "depth"}, 40, 70, source)
