@@ -187,13 +187,12 @@ def _layout(path: Path, want: set[str],
 def read_frame(path: Path, want: set[str], size: tuple[int, int] | None = None) -> dict[str, np.ndarray]:
     """Raw ``colour`` and the layers of ``want`` (subset of :data:`LAYERS`) of one frame, ``(H, W, C)``;
     ``size``: the ``(H, W)`` every file must have (checked on the headers before any pixel is read)."""
-    layout = _layout(path, want, size)
-    shape = read_header(path)[0]
+    layout = _layout(path, want, size)   # every file's size checked against the frame's (and ``size``)
     files: dict[Path, dict[str, np.ndarray]] = {}
     out = {}
     for name, (file, keys) in layout.items():
         if file not in files:
-            files[file] = read_channels(file, shape)
+            files[file] = read_channels(file)
         out[name] = np.stack([files[file][k] for k in keys], axis=-1)
     return out
 
