@@ -19,6 +19,7 @@ from omegaconf import DictConfig, ListConfig
 from mcd.data.buffers import BUFFERS, CHANNELS, COLOUR_BUFFERS, GBUFFERS, buffer_spp, run_buffers
 from mcd.data.splits import split_frames, test_frame_count
 from mcd.data.store import StoreReader
+from mcd.machine import status_mb
 
 log = logging.getLogger("mcd.workload")
 
@@ -160,13 +161,6 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
                             "plan.measure=false")
 
 
-def _vm(field: str) -> float:
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith(field + ":"):
-            return int(line.split()[1]) / 1024
-    return float("nan")
-
-
 def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
     """One forward and backward of the configured method and loss, batch 1 (:mod:`mcd.plan`): seconds and
     memory in MB of one crop at ``data.train_crop``, and how they were measured.
@@ -200,7 +194,7 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
             base = torch.cuda.memory_allocated()
         else:
             Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS
-            base = _vm("VmRSS")
+            base = status_mb("VmRSS")
         t0, c0 = time.perf_counter(), time.process_time()
         pred = module.run_clip(batch, with_ref=True)
         module.loss_fn(pred, batch["ref"][:, -pred.shape[1]:])["loss"].backward()
@@ -208,7 +202,7 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
         if device == "cuda":
             torch.cuda.synchronize()
             return time.perf_counter() - t0, (torch.cuda.max_memory_allocated() - base) / 2**20
-        return (time.process_time() - c0) / threads, _vm("VmHWM") - base
+        return (time.process_time() - c0) / threads, status_mb("VmHWM") - base
 
     threads = torch.get_num_threads()
     if device == "cpu":

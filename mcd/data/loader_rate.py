@@ -46,18 +46,11 @@ from mcd.data.pack import pack
 from mcd.data.store import StoreReader
 from mcd.data.synthetic_store import synthetic_data_cfg, write_synthetic_store
 from mcd.data.train_store import TrainStore, TrainStoreSettings
+from mcd.machine import status_mb
 
 PROFILE, SCENE = "loaderbench", "synthetic"
 #: bytes fetched from storage over the bytes of the clips, from which a figure counts as disk-bound
 DISK_BOUND_READ = 0.5
-
-
-def _status_mb(field: str) -> float:
-    """A ``/proc/self/status`` memory field (``VmRSS``, ``RssAnon``, ...) in MB."""
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith(field + ":"):
-            return int(line.split()[1]) / 1024
-    return float("nan")
 
 
 def _read_bytes() -> int:
@@ -83,8 +76,8 @@ def _timed_loop(read: Callable[[int], None], n_clips: int, seconds: float, min_c
         cpu += time.process_time() - c0
         disk += _read_bytes() - d0
         clips += 1
-    return {"clips": clips, "wall_s": wall, "cpu_s": cpu, "disk_bytes": disk, "rss_mb": _status_mb("VmRSS"),
-            "rss_anon_mb": _status_mb("RssAnon")}
+    return {"clips": clips, "wall_s": wall, "cpu_s": cpu, "disk_bytes": disk, "rss_mb": status_mb("VmRSS"),
+            "rss_anon_mb": status_mb("RssAnon")}
 
 
 def _in_child(fn: Callable[..., dict], *args: Any) -> dict:
