@@ -1,8 +1,8 @@
-"""Where the package's own files are, resolved once (docs/architecture.md, "Layers"): the Hydra config folder
-and the vendored scenes, both inside the package so that an installed wheel has them, and the checkout.
-
-Data and scenes that are not vendored come from the config (``paths.data_dir``, ``paths.scenes_dir``), never
-from here; this module only names files that travel with the code.
+"""Where files are, resolved in one place (docs/architecture.md, "Layers"): the package's own files (the
+Hydra config folder and the vendored scenes, both inside the package so that an installed wheel has them, and
+the checkout), and the configured folders of the ``paths`` config group (``conf/paths/default.yaml``:
+``paths.data_dir``, ``paths.scenes_dir``), checked before any work so that a missing one is named with its
+key.
 """
 
 from __future__ import annotations
@@ -20,3 +20,38 @@ CONF_DIR = PACKAGE_DIR / "conf"
 #: The small scenes vendored with the code (docs/scenes.md), package data (``scenes`` at the repository root
 #: is a link to it).
 VENDORED_SCENES_DIR = PACKAGE_DIR / "scenes"
+
+
+def data_dir(value: str | Path | None) -> Path:
+    """The data store's folder from ``paths.data_dir`` (conf/paths/default.yaml; env ``MCD_DATA_DIR``).
+
+    It may not exist yet (the first render makes it); ValueError naming the key if it is empty or names a
+    file, before any work starts.
+    """
+    if value is None or not str(value).strip():
+        raise ValueError("paths.data_dir is empty: give the data store's folder (paths.data_dir=<dir> or the "
+                         "environment variable MCD_DATA_DIR; default ./data)")
+    path = Path(value).expanduser()
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"paths.data_dir={value} (or MCD_DATA_DIR) is a file, not a folder: give the data "
+                         "store's folder (docs/data.md)")
+    return path
+
+
+def scenes_dir(value: str | Path | None) -> Path | None:
+    """The folder of the scenes not vendored in ``scenes/`` from ``paths.scenes_dir`` (env ``MCD_SCENES_DIR``;
+    docs/scenes.md), or ``None`` when unset (then only those scenes fail, each naming the key).
+
+    A relative path is taken from the working directory, else from the checkout. ValueError naming the key
+    and what to do if it is set and no such folder exists, before any work starts.
+    """
+    if value is None or not str(value).strip():
+        return None
+    path = Path(value).expanduser()
+    if not path.is_absolute() and not path.exists():
+        path = REPO_ROOT / path
+    if not path.is_dir():
+        raise ValueError(f"paths.scenes_dir={value} (or MCD_SCENES_DIR): no such folder; set it to the "
+                         "folder that holds the scenes not vendored in scenes/ (docs/scenes.md says where to "
+                         "get each), or unset it to use the vendored scenes only")
+    return path

@@ -33,7 +33,8 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.data.camera import look_at, yaw
-from mcd.paths import REPO_ROOT, VENDORED_SCENES_DIR
+from mcd.paths import VENDORED_SCENES_DIR
+from mcd.paths import scenes_dir as resolve_scenes_dir
 
 log = logging.getLogger(__name__)
 
@@ -77,13 +78,8 @@ class SceneSpec:
                     f"set paths.scenes_dir=<dir> or the environment variable MCD_SCENES_DIR to the folder "
                     f"that holds {rel} (now {scenes_dir!r}); docs/scenes.md says where to get each scene"
                 )
-                if scenes_dir is None:
-                    file = None
-                else:
-                    base = Path(scenes_dir).expanduser()
-                    if not base.is_absolute() and not (Path.cwd() / base).exists():
-                        base = REPO_ROOT / base
-                    file = base / rel
+                base = resolve_scenes_dir(scenes_dir)
+                file = None if base is None else base / rel
             return SceneSpec(
                 name,
                 "xml",

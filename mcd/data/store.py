@@ -32,6 +32,8 @@ from mcd.data.camera import Camera
 from mcd.data.exposure import normalise
 from mcd.data.exr import CorruptEXRError, read_exr, sha256
 from mcd.data.scenes import SceneSpec
+from mcd.paths import data_dir as resolve_data_dir
+from mcd.paths import scenes_dir as resolve_scenes_dir
 
 log = logging.getLogger(__name__)
 
@@ -117,11 +119,11 @@ class StoreReader:
         repeated in the commands the store's errors print); ``None``: the data settings, spelled out."""
         self.data_cfg = data_cfg
         self.profile = check_name(str(data_cfg.name), "data.name")
-        self.data_dir = Path(data_dir)
+        self.data_dir = resolve_data_dir(data_dir)
         self.root = self.data_dir / self.profile
-        self.scenes_dir = scenes_dir
+        self.scenes_dir = resolve_scenes_dir(scenes_dir)
         self.specs: dict[str, SceneSpec] = {
-            check_name(str(name), "data.scenes key"): SceneSpec.from_cfg(name, scfg, scenes_dir)
+            check_name(str(name), "data.scenes key"): SceneSpec.from_cfg(name, scfg, self.scenes_dir)
             for name, scfg in data_cfg.scenes.items()
         }
         for key in ("train_scenes", "transfer_scenes", "test_scenes"):

@@ -29,11 +29,13 @@ REAL = [
 ]
 
 
-def test_missing_scene_names_the_path_and_the_setting():
-    spec = SceneSpec.from_cfg("x", {"kind": "xml", "file": "nowhere/scene.xml"}, "/no/such/dir")
+def test_missing_scene_names_the_path_and_the_setting(tmp_path):
+    spec = SceneSpec.from_cfg("x", {"kind": "xml", "file": "nowhere/scene.xml"}, tmp_path)
     with pytest.raises(SceneNotFoundError) as err:
         spec.check_exists()
-    assert "/no/such/dir/nowhere/scene.xml" in str(err.value) and "MCD_SCENES_DIR" in str(err.value)
+    assert f"{tmp_path}/nowhere/scene.xml" in str(err.value) and "MCD_SCENES_DIR" in str(err.value)
+    with pytest.raises(ValueError, match=r"paths\.scenes_dir=/no/such/dir \(or MCD_SCENES_DIR\): no such"):
+        SceneSpec.from_cfg("x", {"kind": "xml", "file": "nowhere/scene.xml"}, "/no/such/dir")
     with pytest.raises(ValueError, match="unknown kind"):
         SceneSpec.from_cfg("y", {"kind": "obj"}, ".")
 

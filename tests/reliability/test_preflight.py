@@ -1,5 +1,6 @@
-"""Defect 9 of issue 14: a bad budget, an image smaller than the SSIM window and a missing scene file fail
-before anything is rendered or trained, each with a message that says what to give."""
+"""Defect 9 of issue 14: a bad budget, an image smaller than the SSIM window, a missing scene file and a
+missing configured folder (issue 31: ``paths.scenes_dir``, ``paths.data_dir``) fail before anything is
+rendered or trained, each with a message that says what to give."""
 
 from __future__ import annotations
 
@@ -56,3 +57,39 @@ def test_a_missing_scene_file_fails_before_the_first_scene_renders(tmp_path):
     with pytest.raises(SceneNotFoundError, match=missing):
         StoreBuilder.from_cfg(cfg).ensure({"ref"}, progress=False)
     assert not (tmp_path / "data").exists()  # cbox, listed first, was not rendered
+
+
+def test_a_missing_scenes_dir_is_named_with_its_key_before_rendering(tmp_path):
+    """``paths.scenes_dir`` (conf/paths/default.yaml) set to no folder fails when the store is made, even if
+    every scene of the profile is vendored, naming the key and the variable (mcd.paths.scenes_dir)."""
+    message = r"paths\.scenes_dir=.*nowhere \(or MCD_SCENES_DIR\): no such folder; set it to the folder"
+    with pytest.raises(ValueError, match=message):
+        _run(tmp_path, "+experiment=A", f"paths.scenes_dir={tmp_path / 'nowhere'}")
+    assert not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize("value", ["file", "''"])
+def test_a_data_dir_that_is_a_file_or_empty_is_named_with_its_key_before_rendering(tmp_path, value):
+    (tmp_path / "file").write_text("not a folder")
+    given = tmp_path / "file" if value == "file" else value
+    message = r"paths\.data_dir=.*file \(or MCD_DATA_DIR\) is a file" if value == "file" else \
+        r"paths\.data_dir is empty"
+    with pytest.raises(ValueError, match=message):
+        _run(tmp_path, "+experiment=A", f"paths.data_dir={given}")
+    assert (tmp_path / "file").read_text() == "not a folder"
+
+
+def test_paths_is_a_config_group_whose_keys_the_environment_sets(tmp_path, monkeypatch):
+    """The folders come from ``conf/paths/default.yaml`` (a group, ``paths=<name>``), which reads
+    ``MCD_DATA_DIR`` and ``MCD_SCENES_DIR``."""
+    from omegaconf import OmegaConf
+
+    from mcd.paths import CONF_DIR
+
+    assert (CONF_DIR / "paths" / "default.yaml").is_file()
+    assert "paths" not in OmegaConf.load(CONF_DIR / "config.yaml")  # the group is the one home of the keys
+    monkeypatch.setenv("MCD_DATA_DIR", str(tmp_path / "d"))
+    monkeypatch.setenv("MCD_SCENES_DIR", str(tmp_path / "s"))
+    cfg = compose_cfg()
+    assert (cfg.paths.data_dir, cfg.paths.scenes_dir) == (str(tmp_path / "d"), str(tmp_path / "s"))
+    assert cfg.paths.vgg16_weights is None
