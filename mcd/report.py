@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
     import pandas as pd
 
+    from mcd.reporting.finding import Finding
     from mcd.reporting.provenance import Provenance
     from mcd.reporting.runs import Run, Sweep
 
@@ -57,29 +58,6 @@ def _failures(runs: list[Run], root: Path) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["run", "status", "overrides", "error"])
 
 
-def _headline(t1: pd.DataFrame) -> list[str]:
-    """F against the best other method of Table 1 (ours and the paper's), in words and numbers."""
-    import pandas as pd
-
-    from mcd.methods import display_name
-
-    ours = t1.set_index("experiment")
-    lines = []
-    if "F" not in ours.index or pd.isna(ours.loc["F", "PSNR"]):
-        return ["No finished run of F at 4 spp: the full method's standing cannot be stated."]
-    others = ours.drop(index="F")["PSNR"].dropna()
-    if others.empty:
-        return [f"F: {ours.loc['F', 'PSNR']:.2f} dB; no other method finished to compare with."]
-    best = others.idxmax()
-    gap = ours.loc["F", "PSNR"] - others.max()
-    word = "above" if gap > 0 else "below"
-    lines.append(
-        f"F is {abs(gap):.2f} dB {word} the best other method here ({display_name(str(best))}, "
-        f"{others.max():.2f} dB); F {ours.loc['F', 'PSNR']:.2f} dB."
-    )
-    return lines
-
-
 def _regenerate_command(out_dir: Path, name: str, root: Path) -> str:
     """The command that regenerates the report at `out_dir` from its run records (mcd.reporting.records)."""
     from mcd.reporting import records
@@ -101,11 +79,10 @@ def write_readme(
     root: Path,
     notes: list[str],
     report_s: float,
+    found: list[Finding],
 ) -> Path:
-    """The report's README: provenance, findings, failures, index."""
-    import pandas as pd
-
-    from mcd.reporting import findings, records, seeds, tables
+    """The report's README: provenance, findings (the prose of ``found``), failures, index."""
+    from mcd.reporting import finding, records
     from mcd.reporting.select import to_markdown
 
     n_ok = sum(r.status == "ok" for r in runs)
@@ -146,16 +123,9 @@ def write_readme(
         f"{int((fails['status'] == 'incomplete').sum())} incomplete",
         *[f"- Note: {n}" for n in notes],
         "",
-        "## Findings (generated from the tables below)",
+        f"## Findings (generated from the tables below; as data in [{finding.FILE}]({finding.FILE}))",
         "",
-        *[f"- {line}" for line in _headline(results["table1"])],
-        *[f"- {line}" for line in findings.baselines(results["table1"], results.get("seeds"))],
-        *[f"- {line}" for line in findings.oidn_gap(runs, spread=results.get("seeds"))],
-        *[f"- {line}" for line in findings.above_input(results["spp"])],
-        *[f"- {line}" for line in findings.against_budgets(results["spp"])],
-        *[f"- Component study, {line}" for line in tables.component_checks(results["components"])],
-        *[f"- Over seeds, {line}" for line in seeds.checks(results.get("seeds_differences", pd.DataFrame()))],
-        *[f"- {line}" for line in seeds.reproducibility(runs)],
+        *[f"- {finding.render(f)}" for f in found],
         "",
         "## Table 1 (4 spp)",
         "",
@@ -179,6 +149,24 @@ def write_readme(
     return path
 
 
+def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[Finding]:
+    """Every finding of the report, in the README's order (docs/benchmark.md "Reports", findings)."""
+    import pandas as pd
+
+    from mcd.reporting import findings, seeds, tables
+
+    return [
+        *findings.headline(results["table1"]),
+        *findings.baselines(results["table1"], results.get("seeds")),
+        *findings.oidn_gap(runs, spread=results.get("seeds")),
+        *findings.above_input(results["spp"]),
+        *findings.against_budgets(results["spp"]),
+        *tables.component_checks(results["components"]),
+        *seeds.checks(results.get("seeds_differences", pd.DataFrame())),
+        *seeds.reproducibility(runs),
+    ]
+
+
 def make_report(
     dirs: list[Path],
     out_root: Path,
@@ -188,7 +176,7 @@ def make_report(
     command: str | None = None,
 ) -> Path:
     """Write the whole report for the runs under `dirs`; returns the report directory."""
-    from mcd.reporting import curves, frames, records, seeds, speed, spp, strips, tables
+    from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables
     from mcd.reporting.provenance import Provenance
     from mcd.reporting.runs import find_runs, find_sweeps
 
@@ -218,7 +206,11 @@ def make_report(
     curve_files = curves.write(runs, out_dir, prov)
     records.keep(runs, sweeps, out_dir)
 
-    files = [out_dir / f for f in ("table1.md", "table1.csv", "components.md", "components.csv")]
+    found = gather_findings(runs, results)
+    finding.write(found, out_dir)
+
+    files = [out_dir / f for f in ("findings.json", "table1.md", "table1.csv", "components.md",
+                                   "components.csv")]
     if "transfer" in results:
         files += [out_dir / "transfer.md", out_dir / "transfer.csv"]
     if "seeds" in results:
@@ -230,7 +222,8 @@ def make_report(
     if frame_files:
         files.append(out_dir / "per_frame" / "per_frame.csv")
     write_readme(
-        out_dir, name, prov, runs, sweeps, results, files, root, notes or [], time.perf_counter() - started
+        out_dir, name, prov, runs, sweeps, results, files, root, notes or [], time.perf_counter() - started,
+        found,
     )
     return out_dir
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from mcd.reporting.finding import Finding, render
 from mcd.reporting.runs import Run
 from mcd.reporting.select import metric, to_markdown, train_scene_metric, write_table
 from mcd.reporting.tables import STEPS
@@ -127,67 +128,47 @@ def differences(runs: list[Run]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-#: A difference this many standard errors from zero is called resolved by the seeds.
-RESOLVED_SE = 2.0
-
-
-def _resolved(mean: float, se: float) -> str:
-    if math.isnan(se) or se == 0:
-        return "spread unknown"
-    k = abs(mean) / se
-    verdict = "resolved" if k >= RESOLVED_SE else "NOT resolved"
-    return f"{k:.1f} standard errors from zero: {verdict} by these seeds"
-
-
-def _train(row: pd.Series) -> str:
-    """`` On the training scenes' test frames: <mean> ± <se> dB.`` for a row of :func:`differences` ("" when
+def _train(row: pd.Series) -> dict[str, float]:
+    """The training scenes' mean difference and its standard error of a row of :func:`differences` (NaN when
     the runs have no per-scene scores)."""
     if "train mean dB" not in row or pd.isna(row["train mean dB"]):
-        return ""
-    return (f" On the training scenes' test frames (the paper's protocol): {row['train mean dB']:+.2f} ± "
-            f"{row['train se dB']:.2f} dB.")
+        return {"train mean": math.nan, "train se": math.nan}
+    return {"train mean": float(row["train mean dB"]), "train se": float(row["train se dB"])}
 
 
-def checks(diffs: pd.DataFrame) -> list[str]:
+def checks(diffs: pd.DataFrame) -> list[Finding]:
     """The paper's two claims restated over seeds, each with its standard error: F above A, and B→C the
     largest single-component step (differences spanning several components, e.g. F - C, are listed but not
     ranked against single steps)."""
-    lines: list[str] = []
+    found: list[Finding] = []
     if diffs.empty:
-        return lines
+        return found
     for budget, df in diffs.groupby("spp"):
         rows = df.set_index("difference")
         if "F - A" in rows.index:
             r = rows.loc["F - A"]
-            lines.append(
-                f"{budget:g} spp: F - A = {r['mean dB']:+.2f} ± {r['se dB']:.2f} dB (mean ± standard error, "
-                f"seeds {r['n']}), {_resolved(r['mean dB'], r['se dB'])}; F above A "
-                f"{'holds' if r['mean dB'] > 0 else 'does NOT hold'} on average.{_train(r)}"
-            )
+            found.append(Finding("seeds_f_above_a", "holds" if r["mean dB"] > 0 else "does not hold", "psnr",
+                                 "dB", ("F", "A"), {"mean": float(r["mean dB"]), "se": float(r["se dB"]),
+                                                    **_train(r)}, float(budget),
+                                 detail={"claim": "F above A on average over seeds", "n": str(r["n"])}))
         steps = df[df["difference"] != "F - A"]
         single = steps[~steps["adds"].str.contains("+", regex=False)]
         if "C - B" in rows.index:
             r = rows.loc["C - B"]
-            best = single.loc[single["mean dB"].idxmax()]
-            verdict = "is" if best["difference"] == "C - B" else f"is NOT (largest: {best['difference']})"
-            listed = ", ".join(
-                f"{d} ({a}) {m:+.2f} ± {e:.2f}"
-                for d, a, m, e in zip(
-                    steps["difference"], steps["adds"], steps["mean dB"], steps["se dB"], strict=True
-                )
-            )
-            train_note = _train(r)
-            if train_note and single["train mean dB"].notna().all():
-                top = single.loc[single["train mean dB"].idxmax(), "difference"]
-                train_note += (" It is the largest step there." if top == "C - B"
-                               else f" It is NOT the largest step there (largest: {top}).")
-            lines.append(
-                f"{budget:g} spp: C - B (KP) = {r['mean dB']:+.2f} ± {r['se dB']:.2f} dB, "
-                f"{_resolved(r['mean dB'], r['se dB'])}; it {verdict} the largest of the "
-                f"{len(single)} single-component steps measured. All measured steps: {listed} dB."
-                f"{train_note}"
-            )
-    return lines
+            largest = str(single.loc[single["mean dB"].idxmax(), "difference"])
+            top = (str(single.loc[single["train mean dB"].idxmax(), "difference"])
+                   if "train mean dB" in single and single["train mean dB"].notna().all() else None)
+            listed = [{"difference": d, "adds": a, "mean": float(m), "se": float(e)}
+                      for d, a, m, e in zip(steps["difference"], steps["adds"], steps["mean dB"],
+                                            steps["se dB"], strict=True)]
+            verdict = "holds" if largest == "C - B" else "does not hold"
+            values = {"mean": float(r["mean dB"]), "se": float(r["se dB"]), **_train(r)}
+            found.append(Finding("seeds_kp_largest_step", verdict, "psnr", "dB", ("C", "B"), values,
+                                 float(budget),
+                                 detail={"claim": "C - B the largest single-component step over seeds",
+                                         "largest": largest, "largest_train": top, "steps": listed,
+                                         "single_steps": len(single)}))
+    return found
 
 
 def _job_key(run: Run) -> tuple[object, ...]:
@@ -196,7 +177,7 @@ def _job_key(run: Run) -> tuple[object, ...]:
     return (run.experiment, run.budget, run.seed or 0, run.data_profile, steps)
 
 
-def reproducibility(runs: list[Run]) -> list[str]:
+def reproducibility(runs: list[Run]) -> list[Finding]:
     """Seeds-sweep jobs that repeat another sweep's job (same :func:`_job_key`): how far apart their PSNRs
     are. Same code and config should give the same number."""
     others: dict[tuple[object, ...], list[Run]] = {}
@@ -211,12 +192,8 @@ def reproducibility(runs: list[Run]) -> list[str]:
     ]
     if not gaps:
         return []
-    worst = max(gaps)
-    return [
-        f"Repeatability: {len(gaps)} seeds-sweep job(s) ({', '.join(sorted({e for _, e in gaps}))}) repeat "
-        f"a job of another sweep (same experiment, budget, seed, profile, steps); largest PSNR difference "
-        f"{worst[0]:.4f} dB."
-    ]
+    return [Finding("repeatability", "measured", "psnr", "dB", tuple(sorted({e for _, e in gaps})),
+                    {"jobs": float(len(gaps)), "largest difference": max(gaps)[0]})]
 
 
 def write(runs: list[Run], out_dir: Path) -> dict[str, pd.DataFrame]:
@@ -228,8 +205,7 @@ def write(runs: list[Run], out_dir: Path) -> dict[str, pd.DataFrame]:
     notes = [
         "SSIM x1e2; std: sample standard deviation over seeds (n-1). A seed sets the weights' "
         "initialisation, the training crops and the sample order (run.py seeds everything).",
-        *checks(diffs),
-        *reproducibility(runs),
+        *map(render, [*checks(diffs), *reproducibility(runs)]),
     ]
     write_table(table, out_dir, "seeds", "Run-to-run spread over seeds", notes)
     if not diffs.empty:

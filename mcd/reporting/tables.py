@@ -12,6 +12,7 @@ import pandas as pd
 from mcd.methods import BY_EXPERIMENT, TABLE1_ROWS, TABLE1_VARIANTS, display_name
 from mcd.models.switches import SWITCHES
 from mcd.reporting import paper
+from mcd.reporting.finding import Finding, render
 from mcd.reporting.runs import Run
 from mcd.reporting.select import metric, pick, run_label, train_scene_metric, write_table
 
@@ -77,9 +78,9 @@ def table1_experiments(ran: set[str]) -> list[str]:
 
 
 def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
-    """PSNR, SSIM x1e2, GMACs, M params at 4 spp per method, our value beside the paper's; PSNR also over the
-    training scenes' test frames alone (``PSNR train scenes``: the paper's Table 1 protocol; the mean over all
-    test scenes includes the held-out ones).
+    """PSNR, SSIM x1e2, rMSE x1e3 (the paper's Table 1 has none), GMACs, M params at 4 spp per method, our
+    value beside the paper's; PSNR also over the training scenes' test frames alone (``PSNR train scenes``:
+    the paper's Table 1 protocol; the mean over all test scenes includes the held-out ones).
 
     A method with a ``stand_in`` (the U-Net is row A's network, docs/baselines.md) that has no finished job
     gets that experiment's run, and says so.
@@ -103,6 +104,7 @@ def table1(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
                 "PSNR train scenes": train_scene_metric(run),
                 "SSIM": metric(run, "ssim", 1e2),
                 "SSIM paper": ref["ssim"],
+                "rMSE": metric(run, "rmse", 1e3),
                 "GMACs": metric(run, "macs_g"),
                 "GMACs paper": ref["macs_g"],
                 "Params M": metric(run, "params_m"),
@@ -151,50 +153,51 @@ def components(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _steps(psnr: dict[str, float]) -> list[tuple[str, float]]:
-    return [(f"{a}→{b}", psnr[b] - psnr[a]) for a, b in zip(STEPS, STEPS[1:], strict=False)]
+def _steps(psnr: dict[str, float]) -> dict[str, float]:
+    return {f"{a}→{b}": psnr[b] - psnr[a] for a, b in zip(STEPS, STEPS[1:], strict=False)}
 
 
-def component_checks(df: pd.DataFrame) -> list[str]:
-    """The paper's two claims about the component study, stated plainly against our numbers and the paper's.
+def _range(kind: str, df: pd.DataFrame, col: str) -> list[Finding]:
+    """The lowest and highest ``col`` over the rows that have it: one finding naming both rows (one row,
+    named once, when only one has it or both ends are the same row)."""
+    if col not in df:
+        return []
+    values = {str(r["row"]): float(r[col]) for _, r in df.iterrows() if not math.isnan(float(r[col]))}
+    if not values:
+        return []
+    lo, hi = min(values, key=values.get), max(values, key=values.get)
+    rows = (lo,) if lo == hi or values[lo] == values[hi] else (lo, hi)
+    return [Finding(kind, "measured", col, "", rows, {r: values[r] for r in rows}, TABLE1_BUDGET)]
+
+
+def component_checks(df: pd.DataFrame) -> list[Finding]:
+    """The paper's two claims about the component study, checked against our numbers and the paper's:
 
     - F above A (the full method beats the plain denoiser);
-    - C's gain over B (the kernel pool) is the largest single step along A→B→C→D→E→F.
-    """
-    lines = []
-    for label, col in (("ours", "PSNR"), ("paper", "PSNR paper")):
+    - C's gain over B (the kernel pool) is the largest single step along A→B→C→D→E→F;
+
+    and, from our runs, the range of the kernel map's identity share and of its index spread over the rows
+    with a kernel pool (:mod:`mcd.reporting.finding` renders them)."""
+    found = []
+    for source, col in (("ours", "PSNR"), ("paper", "PSNR paper")):
         psnr = {r["row"]: float(r[col]) for _, r in df.iterrows()}
-        if any(math.isnan(psnr.get(x, math.nan)) for x in STEPS):
-            missing = [x for x in STEPS if math.isnan(psnr.get(x, math.nan))]
-            lines.append(f"{label}: cannot check the step claims, rows {', '.join(missing)} have no PSNR.")
+        missing = [x for x in STEPS if math.isnan(psnr.get(x, math.nan))]
+        if missing:
+            found.append(Finding("component_rows_missing", "cannot check", "psnr", "dB", (), {},
+                                 TABLE1_BUDGET, source=source, detail={"missing": missing}))
             continue
-        f_vs_a = psnr["F"] - psnr["A"]
+        found.append(Finding("f_above_a", "holds" if psnr["F"] > psnr["A"] else "does not hold", "psnr", "dB",
+                             ("F", "A"), {"F": psnr["F"], "A": psnr["A"]}, TABLE1_BUDGET, source=source,
+                             detail={"claim": "F above A"}))
         steps = _steps(psnr)
-        best = max(steps, key=lambda s: s[1])
-        step_txt = ", ".join(f"{name} {gain:+.2f} dB" for name, gain in steps)
-        verdict_fa = "holds" if f_vs_a > 0 else "does NOT hold"
-        verdict_c = "holds" if best[0] == "B→C" else f"does NOT hold (largest step is {best[0]})"
-        lines.append(
-            f"{label}: F above A {verdict_fa} "
-            f"(F {psnr['F']:.2f} dB vs A {psnr['A']:.2f} dB, {f_vs_a:+.2f} dB); "
-            f"C's gain over B is the largest single step: {verdict_c}. Steps: {step_txt}."
-        )
-    if "KP identity" in df:
-        shares = dict(zip(df["row"], df["KP identity"].astype(float), strict=True))
-        used = {row: v for row, v in shares.items() if not math.isnan(v)}
-        if used:
-            lo, hi = min(used, key=used.get), max(used, key=used.get)
-            note = (" (near 1: i_bar == i, the kernel pool is bypassed and KP adds only its heads' capacity)"
-                    if used[lo] > 0.95 else "")
-            lines.append(f"ours: the kernel map's identity share, mean of (h[1]+1)/2 over test pixels, is "
-                         f"{used[lo]:.3f} ({lo}) to {used[hi]:.3f} ({hi}){note}.")
-        spreads = {r["row"]: float(r["KP index std"]) for _, r in df.iterrows()
-                   if "KP index std" in df and not math.isnan(float(r["KP index std"]))}
-        if spreads:
-            lines.append("ours: the kernel index h[0] varies across each test frame with a standard "
-                         f"deviation of {min(spreads.values()):.3f} to {max(spreads.values()):.3f} "
-                         "(0 = one kernel everywhere; h[0] spans [-1, 1] over the pool's kernels).")
-    return lines
+        largest = max(steps, key=steps.get)
+        verdict = "holds" if largest == "B→C" else "does not hold"
+        found.append(Finding("kp_largest_step", verdict, "psnr", "dB", STEPS, {x: psnr[x] for x in STEPS},
+                             TABLE1_BUDGET, source=source,
+                             detail={"claim": "C's gain over B is the largest single step", "steps": steps}))
+    found += _range("kp_identity_share", df, "KP identity")
+    found += _range("kp_index_spread", df, "KP index std")
+    return found
 
 
 #: Methods without training shown beside the transfer jobs, from their 4-spp job's scores on the same scene.
@@ -256,7 +259,8 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
     """Write table1, components (and transfer when there are transfer jobs); return the frames."""
     t1 = table1(runs, root)
     scale_note = (
-        "SSIM x1e2, GMACs per 1920x1080 frame, params in millions; `paper` columns: the paper's Table 1."
+        "SSIM x1e2, rMSE x1e3 (relative MSE, lower is better; not in the paper's Table 1), GMACs per "
+        "1920x1080 frame, params in millions; `paper` columns: the paper's Table 1."
     )
     write_table(
         t1,
@@ -286,7 +290,7 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
             "no preference for the border); KP index ring: the kernel index h[0] on that ring (the "
             "interior's spread is KP index std); both measured with the edge effect (python -m "
             "mcd.tools.edge_effect).",
-            *component_checks(comp),
+            *map(render, component_checks(comp)),
         ],
     )
     frames = {"table1": t1, "components": comp}

@@ -1,5 +1,5 @@
-"""Parts of `mcd.report`: reading run dirs of every status, the paper's claims stated against the numbers,
-crop placement, markdown cells."""
+"""Parts of `mcd.report`: reading run dirs of every status, the paper's claims checked against the numbers
+(as finding records, mcd/reporting/finding.py), crop placement, markdown cells."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from mcd.report import make_report
+from mcd.reporting.finding import Finding, render
 from mcd.reporting.runs import find_runs
 from mcd.reporting.select import pick, to_markdown
 from mcd.reporting.strips import crop_box
@@ -85,22 +86,51 @@ def _comp(psnr):
     )
 
 
+def _by_kind(found, source="ours"):
+    return {f.kind: f for f in found if f.source == source}
+
+
 def test_claims_hold_when_they_hold():
-    lines = component_checks(_comp({"A": 30.0, "B": 30.2, "C": 31.5, "D": 31.6, "E": 31.7, "F": 31.8}))
-    ours = lines[0]
-    assert ours.startswith("ours: F above A holds") and "largest single step: holds" in ours
-    assert "B→C +1.30 dB" in ours
+    ours = _by_kind(component_checks(_comp(dict(A=30.0, B=30.2, C=31.5, D=31.6, E=31.7, F=31.8))))
+    assert ours["f_above_a"].verdict == "holds" and ours["kp_largest_step"].verdict == "holds"
+    assert ours["kp_largest_step"].detail["steps"]["B→C"] == pytest.approx(1.3)
+    assert "B→C +1.30 dB" in render(ours["kp_largest_step"])
 
 
 def test_claims_are_reported_plainly_when_our_data_disagree():
-    ours = component_checks(_comp({"A": 30.0, "B": 30.9, "C": 30.5, "D": 30.6, "E": 30.0, "F": 29.5}))[0]
-    assert "F above A does NOT hold" in ours and "(F 29.50 dB vs A 30.00 dB, -0.50 dB)" in ours
-    assert "does NOT hold (largest step is A→B)" in ours
+    ours = _by_kind(component_checks(_comp(dict(A=30.0, B=30.9, C=30.5, D=30.6, E=30.0, F=29.5))))
+    assert ours["f_above_a"].verdict == "does not hold"
+    assert ours["f_above_a"].values == {"F": 29.5, "A": 30.0}
+    assert ours["kp_largest_step"].verdict == "does not hold"
+    # a reader sees the negative verdict, and which step was the largest
+    assert "does NOT hold" in render(ours["f_above_a"])
+    assert "does NOT hold (largest step is A→B)" in render(ours["kp_largest_step"])
 
 
 def test_claims_with_missing_rows_say_which():
-    ours = component_checks(_comp({"A": 30.0, "B": math.nan, "C": 31.0, "D": 31.0, "E": 31.0, "F": 31.0}))[0]
-    assert "rows B have no PSNR" in ours
+    found = component_checks(_comp({"A": 30.0, "B": math.nan, "C": 31.0, "D": 31.0, "E": 31.0, "F": 31.0}))
+    ours = _by_kind(found)
+    assert set(ours) == {"component_rows_missing"}
+    assert ours["component_rows_missing"].detail["missing"] == ["B"]
+    assert _by_kind(found, "paper")["f_above_a"].verdict == "holds"
+
+
+def test_a_finding_never_compares_a_method_with_itself():
+    """Issue 34: a finding read "0.121 (F) to 0.121 (F)". A range over one row names it once; the record
+    refuses a method named twice."""
+    comp = _comp({r: 30.0 + i for i, r in enumerate("ABCDEF")})
+    comp["KP identity"] = [math.nan, math.nan, math.nan, math.nan, math.nan, 0.121]
+    comp["KP index std"] = [math.nan, math.nan, 0.2, 0.2, math.nan, 0.2]  # a tie: one row, not "C to C"
+    found = _by_kind(component_checks(comp))
+    for kind in ("kp_identity_share", "kp_index_spread"):
+        f = found[kind]
+        assert len(f.subjects) == 1, f
+        assert render(f).count(f"({f.subjects[0]}") == 1
+    comp["KP identity"] = [math.nan, math.nan, 0.5, 0.6, math.nan, 0.121]
+    share = _by_kind(component_checks(comp))["kp_identity_share"]
+    assert share.subjects == ("F", "D") and share.values == {"F": 0.121, "D": 0.6}
+    with pytest.raises(ValueError, match="never compares a method with itself"):
+        Finding("kp_identity_share", "measured", "KP identity", "", ("F", "F"), {"F": 0.121})
 
 
 def test_crop_lands_on_the_noisiest_window():
@@ -143,12 +173,15 @@ def test_seeds_table_gives_spread_and_differences_with_standard_errors(tmp_path)
     assert math.isclose(fa["mean dB"], 22.0 - 61 / 3)
     assert math.isclose(fa["se dB"], math.sqrt(1.0 / 3 + (1 / 3) / 3))  # s_F^2 = 1, s_A^2 = 1/3
     assert fa["ranges"] == "overlap"
-    lines = seeds.checks(out["seeds_differences"])
-    assert lines[0].startswith("4 spp: F - A = +1.67 ± 0.67 dB")
-    assert "2.5 standard errors from zero: resolved" in lines[0] and "F above A holds" in lines[0]
+    f_a, kp = seeds.checks(out["seeds_differences"])
+    assert f_a.kind == "seeds_f_above_a" and f_a.verdict == "holds" and f_a.budget == 4.0
+    assert f_a.values["mean"] == pytest.approx(22.0 - 61 / 3)
+    assert f_a.values["se"] == pytest.approx(fa["se dB"])
+    assert "2.5 standard errors from zero: resolved" in render(f_a)
     # F - C spans three components: listed, not ranked against the single steps B - A and C - B
-    assert "C - B (KP) = +1.00 ± 0.47 dB, 2.1 standard errors from zero: resolved" in lines[1]
-    assert "it is the largest of the 2 single-component steps" in lines[1] and "F - C (PP+FG+SA)" in lines[1]
+    assert kp.verdict == "holds" and kp.detail["single_steps"] == 2 and kp.detail["largest"] == "C - B"
+    assert [s["difference"] for s in kp.detail["steps"]] == ["B - A", "C - B", "F - C"]
+    assert kp.values["mean"] == pytest.approx(1.0) and "2.1 standard errors from zero: resolved" in render(kp)
     md = (tmp_path / "seeds.md").read_text()
     assert "Differences of mean PSNR" in md and (tmp_path / "seeds_differences.csv").is_file()
 
@@ -178,10 +211,10 @@ def test_seeds_give_the_differences_over_the_training_scenes_too(tmp_path):
     diffs = out["seeds_differences"].set_index("difference")
     assert diffs.loc["C - B", "train mean dB"] == pytest.approx(0.4)
     assert diffs.loc["B - A", "train mean dB"] == pytest.approx(2.1)
-    [line] = seeds.checks(out["seeds_differences"])
-    assert "it is the largest of the 2 single-component steps" in line
-    assert "On the training scenes' test frames (the paper's protocol): +0.40 ± 0.22 dB." in line
-    assert line.endswith("It is NOT the largest step there (largest: B - A).")
+    [kp] = seeds.checks(out["seeds_differences"])
+    assert kp.verdict == "holds" and kp.detail["largest_train"] == "B - A"
+    assert kp.values["train mean"] == pytest.approx(0.4)
+    assert "NOT the largest step there (largest: B - A)" in render(kp)
 
 
 def test_repeatability_compares_a_seed_with_the_same_job_of_another_sweep(tmp_path):
@@ -191,8 +224,8 @@ def test_repeatability_compares_a_seed_with_the_same_job_of_another_sweep(tmp_pa
     _seed_job(tmp_path, "F", 1, 22.0)
     _job(tmp_path, "F_abl", metrics={"psnr": 21.0, "experiment": "F", "budget": 4}, sweep="ablation")
     _job(tmp_path, "A_abl", metrics={"psnr": 5.0, "experiment": "A", "budget": 4}, sweep="ablation")
-    (line,) = seeds.reproducibility(find_runs([tmp_path]))
-    assert "1 seeds-sweep job(s) (F)" in line and line.endswith("largest PSNR difference 0.2500 dB.")
+    (rep,) = seeds.reproducibility(find_runs([tmp_path]))
+    assert rep.subjects == ("F",) and rep.values == {"jobs": 1.0, "largest difference": 0.25}
 
 
 def test_seeds_absent_writes_nothing(tmp_path):
@@ -210,7 +243,7 @@ def test_pick_takes_the_default_seed_over_other_seeds(tmp_path):
 
 
 def test_a_difference_under_two_standard_errors_is_called_unresolved():
-    from mcd.reporting.seeds import _resolved
+    from mcd.reporting.finding import resolved as _resolved
 
     assert _resolved(0.33, 0.24) == "1.4 standard errors from zero: NOT resolved by these seeds"
     assert _resolved(-0.6, 0.2).startswith("3.0 standard errors from zero: resolved")
@@ -286,36 +319,45 @@ def test_findings_state_fs_standing_against_baselines_oidn_and_its_input(tmp_pat
          metrics={"psnr": 25.5, "experiment": "rae", "budget": 4})
     _job(tmp_path, "A", experiment="A", metrics={"psnr": 24.0, "experiment": "A", "budget": 4})
     runs = find_runs([tmp_path])
-    [line] = findings.baselines(table1(runs))
-    assert "does NOT hold: RAE 25.50 dB (+0.50)" in line and "FastDVDnet, DASR, NTASAD not finished" in line
+    [base] = findings.baselines(table1(runs))
+    assert base.verdict == "does not hold" and base.subjects == ("F", "A", "rae")
+    assert base.values == {"F": 25.0, "A": 24.0, "rae": 25.5}
+    assert base.detail["missing"] == ["FastDVDnet", "DASR", "NTASAD"]
+    assert "does NOT hold: RAE 25.50 dB (+0.50)" in render(base)
     t1 = table1(runs)
     # Table 1 beside its all-scene mean: the training scenes' test frames (the paper's protocol), NaN for a
     # run whose per-scene scores do not cover them
     psnr_train = t1.set_index("experiment")["PSNR train scenes"]
     assert psnr_train["F"] == pytest.approx(27.5) and math.isnan(psnr_train["rae"])
-    [line] = findings.baselines(t1[t1["experiment"] != "rae"])  # only the U-Net (row A), below F
-    assert "holds against those finished so far; F 25.00 dB, +1.00 dB" in line
-    assert "(FastDVDnet, RAE, DASR, NTASAD not finished)" in line
-    gap = findings.oidn_gap(runs)
-    assert gap[0].startswith("F - OIDN at 4 spp over all test scenes: -5.00 dB")
-    assert "training scenes' test frames: -4.00 dB (F 27.50, OIDN 31.50)" in gap[1] and "is NOT met" in gap[1]
-    assert "veach-ajar -7.00" in gap[1]
+    [base] = findings.baselines(t1[t1["experiment"] != "rae"])  # only the U-Net (row A), below F
+    assert base.verdict == "holds so far"
+    assert base.detail["missing"] == ["FastDVDnet", "RAE", "DASR", "NTASAD"]
+    assert "holds against those finished so far" in render(base)
+    every, train = findings.oidn_gap(runs)
+    assert every.subjects == ("F", "oidn") and every.values == {"F": 25.0, "oidn": 30.0} and every.budget == 4
+    assert train.scenes == ("cbox", "room0") and train.values == {"F": 27.5, "oidn": 31.5}
+    assert train.verdict == "not met" and train.detail["per_scene"]["veach-ajar"] == -7.0
+    assert "is NOT met" in render(train)
     spread = pd.DataFrame([{"row": "F", "spp": 4, "n": 4, "PSNR train scenes mean": 30.75,
                             "PSNR train scenes std": 0.3}])
-    assert findings.oidn_gap(runs, spread=spread)[2] == (
-        "Over 4 seeds of F: -0.75 dB on the training scenes' test frames (F's mean 30.75, standard deviation "
-        "0.30 dB); the aim is met by the mean.")
-    [line] = findings.above_input(spp_frame(runs))
-    assert "does NOT hold at 32 spp (-1.00 dB) (not measured yet: 2, 8, 16 spp)" in line
-    assert "4 spp +8.00" in line
+    seeded = findings.oidn_gap(runs, spread=spread)[2]
+    assert seeded.verdict == "met" and seeded.values == {"F": 30.75, "oidn": 31.5} and seeded.detail["n"] == 4
+    [above] = findings.above_input(spp_frame(runs))
+    assert above.verdict == "does not hold" and above.detail["gains"] == {"4": 8.0, "32": -1.0}
+    assert above.detail["not_measured"] == [2.0, 8.0, 16.0]
+    assert "does NOT hold at 32 spp (-1.00 dB)" in render(above)
     # only the budgets that ran: a verdict that does not claim the others
     only4 = spp_frame(runs)
-    [line] = findings.above_input(only4[only4["budget"] == 4])
-    assert "holds at every budget measured so far (not measured yet: 2, 8, 16, 32 spp)" in line
+    [above] = findings.above_input(only4[only4["budget"] == 4])
+    assert above.verdict == "holds so far" and above.detail["not_measured"] == [2.0, 8.0, 16.0, 32.0]
     # per budget, the best other trained method (here RAE at 4 spp only) and OIDN where they ran
-    assert findings.against_budgets(spp_frame(runs)) == [
-        "F - the best other trained method per budget (one seed each): 4 spp -0.50 (RAE) dB.",
-        "F - OIDN per budget: 4 spp -5.00 dB."]
+    best, oidn = findings.against_budgets(spp_frame(runs))
+    assert best.subjects == ("F", "rae") and best.detail["per_budget"] == [{"budget": 4.0, "best": "rae",
+                                                                            "gap": -0.5}]
+    assert oidn.detail["per_budget"] == [{"budget": 4.0, "gap": -5.0}]
+    # F's headline: the best other method of Table 1 (OIDN), never F itself
+    [head] = findings.headline(t1)
+    assert head.subjects == ("F", "oidn") and head.verdict == "does not hold"
 
 
 def test_a_baseline_trained_with_the_papers_loss_is_a_row_after_its_own_only_where_it_ran(tmp_path):
@@ -333,17 +375,17 @@ def test_a_baseline_trained_with_the_papers_loss_is_a_row_after_its_own_only_whe
     assert list(t1.index).index("dasr_paper_loss") == list(t1.index).index("dasr") + 1
     assert t1.loc["dasr_paper_loss", "method"] == "DASR (paper's loss)"
     assert t1.loc["dasr_paper_loss", "PSNR paper"] == t1.loc["dasr", "PSNR paper"]
-    [line] = findings.baselines(t1.reset_index())
-    assert "does NOT hold: DASR (paper's loss) 26.00 dB (+1.00)" in line and "seeds" not in line
+    [base] = findings.baselines(t1.reset_index())
+    assert base.subjects == ("F", "dasr", "dasr_paper_loss") and "seeds" not in base.detail
+    assert "does NOT hold: DASR (paper's loss) 26.00 dB (+1.00)" in render(base)
     spread = pd.DataFrame([{"row": "F", "spp": 4, "n": 3, "PSNR mean": 25.1, "PSNR std": 0.4,
                             "PSNR min": 24.6, "PSNR max": 25.4}])
-    [line] = findings.baselines(t1.reset_index(), spread)
-    assert line.endswith("Over 3 seeds F's PSNR has a mean of 25.10 dB (-0.90 against the best baseline) "
-                         "and a standard deviation of 0.40 dB (range 24.60-25.40); the best baseline's "
-                         "26.00 dB lies above F's whole range; each baseline ran one seed.")
+    [base] = findings.baselines(t1.reset_index(), spread)
+    assert base.detail["seeds"] == {"n": 3, "mean": 25.1, "std": 0.4, "min": 24.6, "max": 25.4}
+    assert "lies above F's whole range" in render(base)
     spread["PSNR max"] = 26.2
-    [line] = findings.baselines(t1.reset_index(), spread)
-    assert "the best baseline's 26.00 dB lies within F's range" in line
+    [base] = findings.baselines(t1.reset_index(), spread)
+    assert "the best baseline's 26.00 dB lies within F's range" in render(base)
 
 
 def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_job(tmp_path):

@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 
 from mcd.methods import COMPONENTS
+from mcd.reporting import finding
 
 REPO = Path(__file__).resolve().parents[2]
 LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
@@ -151,6 +152,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     )
     report = tmp_path / "reports" / "t32"
     for name in (
+        "findings.json",
         "table1.md",
         "table1.csv",
         "components.md",
@@ -194,11 +196,21 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     assert "Commit(s) of the runs: " in readme and "Commit(s) of the runs: unknown" not in readme
     assert "Device(s): CPU" in readme and "Wall time:" in readme
     assert "C_spp4" in readme and "failed" in readme  # the failed job is listed with its error
-    # the claims, stated with their verdict: the paper's hold; ours cannot be checked without rows B-E
+    # the claims, as data with their verdict: the paper's hold; ours cannot be checked without rows B-E
+    found = {(f.kind, f.source): f for f in finding.read(report / "findings.json")}
     paper_a, paper_f = COMPONENTS["A"]["psnr"], COMPONENTS["F"]["psnr"]
-    assert f"paper: F above A holds (F {paper_f:.2f} dB vs A {paper_a:.2f} dB" in readme
-    assert "ours: cannot check the step claims, rows B, C, D, E have no PSNR." in readme
-    assert "identity share" in readme
+    assert found["f_above_a", "paper"].verdict == "holds"
+    assert found["f_above_a", "paper"].values == {"F": paper_f, "A": paper_a}
+    assert found["component_rows_missing", "ours"].detail["missing"] == ["B", "C", "D", "E"]
+    assert found["kp_identity_share", "ours"].values == {"F": pytest.approx(f_metrics["kp_identity"])}
+    head = found["headline", "ours"]
+    assert head.subjects == ("F", "A") and head.values["A"] == pytest.approx(t1.loc["A", "PSNR"])
+    # what a reader of the README sees is the records' prose, in their order
+    listed = [line[2:] for line in readme.split("## Findings")[1].split("## Table 1")[0].splitlines()
+              if line.startswith("- ")]
+    assert listed == [finding.render(f) for f in finding.read(report / "findings.json")]
+    assert t1.loc["F", "rMSE"] == pytest.approx(1e3 * f_metrics["rmse"])
+    assert "| SSIM paper | rMSE | GMACs |" in (report / "table1.md").read_text()
 
     # the report keeps its runs' records (no checkpoints, no samples) and regenerates from them alone,
     # elsewhere, once the run directories are gone
