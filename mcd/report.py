@@ -1,6 +1,8 @@
 """``python -m mcd.report <multirun dir(s)> [--name N] [--bench reports/bench/bench.csv]``: the report
 of one or more sweeps (docs/benchmark.md "Reports"), generated from the run directories only, under
-``reports/<name>/``:
+``reports/<name>/``, then the reports index ``reports/README.md`` and, when the report is the current one
+(``mcd.reporting.index.CURRENT_REPORT``), README.md's results block; ``python -m mcd.report --index``
+writes those two alone (mcd/reporting/index.py). The report holds:
 
 - ``table1.md/.csv`` (methods at 4 spp) and ``components.md/.csv`` (A-M), the paper's numbers beside ours,
   ``transfer.md/.csv`` when transfer jobs ran, ``seeds.md/.csv`` and ``seeds_differences.csv`` when the
@@ -9,9 +11,10 @@ of one or more sweeps (docs/benchmark.md "Reports"), generated from the run dire
   ``curves.png/.csv`` (validation PSNR against training seconds and steps, one line per method);
 - ``strips/<scene>.png`` and ``strips/<scene>_methods.png`` (qualitative, with crops),
   ``per_frame/<scene>_psnr.png`` (per-frame PSNR over each test sequence);
-- ``README.md``: provenance (commands, config, data profile, commit, device, wall time), the paper's claims
-  checked against our numbers, F against the trained baselines, OIDN and its noisy input
-  (``mcd.reporting.findings``), failed jobs with their error, and an index of the files.
+- ``findings.json`` (each finding as a record, ``mcd.reporting.finding``) and ``README.md``: provenance
+  (commands, config, data profile, commit, device, wall time), the findings' prose (the paper's claims
+  checked against our numbers, F against the trained baselines, OIDN and its noisy input), failed jobs with
+  their error, and an index of the files.
 
 A job whose ``metrics.json`` is corrupt (``mcd.reporting.runs.metrics_problem``) is reported as failed, and
 the command then exits 1 naming each such file on stderr (docs/reliability.md).
@@ -232,7 +235,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m mcd.report", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("dirs", nargs="+", type=Path, help="multirun dirs (e.g. multirun/ablation/tiny)")
+    parser.add_argument("dirs", nargs="*", type=Path, help="multirun dirs (e.g. multirun/ablation/tiny)")
     parser.add_argument("--name", help="report name: reports/<name>/ (default: the runs' data profile)")
     parser.add_argument("--out", type=Path, default=Path("reports"), help="reports root (default: reports)")
     parser.add_argument(
@@ -247,10 +250,46 @@ def main(argv: list[str] | None = None) -> None:
         default=[],
         help="a line for the README's provenance (e.g. reduced epochs); repeatable",
     )
+    parser.add_argument(
+        "--index",
+        action="store_true",
+        help="only write the reports index (<out>/README.md) and README.md's results from the current report",
+    )
+    parser.add_argument(
+        "--readme",
+        type=Path,
+        help="the README.md whose results block shows the current report (default: <out>/../README.md)",
+    )
+    parser.add_argument(
+        "--current",
+        help="the current report's name (default: mcd.reporting.index.CURRENT_REPORT)",
+    )
     args = parser.parse_args(argv)
+    if not args.index and not args.dirs:
+        parser.error("give the multirun dirs to report on, or --index")
+    from mcd.reporting import index
+
+    current = args.current or index.CURRENT_REPORT
+    readme = args.readme or args.out.resolve().parent / "README.md"
+    if args.index or args.name == current:  # README.md's markers are checked before any long work
+        try:
+            index.markers(readme)
+        except (FileNotFoundError, ValueError) as err:
+            sys.exit(f"error: {err}")
+    if args.index:
+        try:
+            index.update_readme(readme, index.results_block(args.out / current, readme.parent))
+        except FileNotFoundError as err:
+            sys.exit(f"error: {err}")
+        print(f"index written to {index.write_index(args.out, current)}; results of {current} in {readme}")
+        return
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command)
     print(f"report written to {out_dir}/README.md")
+    print(f"index written to {index.write_index(args.out, current)}")
+    if out_dir.name == current:
+        index.update_readme(readme, index.results_block(out_dir, readme.parent))
+        print(f"results of {current} written to {readme}")
     from mcd.reporting.runs import find_runs
 
     corrupt = [r.corrupt for r in find_runs(args.dirs) if r.corrupt]
