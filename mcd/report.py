@@ -11,6 +11,8 @@ writes those two alone (mcd/reporting/index.py). The report holds:
   ``curves.png/.csv`` (validation PSNR against training seconds and steps, one line per method);
 - ``strips/<scene>.png`` and ``strips/<scene>_methods.png`` (qualitative, with crops),
   ``per_frame/<scene>_psnr.png`` (per-frame PSNR over each test sequence);
+- ``viewer/index.html``: the comparison viewer (``mcd.reporting.viewer``), every method beside the noisy input
+  and the reference per test frame, with wipe, synced zoom, exposure, FLIP maps and F's maps; opens from disk;
 - ``findings.json`` (each finding as a record, ``mcd.reporting.finding``) and ``README.md``: provenance
   (commands, config, data profile, commit, device, wall time), the findings' prose (the paper's claims
   checked against our numbers, F against the trained baselines, OIDN and its noisy input), failed jobs with
@@ -83,6 +85,7 @@ def write_readme(
     notes: list[str],
     report_s: float,
     found: list[Finding],
+    viewer: Path | None = None,
 ) -> Path:
     """The report's README: provenance, findings (the prose of ``found``), failures, index."""
     from mcd.reporting import finding, records
@@ -97,6 +100,12 @@ def write_readme(
         f"by `{prov.report_command}` "
         f"at commit `{prov.report_commit}`, from run directories only (no hand edits).",
         "",
+        *(
+            [f"Compare the methods frame by frame in the [viewer]({viewer.relative_to(out_dir).as_posix()}) "
+             "(opens from disk: wipe, synced zoom, exposure, FLIP error maps, F's maps).", ""]
+            if viewer is not None
+            else []
+        ),
         "## Provenance",
         "",
         f"- Sweep commands ({len(sweeps)}):",
@@ -179,7 +188,7 @@ def make_report(
     command: str | None = None,
 ) -> Path:
     """Write the whole report for the runs under `dirs`; returns the report directory."""
-    from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables
+    from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
     from mcd.reporting.provenance import Provenance
     from mcd.reporting.runs import find_runs, find_sweeps
 
@@ -207,6 +216,7 @@ def make_report(
     strip_files = strips.write(runs, out_dir, prov)
     frame_files = frames.write(runs, out_dir, prov)
     curve_files = curves.write(runs, out_dir, prov)
+    viewer_page = viewer.write(runs, out_dir, name)
     records.keep(runs, sweeps, out_dir)
 
     found = gather_findings(runs, results)
@@ -224,9 +234,12 @@ def make_report(
     files += curve_files + strip_files + frame_files
     if frame_files:
         files.append(out_dir / "per_frame" / "per_frame.csv")
+    if viewer_page is not None:
+        files.append(viewer_page)
     write_readme(
         out_dir, name, prov, runs, sweeps, results, files, root, notes or [], time.perf_counter() - started,
         found,
+        viewer_page,
     )
     return out_dir
 

@@ -30,7 +30,9 @@ def test_the_wheel_carries_conf_scenes_and_bundles(tmp_path):
                     "-w", str(tmp_path / "dist"), str(src)], check=True, capture_output=True, timeout=300)
     (wheel,) = (tmp_path / "dist").glob("mcd-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    wanted = _files(CONF_DIR) | _files(VENDORED_SCENES_DIR) | _files(PACKAGE_DIR / "bundled")
+    wanted = (_files(CONF_DIR) | _files(VENDORED_SCENES_DIR) | _files(PACKAGE_DIR / "bundled")
+              | _files(PACKAGE_DIR / "reporting" / "viewer_page"))
+    assert "mcd/reporting/viewer_page/viewer.js" in wanted
     assert "mcd/conf/config.yaml" in wanted and "mcd/scenes/cbox/scene.xml" in wanted
     assert wanted - names == set(), "package data missing from the wheel: pyproject.toml [tool.setuptools]"
     assert {"mcd/run.py", "mcd/denoise/cli.py", "mcd/bench/__main__.py"} <= names

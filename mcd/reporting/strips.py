@@ -68,13 +68,31 @@ def crop_box(noisy: np.ndarray, ref: np.ndarray, size: int) -> tuple[int, int]:
     return int(y), int(x)
 
 
-def _strip_run(runs: list[Run]) -> Run | None:
-    """The run whose samples make the strip: F at 4 spp, else the first component row with samples."""
+def strip_run(runs: list[Run]) -> Run | None:
+    """The run whose samples make the strip (and the viewer's frames, mcd.reporting.viewer): F at 4 spp, else
+    the first component row with samples."""
     for exp in ("F", *COMPONENT_ROWS):
         run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="ablation")
         if run is not None and run.status == "ok" and samples(run):
             return run
     return None
+
+
+def table1_runs(runs: list[Run]) -> list[tuple[str, str, Run]]:
+    """``(experiment, title, run)`` of Table 1's finished methods at 4 spp, in Table 1's order, the noisy
+    input left out (the strips and the viewer show it from the full method's samples). A method's stand-in
+    (mcd.methods: row A for the U-Net) stands in where it did not run (as in table1), under the same title."""
+    found = []
+    for exp in (e for e in TABLE1_ROWS if e != "noisy"):
+        other = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
+        title = display_name(exp)
+        alt = BY_EXPERIMENT[exp].stand_in
+        if alt is not None and (other is None or other.status != "ok"):
+            exp, title = alt, f"{title} (row {alt})"
+            other = pick(runs, alt, TABLE1_BUDGET, prefer_sweep="ablation")
+        if other is not None and other.status == "ok":
+            found.append((exp, title, other))
+    return found
 
 
 def flip_picture(image: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, float]:
@@ -95,23 +113,13 @@ def _show(ax: plt.Axes, image: np.ndarray, title: str | None = None) -> None:
 def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
     """`strips/<scene>.png` (the full method's stages) and `strips/<scene>_methods.png` (every method's output
     on the same crop); returns the written paths."""
-    run = _strip_run(runs)
+    run = strip_run(runs)
     folder = out_dir / "strips"
     folder.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     if run is None:
         return written
-    others = []
-    # Table 1's methods; the noisy input is already the first column; a method's stand-in (mcd.methods: row
-    # A for the U-Net) stands in where it did not run (as in table1), under the same title.
-    for exp in (e for e in TABLE1_ROWS if e != "noisy"):
-        other = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
-        title = display_name(exp)
-        alt = BY_EXPERIMENT[exp].stand_in
-        if alt is not None and (other is None or other.status != "ok"):
-            other, title = pick(runs, alt, TABLE1_BUDGET, prefer_sweep="ablation"), f"{title} (row {alt})"
-        if other is not None and other.status == "ok":
-            others.append((title, samples(other)))
+    others = [(title, samples(other)) for _, title, other in table1_runs(runs)]
     for scene, frames in sorted(samples(run).items()):
         complete = [f for f, names in frames.items() if "output" in names and "reference" in names]
         if not complete:
