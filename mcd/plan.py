@@ -51,9 +51,9 @@ import tempfile
 import time
 from typing import Any
 
-import hydra
 from omegaconf import DictConfig
 
+from mcd.config import hydra_main
 from mcd.workload import (
     H100_S_PER_FRAME,
     H100_S_PER_SAMPLE,
@@ -162,7 +162,7 @@ def lines(p: dict[str, Any]) -> list[str]:
     return out
 
 
-@hydra.main(config_path="conf", config_name="config", version_base=None)
+@hydra_main
 def main(cfg: DictConfig) -> dict[str, Any]:
     from mcd.lit.transfer import prepare
 

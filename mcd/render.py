@@ -23,16 +23,16 @@ from __future__ import annotations
 import logging
 import sys
 
-import hydra
 from omegaconf import DictConfig
 
+from mcd.config import hydra_main
 from mcd.data.shards import Selection
 from mcd.workload import requested_buffers
 
 log = logging.getLogger("mcd.render")
 
 
-@hydra.main(config_path="conf", config_name="config", version_base=None)
+@hydra_main
 def main(cfg: DictConfig) -> dict:
     from mcd.data.store_builder import StoreBuilder  # here, not above: a fast --help (docs/architecture.md)
     from mcd.lit.transfer import prepare

@@ -29,13 +29,13 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import hydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from mcd import allocator, run_dir
+from mcd.config import hydra_main
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
 from mcd.preflight import check_run
@@ -336,7 +336,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     return metrics
 
 
-@hydra.main(version_base="1.3", config_path="conf", config_name="config")
+@hydra_main
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
     from lightning.pytorch.utilities import rank_zero_only

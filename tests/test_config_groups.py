@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf, open_dict
 
+from mcd.config import experiment_names
 from mcd.lit import budget
 from mcd.losses import LOSSES, build_loss
 from mcd.methods import COMPONENTS, TABLE1_VARIANTS
@@ -17,7 +18,7 @@ from mcd.models.switches import SWITCHES
 from tests.conftest import compose_cfg
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
-EXPERIMENTS = sorted(p.stem for p in (CONF / "experiment").glob("*.yaml"))
+EXPERIMENTS = experiment_names()
 #: The baselines' own losses (docs/baselines.md); every other experiment trains with the paper's.
 OWN_LOSS = {"rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad"}
 

@@ -13,13 +13,12 @@ MCD = Path(__file__).resolve().parents[1] / "mcd"
 #: Layer of each top-level part of ``mcd`` (a subpackage or a module), lowest first. A module may import
 #: its own layer and those below it, never one above.
 LAYERS: dict[str, int] = {
-    # plumbing: one home each for paths, config composition, provenance, registries, metrics, the machine
-    **dict.fromkeys(("__init__", "paths", "config", "provenance", "registry", "metrics", "machine",
-                     "allocator"), 0),
+    # plumbing: one home each for paths, provenance, registries, metrics, the machine
+    **dict.fromkeys(("__init__", "paths", "provenance", "registry", "metrics", "machine", "allocator"), 0),
     # rendering, the store, sampling maps, and the checks a run's config gets before anything renders
     **dict.fromkeys(("data", "sampling", "preflight"), 1),
-    # networks and losses
-    **dict.fromkeys(("models", "losses", "methods"), 2),
+    # networks and losses; the methods, and config composition (which registers rows A-M from them)
+    **dict.fromkeys(("models", "losses", "methods", "config"), 2),
     # training and testing (Lightning)
     **dict.fromkeys(("lit", "run_record"), 3),
     # the product's commands and what they write: train, render, denoise, report

@@ -184,9 +184,9 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
 
 def main() -> None:
     """The Hydra command (module docstring)."""
-    import hydra
+    from mcd.config import hydra_main
 
-    @hydra.main(config_path="../conf", config_name="config", version_base=None)
+    @hydra_main
     def _run(cfg: DictConfig) -> dict:
         from mcd.lit.transfer import prepare
         from mcd.render import requested_buffers

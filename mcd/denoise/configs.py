@@ -7,6 +7,7 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
+from mcd.config import experiment_names
 from mcd.paths import CONF_DIR
 
 
@@ -20,13 +21,10 @@ def model_profile(name: str) -> dict[str, Any]:
     return OmegaConf.to_container(OmegaConf.load(path), resolve=True)  # type: ignore[return-value]
 
 
-def experiments() -> list[str]:
-    """The experiment names of ``conf/experiment/`` (``+experiment=<name>``)."""
-    return sorted(p.stem for p in (CONF_DIR / "experiment").glob("*.yaml"))
-
-
 def check_experiment(name: str) -> None:
-    """ValueError naming ``--experiment=name`` and the valid names, if there is no such experiment."""
-    if name not in experiments():
-        raise ValueError(f"--experiment={name}: no such experiment (conf/experiment/{name}.yaml); choose one "
-                         f"of {', '.join(experiments())}")
+    """ValueError naming ``--experiment=name`` and the valid names (:func:`mcd.config.experiment_names`), if
+    there is no such experiment."""
+    names = experiment_names()
+    if name not in names:
+        raise ValueError(f"--experiment={name}: no such experiment (+experiment={name}); choose one of "
+                         f"{', '.join(names)}")

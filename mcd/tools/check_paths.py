@@ -13,10 +13,10 @@ from __future__ import annotations
 import logging
 import sys
 
-import hydra
 import numpy as np
 from omegaconf import DictConfig
 
+from mcd.config import hydra_main
 from mcd.data.camera import interpolate_path
 from mcd.data.renderer import SceneRenderer
 from mcd.data.scenes import SceneSpec
@@ -65,7 +65,7 @@ def check_scene(
     return problems
 
 
-@hydra.main(config_path="../conf", config_name="config", version_base=None)
+@hydra_main
 def main(cfg: DictConfig) -> None:
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.store import StoreReader

@@ -4,9 +4,10 @@ paper's (docs/benchmark.md "Metrics").
 ``python -m mcd.tools.complexity [--model paper] [--experiments A B ...] [-o PATH]`` prints the table; with
 ``-o`` it also writes it as CSV (``name, params_m, gmacs_1080p, paper_params_m, paper_gmacs``; NaN, and an
 "unavailable" note in the printed table, for a method whose optional package is missing). It writes nothing
-else: the tracked ``reports/complexity.csv`` changes only when asked for by name. Experiments are the files
-``conf/experiment/*.yaml``, so a new method only needs its config (and its paper numbers in
-:mod:`mcd.methods`). The counting itself is :mod:`mcd.models.complexity`.
+else: the tracked ``reports/complexity.csv`` changes only when asked for by name. Experiments are
+:func:`mcd.config.experiment_names` (rows A-M from the component table, then ``conf/experiment/*.yaml``),
+so a new method only needs its config (and its paper numbers in :mod:`mcd.methods`). The counting itself is
+:mod:`mcd.models.complexity`.
 """
 
 from __future__ import annotations
@@ -16,16 +17,9 @@ import csv
 import math
 from pathlib import Path
 
-from mcd.config import compose
+from mcd.config import compose, experiment_names
 from mcd.methods import paper_complexity
 from mcd.models.complexity import complexity
-from mcd.paths import CONF_DIR
-
-
-def experiment_names() -> list[str]:
-    """Every experiment config (``conf/experiment/*.yaml``), component rows A-M first."""
-    names = [p.stem for p in (CONF_DIR / "experiment").glob("*.yaml")]
-    return sorted(names, key=lambda n: (len(n) != 1, n))
 
 
 def table(experiments: list[str], model: str, height: int, width: int,
@@ -60,7 +54,7 @@ def main(argv: list[str] | None = None) -> None:
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--model", default="paper", help="capacity profile (conf/model/<name>.yaml)")
     parser.add_argument("--experiments", nargs="*", default=None,
-                        help="experiments to count (default: every conf/experiment/*.yaml)")
+                        help="experiments to count (default: every one, rows A-M first)")
     parser.add_argument("--height", type=int, default=1080)
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("-o", "--out", type=Path, default=None,

@@ -9,18 +9,19 @@ from omegaconf import OmegaConf
 
 from mcd.data.buffers import BUFFERS
 from mcd.data.synthetic import synthetic_frame
+from mcd.methods import COMPONENTS, component_experiment
 from mcd.models.switches import SWITCHES
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
-ROWS = dict(A="100000", B="110000", C="111000", D="111100", E="111110", F="111111", G="111010", H="111011",
-            I="111101", J="111001", K="110100", L="110010", M="110001")
+#: Row -> its switches as bits (``UN AS KP PP FG SA``), from the one table (mcd.methods.COMPONENTS).
+ROWS = {row: "".join("1" if c["switches"][s] else "0" for s in SWITCHES) for row, c in COMPONENTS.items()}
 
 
 def row_cfg(row: str, profile: str = "cpu", budget: float = 4):
-    """The run config of a component row with a capacity profile (conf/method/two_stage.yaml with the
-    experiment file's switches + the profile)."""
-    exp = OmegaConf.load(CONF / "experiment" / f"{row}.yaml")
-    method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), exp.method)
+    """The run config of a component row with a capacity profile (conf/method/two_stage.yaml with the row's
+    switches, :func:`mcd.methods.component_experiment`, + the profile)."""
+    exp = component_experiment(row)
+    method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), exp["method"])
     model = OmegaConf.load(CONF / "model" / f"{profile}.yaml")
     return OmegaConf.create({"method": method, "budget": budget, "model": model})
 
