@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--clip-len", type=int, default=5)
     p.add_argument("--dtype", choices=("float32", "float16"), default="float32")
     p.add_argument("--seconds", type=float, default=5.0, help="timed seconds per figure")
-    p.add_argument("--experiment", default="F", help="whose buffers (conf/experiment/)")
+    p.add_argument("--experiment", default="F", help="whose buffers (+experiment=<name>)")
     p.add_argument("--model", default="paper")
     p.add_argument("--zarr", action="store_true", help="also the Zarr v3 design (needs zarr)")
     args = p.parse_args(argv)
