@@ -153,42 +153,44 @@ def _frame(folder: Path, scene: str, frame: int, colour: list[tuple[str, str, np
 
 
 def write(runs: list[Run], out_dir: Path, name: str) -> Path | None:
-    """Write ``out_dir/viewer/`` for the report ``name`` (see the module docstring); returns its page, or None
-    (and removes an earlier viewer) when no finished run saved samples."""
-    folder = out_dir / VIEWER_DIR
-    if folder.exists():
-        shutil.rmtree(folder)  # a regenerated report's viewer holds only what these runs saved
+    """Write ``out_dir/viewer/`` for the report ``name`` (see the module docstring) and return its page.
+
+    Where no finished run saved samples (a report regenerated from its run records, which keep none), an
+    earlier viewer is left as it was, as the strips are, and its page is returned (None without one).
+    Otherwise the viewer is written whole, anew, beside the old one, which it then replaces: it holds only
+    what these runs saved, and a failure half-way leaves the old one whole."""
+    folder = out_dir / f".{VIEWER_DIR}.partial"
     main = strip_run(runs)
     if main is None:
-        return None
+        return index_path(out_dir)
+    complete = [(scene, frame, names) for scene, by_frame in sorted(samples(main).items())
+                for frame, names in sorted(by_frame.items()) if "output" in names and "reference" in names]
+    if not complete:
+        return index_path(out_dir)
+    shutil.rmtree(folder, ignore_errors=True)
     methods = [(key, title, run, samples(run)) for key, title, run in _methods(runs, main)]
     frames = []
-    for scene, by_frame in sorted(samples(main).items()):
-        for frame, names in sorted(by_frame.items()):
-            if "output" not in names or "reference" not in names:
-                continue
-            colour: list[tuple[str, str, np.ndarray, dict]] = []
-            if "noisy" in names:
-                colour.append(("noisy", f"noisy input ({main.budget:g} spp)", read_exr(names["noisy"]),
-                               _frame_metrics(main, scene, frame, prefix="input_")))
-            ref = read_exr(names["reference"])
-            for key, title, run, smp in methods:
-                exr = smp.get(scene, {}).get(frame, {}).get("output")
-                image = None if exr is None else read_exr(exr)
-                if image is not None and image.shape != ref.shape:
-                    log.warning("viewer: %s is %s, the reference %s is %s: left out (a run of another "
-                                "data profile?)", exr, image.shape, names["reference"], ref.shape)
-                elif image is not None:
-                    colour.append((key, title, image, _frame_metrics(run, scene, frame)))
-            colour.append(("reference", "reference", ref, dict.fromkeys(METRICS)))
-            maps = {}
-            if "kernel_map" in names:
-                maps["kernel_index"] = maps["identity_weight"] = read_exr(names["kernel_map"])
-            if "sampling_map" in names:
-                maps["sampling_map"] = read_exr(names["sampling_map"])
-            frames.append(_frame(folder, scene, frame, colour, maps))
-    if not frames:
-        return None
+    for scene, frame, names in complete:
+        colour: list[tuple[str, str, np.ndarray, dict]] = []
+        if "noisy" in names:
+            colour.append(("noisy", f"noisy input ({main.budget:g} spp)", read_exr(names["noisy"]),
+                           _frame_metrics(main, scene, frame, prefix="input_")))
+        ref = read_exr(names["reference"])
+        for key, title, run, smp in methods:
+            exr = smp.get(scene, {}).get(frame, {}).get("output")
+            image = None if exr is None else read_exr(exr)
+            if image is not None and image.shape != ref.shape:
+                log.warning("viewer: %s is %s, the reference %s is %s: left out (a run of another "
+                            "data profile?)", exr, image.shape, names["reference"], ref.shape)
+            elif image is not None:
+                colour.append((key, title, image, _frame_metrics(run, scene, frame)))
+        colour.append(("reference", "reference", ref, dict.fromkeys(METRICS)))
+        maps = {}
+        if "kernel_map" in names:
+            maps["kernel_index"] = maps["identity_weight"] = read_exr(names["kernel_map"])
+        if "sampling_map" in names:
+            maps["sampling_map"] = read_exr(names["sampling_map"])
+        frames.append(_frame(folder, scene, frame, colour, maps))
     for page in sorted(PAGE_DIR.iterdir()):
         if page.is_file():
             shutil.copy(page, folder / page.name)
@@ -198,4 +200,8 @@ def write(runs: list[Run], out_dir: Path, name: str) -> Path | None:
         "// The report's pictures and metrics for index.html (mcd.reporting.viewer); generated.\n"
         f"window.MCD_VIEWER = {json.dumps(data, separators=(',', ':'))};\n"
     )
-    return folder / "index.html"
+    final = out_dir / VIEWER_DIR
+    if final.exists():
+        shutil.rmtree(final)
+    folder.rename(final)
+    return final / "index.html"

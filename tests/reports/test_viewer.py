@@ -130,8 +130,20 @@ def test_a_large_frame_is_cut_to_its_noisiest_square(report, monkeypatch, tmp_pa
         assert (f["width"], f["height"], f["full"], f["crop"]) == (16, 16, [32, 32], [x, y])
         for im in f["images"]:
             assert _pixels(tmp_path, im["stops"][0]).shape == (16, 16, 3)
-    # regenerated without samples to show, the old viewer goes rather than stay stale
-    assert viewer.write([], tmp_path, "cut") is None and viewer.index_path(tmp_path) is None
+    assert [p.name for p in tmp_path.iterdir()] == ["viewer"]  # the partial folder was renamed
+    # without samples the viewer is kept as it was
+    assert viewer.write([], tmp_path, "cut") == tmp_path / "viewer" / "index.html"
+    assert viewer.write([], tmp_path / "none", "cut") is None
+
+
+def test_a_report_regenerated_from_its_records_keeps_its_viewer(report):
+    """The run records keep no samples: regenerating from them leaves the viewer (as the strips) and its
+    link."""
+    out, _ = report
+    before = (out / "viewer" / "data.js").read_bytes()
+    make_report([out / "runs"], out.parent, name=out.name, bench=None)
+    assert (out / "viewer" / "data.js").read_bytes() == before
+    assert "[viewer](viewer/index.html)" in (out / "README.md").read_text()
 
 
 def _changed(a: bytes, b: bytes) -> float:
