@@ -7,7 +7,9 @@ writes those two alone (mcd/reporting/index.py). The report holds:
 - ``table1.md/.csv`` (methods at 4 spp) and ``components.md/.csv`` (A-M), the paper's numbers beside ours,
   ``transfer.md/.csv`` when transfer jobs ran, ``seeds.md/.csv`` and ``seeds_differences.csv`` when the
   seeds sweep ran (run-to-run spread, the paper's claims with standard errors);
-- ``spp.csv/.png`` (error against budget), ``speed_vs_error.png/.csv`` (from the bench CSV),
+- ``spp.csv/.png`` (error against budget), ``speed_vs_error.png/.csv`` (each run's own model timed at its
+  test frames' resolution, beside its error; ``mcd.reporting.speed``), ``speed_bench.csv`` (the bench CSV's
+  latencies, under the bench's own capacity and resolution),
   ``curves.png/.csv`` (validation PSNR against training seconds and steps, one line per method);
 - ``strips/<scene>.png`` and ``strips/<scene>_methods.png`` (qualitative, with crops),
   ``per_frame/<scene>_psnr.png`` (per-frame PSNR over each test sequence);
@@ -231,6 +233,8 @@ def make_report(
         if not results["seeds_differences"].empty:
             files.append(out_dir / "seeds_differences.csv")
     files += [out_dir / f for f in ("spp.png", "spp.csv", "speed_vs_error.png", "speed_vs_error.csv")]
+    if (out_dir / "speed_bench.csv").is_file():
+        files.append(out_dir / "speed_bench.csv")
     files += curve_files + strip_files + frame_files
     if frame_files:
         files.append(out_dir / "per_frame" / "per_frame.csv")

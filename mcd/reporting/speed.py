@@ -1,8 +1,21 @@
-"""Speed against error (docs/benchmark.md "Reports"): ms per frame from `python -m mcd.bench`'s CSV against
-PSNR and rMSE of the 4 spp runs, one point per method and device (its fastest inference path)."""
+"""Speed against error (docs/benchmark.md "Reports"): one point per method of Table 1, its latency and its
+error measured on the same model: the architecture and capacity profile of the 4-spp run that Table 1 shows,
+at the resolution of that run's test frames.
+
+- ``speed_vs_error.csv/.png``: for each run, its model is built again from the run's own config
+  (``resolved_config.yaml``, else ``.hydra/config.yaml``: method, capacity profile, budget) and timed by
+  :func:`mcd.models.latency.latency_ms` (CPU, fp32, eager, batch 1, the test frames' ``data.width`` x
+  ``data.height``), in this process, one run after the other, so every point's time comes from one machine
+  and one load; PSNR and rMSE are the run's own. The CSV and the figure's title state the capacity
+  profile(s), the resolution, the path and the machine. The noisy input has no network and no point.
+- ``speed_bench.csv`` (when a bench CSV of ``python -m mcd.bench`` is given): that CSV's fastest path per
+  method and device at its largest resolution, under the bench's own capacity profile and resolution (often
+  the paper's capacity): a separate latency table, not paired with this report's errors.
+"""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import matplotlib
@@ -11,11 +24,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from mcd.methods import display_name  # noqa: E402
+from mcd.methods import BY_EXPERIMENT, display_name  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import metric, pick  # noqa: E402
-from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET  # noqa: E402
+from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, table1_experiments  # noqa: E402
+
+#: The path every report point is timed on (:func:`mcd.models.latency.latency_ms`).
+PATH = "CPU fp32 eager"
+#: Experiments without a network to time.
+NO_NETWORK = ("noisy",)
 
 
 def best_paths(bench: pd.DataFrame) -> pd.DataFrame:
@@ -29,69 +47,113 @@ def best_paths(bench: pd.DataFrame) -> pd.DataFrame:
     return ok.sort_values("ms_median").groupby(["method", "device"], as_index=False).first()
 
 
-def speed_frame(runs: list[Run], bench: pd.DataFrame) -> pd.DataFrame:
-    """The points of the plot: method, device, path, resolution, ms, PSNR, rMSE x1e3."""
+def run_config(run: Run) -> dict:
+    """The run's composed config: ``resolved_config.yaml`` where the run has one, else its
+    ``.hydra/config.yaml``."""
+    from omegaconf import OmegaConf
+
+    resolved = run.path / "resolved_config.yaml"
+    if resolved.is_file():
+        return OmegaConf.to_container(OmegaConf.load(resolved), resolve=False)  # type: ignore[return-value]
+    return run.config
+
+
+def capacity(run: Run) -> str:
+    """The run's capacity profile (the config group's choice; ``?`` where the run does not record it)."""
+    return run.choices.get("capacity") or run.choices.get("model") or "?"
+
+
+def run_latency(run: Run) -> tuple[float, int, int, str]:
+    """``(ms, height, width, status)``: the latency of the run's own model at its test frames' resolution
+    (NaN and the reason in ``status`` where the model cannot be built or timed, e.g. OIDN without pyoidn)."""
+    from omegaconf import OmegaConf
+
+    from mcd.models import build
+    from mcd.models.latency import latency_ms
+
+    cfg = OmegaConf.create(run_config(run))
+    height, width = int(cfg.data.height), int(cfg.data.width)
+    try:
+        model = build(cfg)
+        return latency_ms(model, height, width), height, width, "ok"
+    except Exception as err:  # a model that cannot be timed is a row that says why, not a crash
+        why = (str(err).splitlines() or [""])[0]
+        return math.nan, height, width, f"not timed: {type(err).__name__}: {why}"
+
+
+def speed_frame(runs: list[Run]) -> pd.DataFrame:
+    """The points of the plot: one per Table 1 experiment with a finished 4-spp run (the run Table 1 shows,
+    row A's for a U-Net without a job of its own), its model's latency and its errors."""
+    import torch
+
+    from mcd.machine import device_name
+
+    machine = device_name(torch.device("cpu"))
     rows = []
-    for _, b in best_paths(bench).iterrows():
-        exp = str(b["method"])
+    for exp in table1_experiments({r.experiment for r in runs}):
+        if exp in NO_NETWORK:
+            continue
         prefer = "ablation" if exp in COMPONENT_ROWS and exp != "F" else "baselines"
-        run = pick(runs, exp, TABLE1_BUDGET, prefer_sweep=prefer)
+        run, label = pick(runs, exp, TABLE1_BUDGET, prefer_sweep=prefer), display_name(exp)
+        other = BY_EXPERIMENT[exp].stand_in if exp in BY_EXPERIMENT else None
+        if other is not None and (run is None or run.status != "ok"):  # as Table 1: the U-Net is row A
+            label = f"{display_name(exp)} (row {other})"
+            run, exp = pick(runs, other, TABLE1_BUDGET, prefer_sweep="ablation"), other
         if run is None or run.status != "ok":
             continue
+        ms, height, width, status = run_latency(run)
         rows.append(
             {
-                "method": display_name(exp),
+                "method": label,
                 "experiment": exp,
-                "device": b["device"],
-                "dtype": b["dtype"],
-                "compiled": b["compiled"],
-                "height": int(b["height"]),
-                "width": int(b["width"]),
-                "ms_median": float(b["ms_median"]), "bench_model": str(b.get("model", "?")),
+                "capacity": capacity(run),
+                "height": height,
+                "width": width,
+                "path": PATH,
+                "ms_median": ms,
                 "psnr": metric(run, "psnr"),
                 "rmse": metric(run, "rmse", 1e3),
+                "device_name": machine,
+                "status": status,
+                "run": str(run.path.name),
             }
         )
     return pd.DataFrame(rows)
 
 
+def _title(df: pd.DataFrame, prov: Provenance) -> str:
+    timed = df[df["status"] == "ok"]
+    if timed.empty:
+        return "Speed against error: nothing to plot (no finished 4-spp run whose model could be timed)"
+    caps = ", ".join(sorted(set(timed["capacity"])))
+    sizes = ", ".join(sorted({f"{w}x{h}" for w, h in zip(timed["width"], timed["height"], strict=True)}))
+    return (f"Speed against error, each point one run's own model: capacity {caps}, {sizes} (its test "
+            f"frames), {PATH}, {timed['device_name'].iloc[0]}; error: 4-spp runs ({prov.config_groups})")
+
+
 def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenance) -> pd.DataFrame:
-    """`speed_vs_error.png` and `speed_vs_error.csv` (the plotted points)."""
-    bench = pd.read_csv(bench_csv) if bench_csv is not None and bench_csv.is_file() else None
-    df = speed_frame(runs, bench) if bench is not None else pd.DataFrame()
+    """``speed_vs_error.png`` and ``speed_vs_error.csv`` (the plotted points), and ``speed_bench.csv`` from
+    ``bench_csv`` when it is a file (see the module docstring)."""
+    df = speed_frame(runs)
     df.to_csv(out_dir / "speed_vs_error.csv", index=False)
+    if bench_csv is not None and bench_csv.is_file():
+        best_paths(pd.read_csv(bench_csv)).to_csv(out_dir / "speed_bench.csv", index=False)
+    timed = df[df["status"] == "ok"] if not df.empty else df
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     for ax, key, label in (
         (axes[0], "psnr", "PSNR (dB), higher is better"),
         (axes[1], "rmse", "rMSE x1e3, lower is better"),
     ):
-        for device, ddf in df.groupby("device") if not df.empty else []:
-            ax.scatter(
-                ddf["ms_median"], ddf[key], label=str(device), marker="o" if "cpu" in str(device) else "s"
-            )
-            for _, r in ddf.iterrows():
-                path = f"{r['width']}x{r['height']} {r['dtype']}{' compiled' if r['compiled'] else ''}"
-                ax.annotate(
-                    f"{r['method']} ({path})",
-                    (r["ms_median"], r[key]),
-                    fontsize=6,
-                    xytext=(3, 3),
-                    textcoords="offset points",
-                )
+        if not timed.empty:
+            ax.scatter(timed["ms_median"], timed[key])
+            for _, r in timed.iterrows():
+                ax.annotate(str(r["method"]), (r["ms_median"], r[key]), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
         ax.set_xscale("log")
         ax.set_xlabel("median ms per frame (log)")
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
-    if df.empty:
-        why = "no bench CSV given" if bench is None else "no method has both a bench row and a finished run"
-        fig.suptitle(f"Speed against error: nothing to plot ({why}; run python -m mcd.bench)")
-    else:
-        axes[0].legend(fontsize=8)
-        profiles = ", ".join(sorted(set(df["bench_model"])))
-        fig.suptitle(
-            f"Speed (largest resolution per device, fastest path per method; {bench_csv}, capacity profile "
-            f"{profiles}) against error (4 spp runs: {prov.config_groups})",
-            fontsize=9,
-        )
+    empty = "Speed against error: no finished 4-spp run"
+    fig.suptitle(_title(df, prov) if not df.empty else empty, fontsize=8)
     prov.save(fig, out_dir / "speed_vs_error.png")
     return df

@@ -64,6 +64,7 @@ from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
 from mcd.methods import CATALOGUE
+from mcd.models.latency import model_inputs, time_calls
 from mcd.provenance import short_commit
 
 log = logging.getLogger("mcd.bench")
@@ -204,29 +205,6 @@ def frame_buffers(
     return {n: t.permute(1, 2, 0).numpy() for n, t in fake.items()}, "synthetic (seeded)"
 
 
-def model_inputs(
-    model: nn.Module, buffers: dict[str, np.ndarray], device: torch.device, channels_last: bool
-) -> dict[str, Tensor | None]:
-    """One frame's inputs in the model's layout (`[1, C, H, W]`, or `[1, T, C, H, W]` for a window)."""
-    past, future = getattr(model, "window", (0, 0))
-    x: dict[str, Tensor | None] = {"ref": None}
-    for name in model.required_buffers():
-        if name == "ref":
-            continue
-        t = torch.from_numpy(np.ascontiguousarray(buffers[name])).permute(2, 0, 1)[None].to(device)
-        if (past, future) != (0, 0):
-            t = t[:, None].expand(-1, past + 1 + future, -1, -1, -1).contiguous()
-        elif channels_last:
-            t = t.contiguous(memory_format=torch.channels_last)
-        x[name] = t
-    return x
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
-
-
 def reset_peak_rss() -> None:
     """Hand freed heap back to the OS (:func:`mcd.allocator.hand_back`, so memory an earlier method freed does
     not count) and restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
@@ -243,20 +221,6 @@ def peak_rss_gb() -> float | None:
             if line.startswith("VmHWM:"):
                 return int(line.split()[1]) * 1024 / 1e9
     return None
-
-
-def time_calls(call: Callable[[], object], device: torch.device, warmup: int, reps: int) -> list[float]:
-    """Milliseconds of `reps` calls after `warmup` calls, each closed by a device synchronisation."""
-    for _ in range(warmup):
-        call()
-    _sync(device)
-    times = []
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        call()
-        _sync(device)
-        times.append((time.perf_counter() - t0) * 1e3)
-    return times
 
 
 def bench_one(

@@ -32,6 +32,7 @@ from mcd.config import compose
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
 from mcd.models.complexity import dummy_batch, flop_counter_mode
+from mcd.models.latency import model_inputs
 from mcd.models.position_pooling import PositionAwarePool
 from mcd.models.semantic_alignment import SemanticAlignment
 from mcd.models.two_stage import STAGES, TwoStage
@@ -39,7 +40,6 @@ from mcd.provenance import short_commit
 from mcd.tools.bench import (
     InferencePath,
     frame_buffers,
-    model_inputs,
     parse_size,
     store_frame,
 )

@@ -444,3 +444,48 @@ def test_runs_that_would_share_a_record_folder_are_refused_before_anything_is_wr
     with pytest.raises(ValueError, match="ablation/small/F_spp4"):
         make_report([tmp_path / "first", tmp_path / "second"], tmp_path / "reports", name="both", bench=None)
     assert not (tmp_path / "reports").exists()
+
+
+def _speed_job(root, name, experiment, capacity, size):
+    """A finished 4-spp job whose config is composed as mcd.run would (resolved_config.yaml)."""
+    from omegaconf import OmegaConf
+
+    from mcd.config import compose
+
+    d = _job(root, name, experiment=experiment, sweep="baselines",
+             metrics={"psnr": 20.0, "rmse": 0.5, "experiment": experiment, "budget": 4})
+    cfg = compose([f"+experiment={experiment}", f"model={capacity}", f"data.height={size[0]}",
+                   f"data.width={size[1]}"])
+    OmegaConf.save(cfg, d / "resolved_config.yaml")
+    (d / ".hydra" / "hydra.yaml").write_text(f"hydra:\n  runtime:\n    choices:\n      model: {capacity}\n")
+    return cfg
+
+
+def test_speed_against_error_times_each_runs_own_model_at_its_test_resolution(tmp_path, monkeypatch):
+    """Issue 34: a point's latency and error come from one model: the run's architecture and capacity, at
+    its test frames' resolution (not the bench's paper-capacity 256x256)."""
+    from mcd.models import latency
+    from mcd.models.complexity import complexity
+    from mcd.reporting.speed import speed_frame
+
+    cfg_a = _speed_job(tmp_path, "A", "A", "cpu", (20, 24))
+    cfg_f = _speed_job(tmp_path, "F", "F", "paper", (16, 16))
+    _job(tmp_path, "noisy", experiment="noisy", sweep="baselines",
+         metrics={"psnr": 10.0, "experiment": "noisy", "budget": 4})
+    timed = {}
+
+    def fake(model, height, width, **kw):
+        timed[type(model).__name__, height, width] = sum(p.numel() for p in model.parameters())
+        return 7.0
+
+    monkeypatch.setattr(latency, "latency_ms", fake)
+    df = speed_frame(find_runs([tmp_path])).set_index("experiment")
+    assert list(df.index) == ["A", "F"]  # the noisy input has no network to time
+    assert df.loc["A", "capacity"] == "cpu" and df.loc["F", "capacity"] == "paper"
+    assert (df.loc["A", "height"], df.loc["A", "width"]) == (20, 24) and df.loc["F", "width"] == 16
+    assert df.loc["A", "rmse"] == 500.0 and df.loc["A", "ms_median"] == 7.0
+    params = sorted(timed.values())
+    assert params == sorted(round(complexity(c, 16, 16)[0] * 1e6) for c in (cfg_a, cfg_f))
+    monkeypatch.undo()  # and really timed: a finite, positive median
+    df = speed_frame(find_runs([tmp_path])).set_index("experiment")
+    assert (df["status"] == "ok").all() and (df["ms_median"] > 0).all()

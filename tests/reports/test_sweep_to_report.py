@@ -187,8 +187,13 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     assert t1.loc["A", "method"] == "U-Net (row A)"  # no unet job: row A's identical network stands in
     tr = pd.read_csv(report / "transfer.csv")
     assert sorted(tr["fine-tuned"]) == [False, True] and set(tr["scene"]) == {"cornell-box-picture"}
-    speed = pd.read_csv(report / "speed_vs_error.csv")
-    assert set(speed["experiment"]) == {"A", "F"}
+    # speed against error: each point is its own run's model, at the run's capacity and test resolution
+    speed = pd.read_csv(report / "speed_vs_error.csv").set_index("experiment")
+    assert set(speed.index) == {"A", "F"}
+    assert (speed["capacity"] == "cpu").all() and (speed[["width", "height"]] == 32).all().all()
+    assert (speed["status"] == "ok").all() and (speed["ms_median"] > 0).all()
+    assert speed.loc["F", "psnr"] == pytest.approx(f_metrics["psnr"])
+    assert set(pd.read_csv(report / "speed_bench.csv")["method"]) == {"A", "F"}  # the bench's, apart
 
     readme = (report / "README.md").read_text()
     assert "python -m mcd.run -m +sweep=ablation +experiment=A,F" in readme  # command
