@@ -72,7 +72,9 @@ def run_latency(run: Run) -> tuple[float, int, int, str]:
     from mcd.models.latency import latency_ms
 
     cfg = OmegaConf.create(run_config(run))
-    height, width = int(cfg.data.height), int(cfg.data.width)
+    height, width = (int(OmegaConf.select(cfg, f"data.{k}", default=0) or 0) for k in ("height", "width"))
+    if not height or not width:
+        return math.nan, height, width, "not timed: the run's config has no data.height and data.width"
     try:
         model = build(cfg)
         return latency_ms(model, height, width), height, width, "ok"
