@@ -41,6 +41,7 @@ from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.reference import MAX_SPP, TARGET_DB, ReferencePlan
 from mcd.denoise.weights import Loaded
+from mcd.methods import display_name
 from mcd.metrics import psnr, ssim
 from mcd.sampling import real_renderer, stack_names
 
@@ -258,7 +259,8 @@ def report_lines(report: dict[str, Any]) -> list[str]:
     for row in report["frames"]:
         line = f"frame {row['frame']}: {row['samples']} colour samples = N*s"
         if row["extra_samples"]:
-            line += f" + {row['extra_samples']} read beyond the budget (NTASAD's first-frame stand-in c_s)"
+            line += (f" + {row['extra_samples']} read beyond the budget ({display_name('ntasad')}'s "
+                     "first-frame stand-in c_s)")
         if row.get("score_samples"):
             line += f"; {row['score_samples']} more for the scores only"
         lines.append(line + _score_text(row))

@@ -147,14 +147,17 @@ def _baselines(f: Finding) -> str:
 
 
 def _oidn_all(f: Finding) -> str:
-    return (f"F - OIDN at {f.budget:g} spp over all test scenes: {f.values['F'] - f.values['oidn']:+.2f} dB "
-            f"(F {f.values['F']:.2f}, OIDN {f.values['oidn']:.2f}).")
+    oidn = _name(f, "oidn")
+    return (f"F - {oidn} at {f.budget:g} spp over all test scenes: "
+            f"{f.values['F'] - f.values['oidn']:+.2f} dB (F {f.values['F']:.2f}, {oidn} "
+            f"{f.values['oidn']:.2f}).")
 
 
 def _oidn_train(f: Finding) -> str:
     scenes = ", ".join(f"{s} {g:+.2f}" for s, g in f.detail["per_scene"].items())
-    return (f"F - OIDN on the training scenes' test frames: {f.values['F'] - f.values['oidn']:+.2f} dB "
-            f"(F {f.values['F']:.2f}, OIDN {f.values['oidn']:.2f}); the aim F >= OIDN - "
+    oidn = _name(f, "oidn")
+    return (f"F - {oidn} on the training scenes' test frames: {f.values['F'] - f.values['oidn']:+.2f} dB "
+            f"(F {f.values['F']:.2f}, {oidn} {f.values['oidn']:.2f}); the aim F >= {oidn} - "
             f"{f.detail['aim_db']:g} dB is {_verdict(f.verdict)}. Per test scene (the held-out ones too): "
             f"{scenes}.")
 
@@ -188,7 +191,7 @@ def _best_per_budget(f: Finding) -> str:
 
 def _oidn_per_budget(f: Finding) -> str:
     parts = ", ".join(f"{p['budget']:g} spp {p['gap']:+.2f}" for p in f.detail["per_budget"])
-    return f"F - OIDN per budget: {parts} dB."
+    return f"F - {_name(f, 'oidn')} per budget: {parts} dB."
 
 
 def _who(f: Finding) -> str:

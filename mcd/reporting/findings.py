@@ -94,7 +94,8 @@ def oidn_gap(runs: list[Run], budget: float = 4.0, spread: pd.DataFrame | None =
     if not math.isnan(fp) and not math.isnan(op):
         per_f, per_o = f.metrics["per_scene"], oidn.metrics["per_scene"]
         per_scene = {s: per_f[s]["psnr"] - per_o[s]["psnr"] for s in per_f if s in per_o}
-        aim = {"claim": f"F >= OIDN - {OIDN_AIM_DB:g} dB on the training scenes' test frames",
+        aim = {"claim": f"F >= {display_name('oidn')} - {OIDN_AIM_DB:g} dB on the training scenes' test "
+                        "frames",
                "aim_db": OIDN_AIM_DB}
         found.append(Finding("f_minus_oidn_train_scenes", "met" if fp - op >= -OIDN_AIM_DB else "not met",
                              "psnr", "dB", ("F", "oidn"), {"F": fp, "oidn": op}, budget, tuple(train),

@@ -29,7 +29,7 @@ from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # n
 
 #: Columns of the strip and their titles (`noisy` is saved as `noisy_<budget>spp`).
 COLUMNS = (
-    ("noisy", "noisy input"),
+    ("noisy", display_name("noisy")),
     ("sampling_map", "sampling map m"),
     ("kernel_index", "kernel index h[0]"),
     ("identity_weight", "identity weight (h[1]+1)/2"),
@@ -161,7 +161,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
                   f"(largest tap {imgs['kernel_pool'].max():.3f}; a uniform 5x5 box is 0.04)")
             written.append(prov.save(fig, folder / f"{scene}_pool.png"))
 
-        crops = [("noisy input", imgs["noisy"])] if "noisy" in imgs else []
+        crops = [(display_name("noisy"), imgs["noisy"])] if "noisy" in imgs else []
         for title, smp in others:
             exr = smp.get(scene, {}).get(frame, {}).get("output")
             if exr is not None:

@@ -272,7 +272,7 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
             "Our PSNR/SSIM come from our data (see README: profile, scenes); compare orderings and "
             "MACs/params, "
             "not absolute PSNR, with the paper.",
-            "OIDN and the noisy input are references the paper does not list.",
+            f"{display_name('oidn')} and the noisy input are references the paper does not list.",
             ADDED_NOTE,
         ],
     )

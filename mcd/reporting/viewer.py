@@ -173,8 +173,8 @@ def write(runs: list[Run], out_dir: Path, name: str) -> Path | None:
     for scene, frame, names in complete:
         colour: list[tuple[str, str, np.ndarray, dict]] = []
         if "noisy" in names:
-            colour.append(("noisy", f"noisy input ({main.budget:g} spp)", read_exr(names["noisy"]),
-                           _frame_metrics(main, scene, frame, prefix="input_")))
+            colour.append(("noisy", f"{display_name('noisy')} ({main.budget:g} spp)",
+                           read_exr(names["noisy"]), _frame_metrics(main, scene, frame, prefix="input_")))
         ref = read_exr(names["reference"])
         for key, title, run, smp in methods:
             exr = smp.get(scene, {}).get(frame, {}).get("output")

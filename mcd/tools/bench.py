@@ -63,7 +63,7 @@ from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
-from mcd.methods import CATALOGUE
+from mcd.methods import CATALOGUE, display_name
 from mcd.models.latency import model_inputs, time_calls
 from mcd.provenance import short_commit
 
@@ -443,7 +443,7 @@ def summary(rows: list[Row], ceilings: dict[str, float] | None = None) -> list[s
         oidn, unet = best.get(("oidn", device, h, w)), best.get(("unet", device, h, w))
         if method == "F" and oidn is not None:
             lines.append(
-                f"- F / OIDN latency on {device} at {w}x{h} (fastest path of each): "
+                f"- F / {display_name('oidn')} latency on {device} at {w}x{h} (fastest path of each): "
                 f"{r.ms_median:.2f} / {oidn.ms_median:.2f} ms = {r.ms_median / oidn.ms_median:.2f}x"
             )
             if r.gmacs and oidn.gmacs and r.gmac_per_s and oidn.gmac_per_s:
@@ -454,12 +454,13 @@ def summary(rows: list[Row], ceilings: dict[str, float] | None = None) -> list[s
                     f"  - = MACs {r.gmacs:.1f} / {oidn.gmacs:.1f} GMACs ({r.gmacs / oidn.gmacs:.2f}x) "
                     f"x GMAC/s {oidn.gmac_per_s:.1f} / {r.gmac_per_s:.1f} "
                     f"({oidn.gmac_per_s / r.gmac_per_s:.2f}x); "
-                    f"to match OIDN's latency F would need {need:.1f} GMAC/s"
+                    f"to match {display_name('oidn')}'s latency F would need {need:.1f} GMAC/s"
                     + (f" (dense matmul here: {', '.join(tops)} GMAC/s)" if tops else "")
                 )
         if method == "F" and unet is not None and r.gmac_per_s and unet.gmac_per_s:
             lines.append(
-                f"- F / U-Net achieved GMAC/s on {device} at {w}x{h} (fastest path of each): "
+                f"- F / {display_name('unet')} achieved GMAC/s on {device} at {w}x{h} (fastest path of "
+                "each): "
                 f"{r.gmac_per_s:.1f} / {unet.gmac_per_s:.1f} = {r.gmac_per_s / unet.gmac_per_s:.2f}x"
             )
     for (device, h, w) in sorted({(r.device, r.height, r.width) for r in rows}):
