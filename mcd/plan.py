@@ -16,7 +16,7 @@ The plan counts, from the config alone:
   ``train.limit_train_batches``, shared by ``trainer.devices x trainer.num_nodes`` ranks) and the steps of the
   run (``train.epochs``, or ``train.max_steps``).
 
-and it measures, on this machine, in this process (``plan.measure=false`` skips them):
+and it measures, on the machine it runs on, in this process (``plan.measure=false`` skips them):
 
 - render speed: a pilot render of one real scene of the profile (the first whose file is found),
   ``plan.pilot_frames`` frames at 1/``plan.pilot_scale`` of the size and ``plan.pilot_spp`` spp after one
@@ -34,11 +34,11 @@ and it measures, on this machine, in this process (``plan.measure=false`` skips 
   synthetic store of the run's buffers at the crop size), against the rate a GPU needs (GPU steps/s x batch).
 
 GPU figures: where CUDA is present the pilot runs on the CUDA variant and the step on the GPU, and the figures
-are measured. Elsewhere they are derived: render time from the documented H100 figure
-(:data:`H100_S_PER_FRAME`, 1.2-2.3 s per 1080p frame at 256 spp, docs/scale.md) as seconds per sample; a
-training step as this machine's step time divided by this machine's render-time ratio to the H100 (the same
-ratio assumed for both: a rough figure, said so in the output). GPU-hours = render samples x GPU seconds per
-sample + run steps x GPU seconds per step.
+are measured. Elsewhere they are derived: render time from the reference GPU's documented figure
+(:data:`mcd.workload.GPU_S_PER_FRAME`, seconds per 1080p frame at 256 spp, docs/scale.md) as seconds per
+sample; a training step as the local step time divided by the local render time's ratio to the reference
+GPU's (the same ratio assumed for both: a rough figure, said so in the output). GPU-hours = render samples x
+GPU seconds per sample + run steps x GPU seconds per step.
 
 ``mcd.run`` and ``mcd.render`` call :func:`announce` before their work: it prints the plan's one-line summary
 when the plan puts the work above an hour (a pilot runs only where the work's samples could take that long).
@@ -55,8 +55,8 @@ from omegaconf import DictConfig
 
 from mcd.config import hydra_main
 from mcd.workload import (
-    H100_S_PER_FRAME,
-    H100_S_PER_SAMPLE,
+    GPU_S_PER_FRAME,
+    GPU_S_PER_SAMPLE,
     _gb,
     _range,
     derive,
@@ -132,8 +132,8 @@ def lines(p: dict[str, Any]) -> list[str]:
         f"render time here: {_range(*wk['samples'])} samples x {pi['s_per_sample'] * 1e9:.1f} ns = "
         f"{_range(*p['render_hours_here'], ' h')}",
         ("render on this GPU (measured): " if p["gpu_measured"] else
-         f"render on an H100 (derived from the documented {H100_S_PER_FRAME[0]}-{H100_S_PER_FRAME[1]} s per "
-         f"1080p frame at 256 spp = {_range(*(s * 1e9 for s in H100_S_PER_SAMPLE))} ns per sample; this "
+         f"render on an H100 (derived from the documented {GPU_S_PER_FRAME[0]}-{GPU_S_PER_FRAME[1]} s per "
+         f"1080p frame at 256 spp = {_range(*(s * 1e9 for s in GPU_S_PER_SAMPLE))} ns per sample; this "
          f"machine renders {p['ratio']:.0f}x slower): ") + f"{_range(*p['render_gpu_hours'], ' GPU-h')}",
         f"training step memory: {st['memory_mb']:.0f} MB for 1 crop of {st['crop']}x{st['crop']} x "
         f"{wk['clip_len']} frames on {st['device']} ({st['how']}; one real forward+backward at "

@@ -1,4 +1,4 @@
-"""What a run's work is, from its config, and what it costs on this machine: the counts and measurements
+"""What a run's work is, from its config, and what it costs where it runs: the counts and measurements
 behind ``python -m mcd.plan`` (its docstring says what each figure is; docs/scale.md, "Plan"), and
 :func:`announce`, the plan's one-line summary that ``mcd.run`` and ``mcd.render`` log before work over an
 hour. :func:`requested_buffers` is the buffer set ``render.buffers`` asks for (``mcd.render``,
@@ -23,9 +23,10 @@ from mcd.machine import status_mb
 
 log = logging.getLogger("mcd.workload")
 
-#: seconds an H100 took per 1920x1080 frame at 256 spp (measured range, docs/scale.md)
-H100_S_PER_FRAME = (1.2, 2.3)
-H100_S_PER_SAMPLE = tuple(s / (1920 * 1080 * 256) for s in H100_S_PER_FRAME)
+#: seconds the reference GPU took per 1920x1080 frame at 256 spp (the range docs/scale.md measured, with its
+#: command and machine); the plan's render time where no GPU is present
+GPU_S_PER_FRAME = (1.2, 2.3)
+GPU_S_PER_SAMPLE = tuple(s / (1920 * 1080 * 256) for s in GPU_S_PER_FRAME)
 HOUR = 3600.0
 #: samples per second no CPU renders faster than, for the cheap test of whether a render could take an hour
 FAST_CPU_SAMPLES_PER_S = 1e8
@@ -126,7 +127,7 @@ def work(cfg: DictConfig) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------------------------------- measurements
 def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1) -> dict[str, Any]:
-    """Seconds per sample of this machine (:mod:`mcd.plan`): one real scene of the profile at 1/`scale` of
+    """Seconds per sample here (:mod:`mcd.plan`): one real scene of the profile at 1/`scale` of
     the size, `frames` frames of `spp` spp after a warm-up frame (JIT compilation not timed)."""
     from mcd.data.camera import interpolate_path
     from mcd.data.mitsuba_env import select_variant
@@ -231,8 +232,8 @@ def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[
     """Times, GPU-hours and the loader's need from the counts and the measurements (:mod:`mcd.plan`)."""
     here = pilot["s_per_sample"]
     gpu_measured = pilot["variant"].startswith("cuda")
-    gpu_sps = (here, here) if gpu_measured else H100_S_PER_SAMPLE
-    ratio = here / float(np.mean(H100_S_PER_SAMPLE))  # how many times an H100 renders faster than here
+    gpu_sps = (here, here) if gpu_measured else GPU_S_PER_SAMPLE
+    ratio = here / float(np.mean(GPU_S_PER_SAMPLE))  # times faster the reference GPU renders
     cpu_step = step["seconds"] * wk["batch"]  # batch 1 measured; a step of `batch` crops
     gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
     steps = wk["run_steps"]

@@ -2,11 +2,12 @@
 channel-first array per scene, from which a crop of a clip reads only the bytes it covers
 (docs/training_store.md; issue 30, part 1).
 
-Why: a training clip of row F reads 12 buffers x 5 frames; from EXR each is a whole-frame decode (about 30 ms
-at 1920x1080) to keep a 256x256 crop. Here a crop is ``clip_len x channels x crop`` row reads of ``crop``
-values from the page cache or disk, no decode. The design (a numpy ``.npy`` memory map, as Intel Open Image
-Denoise's training toolkit preprocesses EXR into one uncompressed tensor file per dataset) was chosen over a
-chunked, compressed Zarr v3 store by the figures of ``python -m mcd.bench --loader`` (docs/training_store.md).
+Why: a training clip of row F reads 12 buffers x 5 frames; from EXR each is a whole-frame 1920x1080 decode
+to keep a 256x256 crop (docs/training_store.md measures what that costs). Here a crop is ``clip_len x
+channels x crop`` row reads of ``crop`` values from the page cache or disk, no decode. The design (a numpy
+``.npy`` memory map, as Intel Open Image Denoise's training toolkit preprocesses EXR into one uncompressed
+tensor file per dataset) was chosen over a chunked, compressed Zarr v3 store by the figures of ``python -m
+mcd.bench --loader`` (docs/training_store.md).
 
 Layout (``data.train_store.dir``, default ``<paths.data_dir>/<data.name>/.train_<dtype>/``):
 

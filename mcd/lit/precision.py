@@ -1,4 +1,4 @@
-"""``trainer.precision=auto``: the fastest training precision that keeps accuracy on this machine
+"""``trainer.precision=auto``: the fastest training precision that keeps accuracy on the machine it runs on
 (docs/training.md, "Throughput", where the choice is measured with ``python -m mcd.bench --train``).
 
 - CUDA: ``bf16-mixed`` where the GPU supports bf16, else ``32-true``.

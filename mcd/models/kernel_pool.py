@@ -33,8 +33,8 @@ def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
     """Filter ``image`` ``[B, C, H, W]`` with per-pixel kernels ``[B, l*l, H, W]`` (row-major taps).
 
     One in-place multiply-add (``addcmul_``) per tap of shifted views of the padded image, so no temporary
-    is larger than the image: ``unfold`` + ``einsum`` holds an ``l*l``-times larger tensor and measured 10-20x
-    slower on the CPU (docs/inference.md, "Kernel application"). Runs in the kernels' dtype promoted with
+    is larger than the image: ``unfold`` + ``einsum`` holds an ``l*l``-times larger tensor and was slower on
+    the CPU (docs/inference.md, "Kernel application"). Runs in the kernels' dtype promoted with
     the image's.
     """
     taps = kernels.shape[1]

@@ -366,7 +366,7 @@ def run(
 
 def matmul_rate(device: torch.device, dtype: torch.dtype, n: int = 2048, reps: int = 5) -> float:
     """GMAC/s of the best of ``reps`` dense ``n x n`` matrix products (``torch.mm``, ``dtype`` inputs) on
-    ``device`` with this process's threads: the rate this machine's BLAS reaches on the best-shaped work, a
+    ``device`` with this process's threads: the rate the BLAS reaches here on the best-shaped work, a
     ceiling to read the methods' GMAC/s against (docs/inference.md "OIDN's MACs")."""
     a = torch.randn(n, n, device=device).to(dtype)
     b = torch.randn(n, n, device=device).to(dtype)

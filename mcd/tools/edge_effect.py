@@ -79,8 +79,8 @@ def measure(module: DenoiseModule, batches: Iterable[dict[str, object]], margin:
     The whole frames run first, then the crops (``DenoiseModule.test_step`` resets a temporal model at each
     sequence start), so neither run sees the other's temporal state. ``precision="bf16-mixed"`` runs them
     under bf16 autocast on the CPU, as a run with that precision tested: an adaptive model's integer sampling
-    map rounds from its logits, so fp32 and bf16 logits can draw different samples (0.1 dB apart on the
-    converged F at 32 spp)."""
+    map rounds from its logits, so fp32 and bf16 logits can draw different samples, and the scores of the two
+    precisions differ."""
     from mcd.lit.test_recorder import hwc
 
     module.eval()
