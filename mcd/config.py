@@ -5,17 +5,64 @@ command and tests, :func:`hydra_main` for the Hydra commands (``mcd.run``, ``mcd
 The experiment group holds ``conf/experiment/*.yaml`` (the baselines and references) and, registered here in
 Hydra's ConfigStore from the component table (:data:`mcd.methods.COMPONENTS`), rows A-M: the table is the one
 source of each row's switches (docs/method.md, "Component study").
+
+It is also the one place that knows the config groups renamed since (:data:`RENAMED_GROUPS`): an override
+naming an old group is refused before any work (:func:`check_overrides`, in :func:`compose` and
+:func:`hydra_main`), and a config saved under an old name reads as today's (:func:`upgrade_saved`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import functools
+import sys
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf, open_dict
 
 from mcd.methods import COMPONENTS, component_experiment
 from mcd.paths import CONF_DIR
+
+#: Config groups renamed, old name -> today's: ``model`` (a capacity profile) is ``capacity``
+#: (``conf/capacity/``, docs/architecture.md "Config groups").
+RENAMED_GROUPS: dict[str, str] = {"model": "capacity"}
+#: Keys a saved record holds under an old name: the groups, and the run record's choice of the capacity group
+#: (``metrics.json``, mcd/run_record.py).
+RENAMED_KEYS: dict[str, str] = {**RENAMED_GROUPS, "model_profile": "capacity_profile"}
+
+def check_overrides(overrides: Iterable[str]) -> None:
+    """ValueError for the first override that names a renamed group (``model=paper``,
+    ``model.rae.bottleneck=8``, ``+model=cpu``, ``~model``), saying what to type instead
+    (``capacity=paper``)."""
+    for override in overrides:
+        key = override.lstrip("+~").split("=", 1)[0]
+        head = key.split("@", 1)[0].split(".", 1)[0].split("/", 1)[0]
+        if head in RENAMED_GROUPS:
+            new = RENAMED_GROUPS[head]
+            fixed = override.replace(head, new, 1)
+            raise ValueError(f"{override}: the config group '{head}' is now called '{new}' (conf/{new}/, the "
+                             f"capacity profiles; docs/architecture.md); give {fixed}")
+
+
+
+def upgrade_saved(saved: Any) -> Any:
+    """A config saved before a group was renamed (a run's checkpoint or ``.hydra/`` files, a bundle's JSON, a
+    bench row, Hydra's recorded choices, a ``metrics.json``), with each old key of :data:`RENAMED_KEYS` under
+    its new name (``model:`` -> ``capacity:``). A mapping that already has the new key, or neither, comes back
+    as it is; a ``DictConfig`` stays one (a copy), any other mapping becomes a plain ``dict``; anything else
+    comes back as it is."""
+    if not isinstance(saved, Mapping | DictConfig):
+        return saved
+    old = [k for k in RENAMED_KEYS if k in saved and RENAMED_KEYS[k] not in saved]
+    if not old:
+        return saved
+    if isinstance(saved, DictConfig):
+        upgraded = OmegaConf.create(OmegaConf.to_container(saved, resolve=False))
+        with open_dict(upgraded):
+            for k in old:
+                upgraded[RENAMED_KEYS[k]] = upgraded.pop(k)
+        return upgraded
+    return {(RENAMED_KEYS[k] if k in old else k): v for k, v in saved.items()}
 
 
 def register_experiments() -> None:
@@ -36,19 +83,34 @@ def experiment_names() -> list[str]:
 
 def compose(overrides: Iterable[str] = ()) -> DictConfig:
     """The root config (``conf/config.yaml``) with Hydra ``overrides``, as ``python -m mcd.run`` composes it
-    (without Hydra's own ``hydra.*`` run keys resolved)."""
+    (without Hydra's own ``hydra.*`` run keys resolved); an override of a renamed group is refused first
+    (:func:`check_overrides`)."""
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
 
+    overrides = list(overrides)
+    check_overrides(overrides)
     register_experiments()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        return hydra_compose(config_name="config", overrides=list(overrides))
+        return hydra_compose(config_name="config", overrides=overrides)
 
 
 def hydra_main(task: Callable[[DictConfig], Any]) -> Callable[[], Any]:
     """``@hydra.main`` on the root config (``conf/config.yaml``) with rows A-M registered: the decorator of
-    every Hydra command."""
+    every Hydra command. An override on the command line that names a renamed group ends the command with
+    :func:`check_overrides`' message and exit status 2, before Hydra composes anything."""
     import hydra
 
     register_experiments()
-    return hydra.main(config_path=str(CONF_DIR), config_name="config", version_base="1.3")(task)
+    main = hydra.main(config_path=str(CONF_DIR), config_name="config", version_base="1.3")(task)
+
+    @functools.wraps(main)
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        try:
+            check_overrides(a for a in sys.argv[1:] if not a.startswith("-"))
+        except ValueError as err:
+            print(f"error: {err}", file=sys.stderr)
+            raise SystemExit(2) from None
+        return main(*args, **kwargs)
+
+    return checked

@@ -1,4 +1,4 @@
-"""``python -m mcd.plan data=<profile> model=<capacity> [+experiment=X]``: what a run will cost, printed
+"""``python -m mcd.plan data=<profile> capacity=<capacity> [+experiment=X]``: what a run will cost, printed
 before anything is rendered or trained (docs/scale.md, "Plan"; issue 30, part 5).
 
 The plan counts, from the config alone:

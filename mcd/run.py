@@ -285,7 +285,7 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
         budget=int(cfg.budget),
         seed=int(cfg.seed),
         data_profile=choices.get("data"),
-        model_profile=choices.get("model"),
+        capacity_profile=choices.get("capacity"),
         train_profile=choices.get("train"),
         per_scene=averages["per_scene"],  # type: ignore[arg-type]
         scenes_test=list(averages["frames"]),  # type: ignore[call-overload]

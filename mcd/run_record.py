@@ -45,8 +45,8 @@ class RunRecord:
     switches: str | None  # ``method.UN..SA`` as 0/1 (mcd.models.switches.switch_row); null for baselines
     budget: int  # average samples per pixel
     seed: int
-    data_profile: str | None  # the Hydra choices of the config groups data, model, train
-    model_profile: str | None
+    data_profile: str | None  # the Hydra choices of the config groups data, capacity, train
+    capacity_profile: str | None
     train_profile: str | None
     per_scene: dict[str, dict[str, float | None]]  # per-scene averages of every score
     scenes_test: list[str]

@@ -15,7 +15,7 @@ from tests.conftest import compose_cfg, store32_overrides
 def test_paper_counts_match_the_protocols_arithmetic():
     """Row F on the paper profile: 11 stored buffers (31 channels + motion's depth), 19 scenes x 500 frames at
     1080p; 16 training scenes x (500 - 100 test) packed frames; 76 training clips per scene."""
-    wk = work(compose_cfg("data=paper", "model=paper", "train=paper"))
+    wk = work(compose_cfg("data=paper", "capacity=paper", "train=paper"))
     pixels = 1920 * 1080
     channels = 3 * 8 + 1 + 3 + 3  # c1_in, c1..c32, ref; depth, normal, albedo
     assert wk["exr_frame_bytes"] == pixels * channels * 4
@@ -60,7 +60,7 @@ def test_announce_prints_the_summary_only_above_an_hour(tmp_path, caplog):
     caplog.set_level(logging.INFO, logger="mcd.workload")
     announce(compose_cfg(*store32_overrides(tmp_path)), "mcd.run", train=True)  # 12 minutes, a tiny render
     assert not caplog.records
-    paper = compose_cfg("data=paper", "model=paper", f"paths.data_dir={tmp_path}")
+    paper = compose_cfg("data=paper", "capacity=paper", f"paths.data_dir={tmp_path}")
     announce(paper, "mcd.render", train=False)
     (rec,) = caplog.records
     assert rec.getMessage().startswith("mcd.render: plan paper: EXR store 2.44 TB")

@@ -38,7 +38,8 @@ def parser() -> argparse.ArgumentParser:
                    "name")
     p.add_argument("--experiment", help="the experiment the checkpoint must be of (e.g. unet, F); without "
                    "--checkpoint, a method without weights (oidn, noisy)")
-    p.add_argument("--model", help="the capacity profile the checkpoint must have (cpu, paper)")
+    p.add_argument("--capacity", help="the capacity profile the checkpoint must have (cpu, paper)")
+    p.add_argument("--model", help=argparse.SUPPRESS)  # the old name of --capacity: refused, naming it
     p.add_argument("--scene", type=arguments.scene_file,
                    help="a Mitsuba 3 scene file to render and denoise (input b)")
     p.add_argument("--width", type=arguments.side, default=None,
@@ -95,10 +96,13 @@ def load_model(args: argparse.Namespace) -> weights.Loaded:
     """The checkpoint's model, or (no ``--checkpoint``) an experiment without weights."""
     from mcd.denoise.configs import check_experiment
 
+    if args.model is not None:
+        raise ValueError(f"--model {args.model}: the option is now called --capacity (the capacity profile, "
+                         f"conf/capacity/); give --capacity {args.model}")
     if args.experiment is not None:
         check_experiment(args.experiment)
     if args.checkpoint:
-        return weights.load(args.checkpoint, args.experiment, args.model)
+        return weights.load(args.checkpoint, args.experiment, args.capacity)
     if not args.experiment:
         raise ValueError("give --checkpoint (a run directory, a .ckpt file or a bundled name: "
                          f"{', '.join(weights.bundled_names()) or 'none installed'}), or --experiment of a "
@@ -106,7 +110,8 @@ def load_model(args: argparse.Namespace) -> weights.Loaded:
     from mcd.config import compose
     from mcd.models import build
 
-    cfg = compose([f"+experiment={args.experiment}", *([f"model={args.model}"] if args.model else [])])
+    capacity = [f"capacity={args.capacity}"] if args.capacity else []
+    cfg = compose([f"+experiment={args.experiment}", *capacity])
     if bool(cfg.method.get("trainable", True)):
         raise ValueError(f"--experiment={args.experiment} has weights to train: give its --checkpoint")
     return weights.Loaded(build(cfg).eval(), cfg, f"experiment {args.experiment} (no weights)")

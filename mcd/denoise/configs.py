@@ -1,4 +1,4 @@
-"""A model capacity profile (``conf/model/``) as ``mcd.denoise`` needs it (docs/denoise.md); the composed
+"""A model capacity profile (``conf/capacity/``) as ``mcd.denoise`` needs it (docs/denoise.md); the composed
 config of an experiment without weights (``oidn``, ``noisy``) is :func:`mcd.config.compose`'s."""
 
 from __future__ import annotations
@@ -11,12 +11,13 @@ from mcd.config import experiment_names
 from mcd.paths import CONF_DIR
 
 
-def model_profile(name: str) -> dict[str, Any]:
-    """The widths of capacity profile ``name`` (``conf/model/<name>.yaml``); ValueError naming the choices."""
-    path = CONF_DIR / "model" / f"{name}.yaml"
+def capacity_profile(name: str) -> dict[str, Any]:
+    """The widths of capacity profile ``name`` (``conf/capacity/<name>.yaml``); ValueError naming the
+    choices."""
+    path = CONF_DIR / "capacity" / f"{name}.yaml"
     if not path.is_file():
-        choices = sorted(p.stem for p in (CONF_DIR / "model").glob("*.yaml"))
-        raise ValueError(f"--model={name}: no capacity profile conf/model/{name}.yaml; choose one of "
+        choices = sorted(p.stem for p in (CONF_DIR / "capacity").glob("*.yaml"))
+        raise ValueError(f"--capacity={name}: no capacity profile conf/capacity/{name}.yaml; choose one of "
                          f"{choices}")
     return OmegaConf.to_container(OmegaConf.load(path), resolve=True)  # type: ignore[return-value]
 

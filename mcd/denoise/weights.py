@@ -8,7 +8,7 @@ of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.j
 checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
 it exactly (:func:`mcd.lit.checkpoint.check_fits`). A bundle's JSON must parse and hold its ``config``, and a
 configuration whose model would have more than :data:`mcd.denoise.work.MAX_PARAMS` parameters is refused
-before it is built (counted on the ``meta`` device). ``--experiment`` / ``--model`` state what the user
+before it is built (counted on the ``meta`` device). ``--experiment`` / ``--capacity`` state what the user
 expects: a checkpoint of another method or capacity is refused, naming both.
 """
 
@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from omegaconf import DictConfig, OmegaConf
 
+from mcd.config import upgrade_saved
 from mcd.denoise.work import MAX_PARAMS
 from mcd.lit import checkpoint
 
@@ -29,7 +30,7 @@ if TYPE_CHECKING:  # torch is imported where used, so that --help starts fast (d
 
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "bundled"
 #: Keys a bundle's JSON ``config`` must hold (written by :func:`mcd.denoise.bundle.write_bundle`).
-BUNDLE_CONFIG = ("experiment", "method", "model", "budget", "data")
+BUNDLE_CONFIG = ("experiment", "method", "capacity", "budget", "data")
 #: Methods whose first stage samples adaptively: they need a renderer (``--scene``), not frames from disk.
 ADAPTIVE = ("dasr", "ntasad")
 
@@ -70,7 +71,8 @@ def _from_run_ckpt(path: Path) -> tuple[DictConfig, dict[str, Any], dict[str, An
                 "written by python -m mcd.run, its run directory, or a bundled name")
         cfg = OmegaConf.load(resolved)
     weights = checkpoint.model_weights(state)
-    return OmegaConf.create(cfg), weights, {"checkpoint": str(path), "global_step": state.get("global_step")}
+    prov = {"checkpoint": str(path), "global_step": state.get("global_step")}
+    return upgrade_saved(OmegaConf.create(cfg)), weights, prov
 
 
 def _bundle_json(meta: Path) -> dict[str, Any]:
@@ -80,7 +82,7 @@ def _bundle_json(meta: Path) -> dict[str, Any]:
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise checkpoint.CheckpointError(f"--checkpoint: {meta}: not a readable bundle JSON ({exc}); write "
                                          "it again with python -m mcd.denoise.bundle") from exc
-    config = provenance.get("config") if isinstance(provenance, dict) else None
+    config = upgrade_saved(provenance.get("config")) if isinstance(provenance, dict) else None
     method = config.get("method") if isinstance(config, dict) else None
     missing = [k for k in BUNDLE_CONFIG if not isinstance(config, dict) or k not in config]
     if missing or not isinstance(method, dict) or "name" not in method:
@@ -88,7 +90,7 @@ def _bundle_json(meta: Path) -> dict[str, Any]:
             f"--checkpoint: {meta}: its 'config' lacks {', '.join(missing) or 'method.name'} (it needs "
             f"{', '.join(BUNDLE_CONFIG)}, with method.name); write the bundle again with python -m "
             "mcd.denoise.bundle")
-    return provenance
+    return {**provenance, "config": config}
 
 
 def _from_bundle(pt: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
@@ -138,8 +140,8 @@ def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]
 def load(spec: str, experiment: str | None = None, capacity: str | None = None) -> Loaded:
     """The model of ``--checkpoint=spec`` with its weights (evaluation mode, CPU).
 
-    ``experiment`` / ``capacity``: what the user expects (``--experiment``, ``--model``); a checkpoint of
-    another method or model profile raises :class:`mcd.lit.checkpoint.CheckpointError` naming both.
+    ``experiment`` / ``capacity``: what the user expects (``--experiment``, ``--capacity``); a checkpoint
+    of another method or capacity profile raises :class:`mcd.lit.checkpoint.CheckpointError` naming both.
     """
     from mcd.models import build
 
@@ -149,18 +151,18 @@ def load(spec: str, experiment: str | None = None, capacity: str | None = None) 
         raise checkpoint.CheckpointError(
             f"--checkpoint={spec}: a checkpoint of experiment {got!r}, not {experiment!r}; give a checkpoint "
             f"trained with +experiment={experiment} (or drop --experiment)")
-    widths = {k: OmegaConf.to_container(v, resolve=True) for k, v in (cfg.get("model") or {}).items()}
+    widths = {k: OmegaConf.to_container(v, resolve=True) for k, v in (cfg.get("capacity") or {}).items()}
     if capacity is not None:
-        from mcd.denoise.configs import model_profile
+        from mcd.denoise.configs import capacity_profile
 
-        expected = model_profile(capacity)
+        expected = capacity_profile(capacity)
         name = str(cfg.method.name)
         key = "two_stage" if name in ("two_stage", "unet") else name
         if key in expected and widths.get(key) != expected[key]:
             raise checkpoint.CheckpointError(
-                f"--checkpoint={spec}: its {key} widths are not those of model={capacity} "
-                f"({widths.get(key)} vs {expected[key]}); give a checkpoint trained with model={capacity} "
-                "(or drop --model)")
+                f"--checkpoint={spec}: its {key} widths are not those of capacity={capacity} "
+                f"({widths.get(key)} vs {expected[key]}); give a checkpoint trained with capacity={capacity} "
+                "(or drop --capacity)")
     params = param_count(cfg)
     if params > MAX_PARAMS:
         raise checkpoint.CheckpointError(

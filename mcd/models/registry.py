@@ -1,10 +1,10 @@
 """The methods by name (``method.name``): :data:`METHODS`, a :class:`mcd.registry.Registry`.
 
 A method registers ``@METHODS.register(name)`` (``mcd.models.register``) on a constructor
-``(method, model, budget) -> nn.Module`` that takes its own settings: ``method`` the method's config
-(the ``conf/method/`` group), ``model`` the capacity profile (``conf/model/``; the constructor reads its
-own entry, ``model.<name>``) and ``budget`` the average samples per pixel. :func:`build` is the one place
-that hands a run's config to it.
+``(method, capacity, budget) -> nn.Module`` that takes its own settings: ``method`` the method's config
+(the ``conf/method/`` group), ``capacity`` the capacity profile (``conf/capacity/``; the constructor reads
+its own entry, ``capacity.<name>``) and ``budget`` the average samples per pixel. :func:`build` is the one
+place that hands a run's config to it.
 """
 
 from __future__ import annotations
@@ -24,19 +24,19 @@ METHODS: Registry[Factory] = Registry("method", ("mcd.models.two_stage", "mcd.mo
 register = METHODS.register
 
 
-def widths_of(model: DictConfig, key: str) -> DictConfig:
-    """The capacity profile's entry ``model.<key>``; ``KeyError`` naming the key and the profiles."""
-    entry = model.get(key) if model is not None else None
+def widths_of(capacity: DictConfig, key: str) -> DictConfig:
+    """The capacity profile's entry ``capacity.<key>``; ``KeyError`` naming the key and the profiles."""
+    entry = capacity.get(key) if capacity is not None else None
     if entry is None:
-        raise KeyError(f"model.{key} (the widths of {key}) is missing; pick a capacity profile that has it, "
-                       "e.g. model=cpu or model=paper (conf/model/)")
+        raise KeyError(f"capacity.{key} (the widths of {key}) is missing; pick a capacity profile that has "
+                       "it, e.g. capacity=cpu or capacity=paper (conf/capacity/)")
     return entry
 
 
 def build(cfg: DictConfig) -> nn.Module:
-    """The model named by ``cfg.method.name``, from ``cfg.method``, ``cfg.model`` and ``cfg.budget``, with the
-    output steps its method sets (``method.mean_match``, ``method.pass_misses``:
+    """The model named by ``cfg.method.name``, from ``cfg.method``, ``cfg.capacity`` and ``cfg.budget``, with
+    the output steps its method sets (``method.mean_match``, ``method.pass_misses``:
     :func:`mcd.models.output_steps.attach_output_steps`; docs/method.md "Output")."""
     budget = float(cfg.budget)
-    module = METHODS.get(str(cfg.method.name))(cfg.method, cfg.get("model"), budget)
+    module = METHODS.get(str(cfg.method.name))(cfg.method, cfg.get("capacity"), budget)
     return attach_output_steps(module, cfg.method, budget)

@@ -143,7 +143,7 @@ class TwoStage(nn.Module):
 def build_two_stage(method: DictConfig, model: DictConfig, budget: float) -> TwoStage:
     """``TwoStage`` from its method settings (switches, ``sampling.levels``, ``colour``, ``kp``,
     ``denoiser_output``: conf/method/two_stage.yaml; the output steps: mcd.models.registry.build), the widths
-    ``model.two_stage`` and the budget."""
+    ``capacity.two_stage`` and the budget."""
     switches = check_switches(method, complete=True)
     sizes = OmegaConf.to_container(widths_of(model, "two_stage"), resolve=True)
     sampling = method.get("sampling", None) or {}

@@ -86,9 +86,9 @@ class Provenance:
 
     @property
     def config_groups(self) -> str:
-        """Model / train / trainer profiles of the runs (the `config` part of the provenance)."""
+        """Capacity / train / trainer profiles of the runs (the `config` part of the provenance)."""
         parts = []
-        for group in ("model", "train", "trainer", "loss"):
+        for group in ("capacity", "train", "trainer", "loss"):
             profiles = _distinct([r.choices.get(group) for r in self.runs])
             if profiles != "unknown":
                 parts.append(f"{group}={profiles}")

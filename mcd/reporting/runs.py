@@ -19,6 +19,8 @@ import pandas as pd
 import yaml
 from omegaconf import OmegaConf
 
+from mcd.config import upgrade_saved
+
 log = logging.getLogger(__name__)
 
 #: The file ``python -m mcd.tools.edge_effect`` writes into a run directory, read beside its metrics.
@@ -237,13 +239,14 @@ def load_run(path: Path) -> Run:
     config = _load_yaml(path / ".hydra" / "config.yaml")
     if not config and error is not None and isinstance(error.get("config"), dict):
         config = error["config"]
+    config = upgrade_saved(config)  # a run from before a group's rename reads as today's (mcd/config.py)
     hydra_file = path / ".hydra" / "hydra.yaml"
     choices = (
         OmegaConf.select(OmegaConf.load(hydra_file), "hydra.runtime.choices", default=None)
         if (hydra_file.is_file())
         else None
     )
-    choices = (
+    choices = upgrade_saved(
         {str(k): str(v) for k, v in choices.items() if not str(k).startswith("hydra")} if choices else {}
     )
     return Run(path=path, config=config, overrides=overrides, choices=choices, metrics=metrics, error=error)

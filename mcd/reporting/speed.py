@@ -24,6 +24,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from mcd.config import upgrade_saved  # noqa: E402
 from mcd.methods import BY_EXPERIMENT, display_name  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
@@ -53,14 +54,14 @@ def run_config(run: Run) -> dict:
     from omegaconf import OmegaConf
 
     resolved = run.path / "resolved_config.yaml"
-    if resolved.is_file():
-        return OmegaConf.to_container(OmegaConf.load(resolved), resolve=False)  # type: ignore[return-value]
+    if resolved.is_file():  # a run from before a group's rename reads as today's (mcd.config.upgrade_saved)
+        return upgrade_saved(OmegaConf.to_container(OmegaConf.load(resolved), resolve=False))
     return run.config
 
 
 def capacity(run: Run) -> str:
     """The run's capacity profile (the config group's choice; ``?`` where the run does not record it)."""
-    return run.choices.get("capacity") or run.choices.get("model") or "?"
+    return run.choices.get("capacity") or "?"  # mcd.reporting.runs.load_run reads an older run's `model`
 
 
 def run_latency(run: Run) -> tuple[float, int, int, str]:

@@ -4,7 +4,8 @@ Intel Open Image Denoise on the same frames; prints a table and writes it as CSV
 tracked ``reports/bench/bench.csv``, which ``mcd.report``'s speed-against-error plot reads, unless given as
 ``--out``).
 
-Per method (built by ``mcd.models.build`` from the composed Hydra config ``+experiment=<X> model=<profile>``),
+Per method (built by ``mcd.models.build`` from the composed Hydra config ``+experiment=<X>
+capacity=<profile>``),
 device (CPU; CUDA when present), resolution (1920x1080 and 256x256 by default) and inference path:
 
 - fp32, eager, contiguous; fp32 eager channels-last;
@@ -58,7 +59,7 @@ import torch
 from torch import Tensor, nn
 
 from mcd import allocator
-from mcd.config import compose
+from mcd.config import check_overrides, compose
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
@@ -86,7 +87,7 @@ COLUMNS = (
     "channels_last",
     "reps",
     "warmup",
-    "model",
+    "capacity",
     "inputs",
     "status",
     "device_name",
@@ -113,7 +114,7 @@ class Row:
     channels_last: bool
     reps: int
     warmup: int
-    model: str
+    capacity: str
     inputs: str
     status: str
     device_name: str
@@ -274,7 +275,7 @@ def run(
     from mcd.models.complexity import complexity
 
     rows: list[Row] = []
-    profile = next((o.split("=", 1)[1] for o in overrides if o.startswith("model=")), "cpu")
+    profile = next((o.split("=", 1)[1] for o in overrides if o.startswith("capacity=")), "cpu")
     for dev_name in devices:
         device = torch.device(dev_name)
         if device.type == "cuda" and not torch.cuda.is_available():
@@ -294,7 +295,7 @@ def run(
                     width=w,
                     warmup=n_warm,
                     reps=n_reps,
-                    model=profile,
+                    capacity=profile,
                     device_name=dname,
                     threads=torch.get_num_threads(),
                     allocator=allocator.policy(),
@@ -489,7 +490,7 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
         f"- Command: `{command}`",
         f"- Commit: `{commit}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
         f"- Devices: {'; '.join(devices) or 'none'}",
-        f"- Capacity profile: {', '.join(sorted({r.model for r in rows}))}; batch 1, one frame per call",
+        f"- Capacity profile: {', '.join(sorted({r.capacity for r in rows}))}; batch 1, one frame per call",
         f"- Inputs: {', '.join(inputs) or 'none'}",
         f"- Repetitions (median of the timed calls): {'; '.join(reps)}",
         f"- Allocator: {', '.join(sorted({r.allocator for r in rows})) or 'none'} (mcd/allocator.py)",
@@ -513,7 +514,7 @@ def main(argv: list[str] | None = None) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
-        "overrides", nargs="*", help="Hydra overrides for every method (default: model=paper)"
+        "overrides", nargs="*", help="Hydra overrides for every method (default: capacity=paper)"
     )
     parser.add_argument("--methods", default=",".join(METHODS), help="experiments, comma-separated")
     parser.add_argument("--sizes", default="1080p,256", help="comma-separated: 1080p, 256 or <W>x<H>")
@@ -537,8 +538,12 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     log.info("allocator: %s", allocator.apply(args.allocator))
     overrides = list(args.overrides)
-    if not any(o.startswith("model=") for o in overrides):
-        overrides.append("model=paper")
+    try:
+        check_overrides(overrides)
+    except ValueError as err:
+        parser.error(str(err))
+    if not any(o.startswith("capacity=") for o in overrides):
+        overrides.append("capacity=paper")
     sizes = [s for s in args.sizes.split(",") if s]
     for s in sizes:
         try:

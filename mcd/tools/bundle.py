@@ -22,6 +22,7 @@ import torch
 import yaml
 from omegaconf import DictConfig, OmegaConf
 
+from mcd.config import upgrade_saved
 from mcd.data.store import check_name
 from mcd.denoise.weights import BUNDLED_DIR
 from mcd.lit import checkpoint
@@ -31,7 +32,7 @@ from mcd.lit.transfer import checkpoint_of
 METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse", "per_scene",
            "scenes_test", "params_m", "macs_g", "best_val_psnr", "train_steps", "stop_reason", "epochs",
            "train_s", "wall_s", "commit", "dirty", "device", "torch", "precision", "data_profile",
-           "model_profile", "train_profile", "budget", "seed", "experiment")
+           "capacity_profile", "train_profile", "budget", "seed", "experiment")
 #: Data keys the inputs are normalised with (mcd.data.exposure) and the scene renders use.
 DATA_KEYS = ("name", "exposure_target", "max_depth", "gbuffer_spp", "ref_spp", "width", "height")
 
@@ -52,7 +53,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     metrics = json.loads(metrics_path.read_text())
     ckpt = checkpoint_of(run_dir)
     state = checkpoint.safe_load(ckpt, "run dir")
-    cfg = OmegaConf.create(state["hyper_parameters"]["cfg"])
+    cfg = upgrade_saved(OmegaConf.create(state["hyper_parameters"]["cfg"]))  # mcd/config.py
     weights = {k: v.detach().float().contiguous() for k, v in checkpoint.model_weights(state).items()}
     checkpoint.check_fits(build(cfg), weights, "run dir", ckpt)
     overrides_file = run_dir / ".hydra" / "overrides.yaml"
@@ -61,7 +62,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
         "command": None if overrides is None else " ".join(["python -m mcd.run", *overrides]),
         "checkpoint": f"{ckpt.relative_to(run_dir)} (global step {state.get('global_step')})",
         "train": OmegaConf.to_container(cfg.train, resolve=True),
-        "metrics": {k: metrics.get(k) for k in METRICS},
+        "metrics": {k: upgrade_saved(metrics).get(k) for k in METRICS},
         **({"source_commit": source_commit} if source_commit else {}),
     }
     return write_bundle(weights, cfg, name, provenance, out_dir)
@@ -74,7 +75,7 @@ def write_bundle(weights: dict[str, torch.Tensor], cfg: DictConfig, name: str, p
     config = {
         "experiment": str(cfg.get("experiment", cfg.method.name)),
         "method": OmegaConf.to_container(cfg.method, resolve=True),
-        "model": OmegaConf.to_container(cfg.model, resolve=True),
+        "capacity": OmegaConf.to_container(cfg.capacity, resolve=True),
         "budget": cfg.budget,
         "data": {k: cfg.data.get(k) for k in DATA_KEYS},
     }

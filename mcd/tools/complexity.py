@@ -1,7 +1,7 @@
 """``python -m mcd.tools.complexity``: params and 1920x1080 MACs of every registered experiment beside the
 paper's (docs/benchmark.md "Metrics").
 
-``python -m mcd.tools.complexity [--model paper] [--experiments A B ...] [-o PATH]`` prints the table; with
+``python -m mcd.tools.complexity [--capacity paper] [--experiments A B ...] [-o PATH]`` prints the table; with
 ``-o`` it also writes it as CSV (``name, params_m, gmacs_1080p, paper_params_m, paper_gmacs``; NaN, and an
 "unavailable" note in the printed table, for a method whose optional package is missing). It writes nothing
 else: the tracked ``reports/complexity.csv`` changes only when asked for by name. Experiments are
@@ -22,7 +22,7 @@ from mcd.methods import paper_complexity
 from mcd.models.complexity import complexity
 
 
-def table(experiments: list[str], model: str, height: int, width: int,
+def table(experiments: list[str], capacity: str, height: int, width: int,
           unavailable: dict[str, str] | None = None) -> list[dict]:
     """One row per experiment: ours and the paper's params and GMACs (NaN where either is missing).
 
@@ -31,7 +31,7 @@ def table(experiments: list[str], model: str, height: int, width: int,
     """
     rows = []
     for name in experiments:
-        cfg = compose([f"+experiment={name}", f"model={model}"])
+        cfg = compose([f"+experiment={name}", f"capacity={capacity}"])
         try:
             params, gmacs = complexity(cfg, height, width)
         except ImportError as err:
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m mcd.tools.complexity",
                                      description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--model", default="paper", help="capacity profile (conf/model/<name>.yaml)")
+    parser.add_argument("--capacity", default="paper", help="capacity profile (conf/capacity/<name>.yaml)")
     parser.add_argument("--experiments", nargs="*", default=None,
                         help="experiments to count (default: every one, rows A-M first)")
     parser.add_argument("--height", type=int, default=1080)
@@ -61,8 +61,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="also write the table as CSV here (default: print only)")
     args = parser.parse_args(argv)
     unavailable: dict[str, str] = {}
-    rows = table(args.experiments or experiment_names(), args.model, args.height, args.width, unavailable)
-    print(f"model={args.model}, {args.width}x{args.height}, MACs = FlopCounterMode FLOPs / 2")
+    rows = table(args.experiments or experiment_names(), args.capacity, args.height, args.width, unavailable)
+    print(f"capacity={args.capacity}, {args.width}x{args.height}, MACs = FlopCounterMode FLOPs / 2")
     print(f"{'name':<12}{'params_m':>10}{'paper':>8}{'diff':>8}{'gmacs':>10}{'paper':>9}{'diff':>8}")
     for r in rows:
         print(f"{r['name']:<12}{r['params_m']:>10.3f}{r['paper_params_m']:>8.3f}"

@@ -1,7 +1,7 @@
 """``python -m mcd.bench profile``: where a two-stage method's inference time goes, stage by stage
 (docs/inference.md).
 
-The method (``--method``, default row F; capacity ``model=paper`` unless an override says otherwise) reads one
+The method (``--method``, default row F; ``capacity=paper`` unless an override says otherwise) reads one
 frame of the store (as ``python -m mcd.bench`` does: a store read, tiled to ``--size``), runs ``--warmup``
 calls and then the reported call (the next, while a call faults pages in), each under ``torch.profiler``
 (whose own allocations reshape the heap that ``mcd/allocator.py`` keeps, so the warm-ups must include them;
@@ -145,7 +145,7 @@ def table(ms: dict[str, float], total: float, gmacs: dict[str, float]) -> list[s
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m mcd.bench profile", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("overrides", nargs="*", help="Hydra overrides (default: model=paper)")
+    parser.add_argument("overrides", nargs="*", help="Hydra overrides (default: capacity=paper)")
     parser.add_argument("--method", default="F", help="experiment of a two-stage row (A-M, unet)")
     parser.add_argument("--size", default="1080p", help="1080p, 256 or <W>x<H>")
     parser.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the CPU has it")
@@ -160,8 +160,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     memory = allocator.apply(args.allocator)
     overrides = list(args.overrides)
-    if not any(o.startswith("model=") for o in overrides):
-        overrides.append("model=paper")
+    if not any(o.startswith("capacity=") for o in overrides):
+        overrides.append("capacity=paper")
     try:
         h, w = parse_size(args.size)
     except ValueError as err:

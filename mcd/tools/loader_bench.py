@@ -3,7 +3,8 @@ paper's shapes, the EXR path and the training store measured in one run, warm an
 worker's memory (docs/training_store.md; issue 30, part 3). The measurement is
 :func:`mcd.data.loader_rate.measure`; this command picks the shapes and the buffers, and prints.
 
-Defaults: 1920x1080 frames, 256x256 crops, 5-frame clips, the buffers of ``+experiment=F model=paper`` (what
+Defaults: 1920x1080 frames, 256x256 crops, 5-frame clips, the buffers of ``+experiment=F capacity=paper``
+(what
 row F's run loads: its model's ``required_buffers()`` plus ``ref`` and the uniform render at the budget),
 a synthetic store of 11 frames (about 3 GB of EXR and 2.7 GB packed) written into ``--dir`` (default: a
 temporary folder, removed after the run; give a folder to keep the stores for the next run). ``--zarr`` also
@@ -31,9 +32,9 @@ from mcd.models import build
 from mcd.provenance import short_commit
 
 
-def run_buffers_of(experiment: str, model: str) -> list[str]:
-    """The buffers a run of ``+experiment=<experiment> model=<model>`` loads."""
-    cfg = compose([f"+experiment={experiment}", f"model={model}"])
+def run_buffers_of(experiment: str, capacity: str) -> list[str]:
+    """The buffers a run of ``+experiment=<experiment> capacity=<capacity>`` loads."""
+    cfg = compose([f"+experiment={experiment}", f"capacity={capacity}"])
     return sorted(run_buffers(build(cfg).required_buffers(), cfg.budget))
 
 
@@ -50,7 +51,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--dtype", choices=("float32", "float16"), default="float32")
     p.add_argument("--seconds", type=float, default=5.0, help="timed seconds per figure")
     p.add_argument("--experiment", default="F", help="whose buffers (+experiment=<name>)")
-    p.add_argument("--model", default="paper")
+    p.add_argument("--capacity", default="paper", help="capacity profile (conf/capacity/)")
     p.add_argument("--zarr", action="store_true", help="also the Zarr v3 design (needs zarr)")
     args = p.parse_args(argv)
     if args.zarr:
@@ -58,7 +59,7 @@ def main(argv: list[str] | None = None) -> dict:
             import zarr  # noqa: F401
         except ImportError as err:
             p.error(f"--zarr needs the zarr package ({err}); pip install zarr")
-    buffers = run_buffers_of(args.experiment, args.model)
+    buffers = run_buffers_of(args.experiment, args.capacity)
     folder = args.dir or Path(tempfile.mkdtemp(prefix="mcd-loader-bench-"))
     try:
         out = measure(folder, buffers, width=args.width, height=args.height, frames=args.frames,

@@ -167,7 +167,7 @@ def child(args: list[str]) -> dict[str, object]:
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(prog="python -m mcd.bench train", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("overrides", nargs="*", help="Hydra overrides for every job (default: model=cpu)")
+    ap.add_argument("overrides", nargs="*", help="Hydra overrides for every job (default: capacity=cpu)")
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--profiles", default="tiny,small")
     ap.add_argument("--profile-methods", action="append", default=[], metavar="PROFILE=M1,M2",

@@ -26,7 +26,7 @@ HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None
 def test_experiment_builds_its_method_and_loss_and_runs_a_frame(name: str) -> None:
     if name == "oidn" and not HAS_PYOIDN:
         pytest.skip("pyoidn is not installed (optional: pip install 'mcd[oidn]')")
-    cfg = compose([f"+experiment={name}", "model=cpu"])
+    cfg = compose([f"+experiment={name}", "capacity=cpu"])
     assert cfg.experiment == name and cfg.method.name == name
     assert cfg.method.get("trainable", True) is (name not in ("oidn", "noisy"))
     assert cfg.loss.name == LOSS[name] and build_loss(cfg) is not None
@@ -41,11 +41,11 @@ def test_experiment_builds_its_method_and_loss_and_runs_a_frame(name: str) -> No
 
 
 def test_unet_is_component_row_a() -> None:
-    unet = build(compose(["+experiment=unet", "model=paper"]))
-    row_a = build(compose(["+experiment=A", "model=paper"]))
+    unet = build(compose(["+experiment=unet", "capacity=paper"]))
+    row_a = build(compose(["+experiment=A", "capacity=paper"]))
     assert type(unet) is type(row_a)
     assert [tuple(p.shape) for p in unet.parameters()] == [tuple(p.shape) for p in row_a.parameters()]
-    cfg = compose(["+experiment=unet", "model=cpu"])
+    cfg = compose(["+experiment=unet", "capacity=cpu"])
     cfg.method.AS = True
     with pytest.raises(ValueError, match="row A"):
         build(cfg)
@@ -58,7 +58,7 @@ def test_baselines_own_loss_or_the_papers() -> None:
 
 @pytest.mark.parametrize("name", FIVE)
 def test_paper_profile_matches_table1_within_10_percent(name: str) -> None:
-    cfg = compose([f"+experiment={name}", "model=paper"])
+    cfg = compose([f"+experiment={name}", "capacity=paper"])
     params_m, gmacs = complexity(cfg)
     paper = TABLE1[name]
     assert abs(params_m / paper["params_m"] - 1) < 0.10, f"{name}: {params_m:.3f} M vs {paper['params_m']} M"
@@ -67,7 +67,7 @@ def test_paper_profile_matches_table1_within_10_percent(name: str) -> None:
 
 def test_cpu_profile_is_much_smaller_than_paper() -> None:
     for name in FIVE[1:]:
-        small = build(compose([f"+experiment={name}", "model=cpu"]))
+        small = build(compose([f"+experiment={name}", "capacity=cpu"]))
         n = sum(p.numel() for p in small.parameters())
         assert n < 0.1 * TABLE1[name]["params_m"] * 1e6, f"{name}: cpu profile has {n} params"
-    assert OmegaConf.select(compose(["+experiment=rae", "model=cpu"]), "model.rae.encoder") is not None
+    assert OmegaConf.select(compose(["+experiment=rae", "capacity=cpu"]), "capacity.rae.encoder") is not None

@@ -16,7 +16,8 @@ from tests.denoise.helpers import REPO, render_sequence, untrained_bundle
 
 @pytest.fixture(scope="module")
 def unet(tmp_path_factory) -> Path:
-    return untrained_bundle(tmp_path_factory.mktemp("bundles"), "unet-test", "+experiment=unet", "model=cpu")
+    return untrained_bundle(tmp_path_factory.mktemp("bundles"),
+                            "unet-test", "+experiment=unet", "capacity=cpu")
 
 
 @pytest.fixture(scope="module")
@@ -106,21 +107,28 @@ def test_checkpoint_of_another_method(tmp_path, capsys, unet, frames):
 
 def test_checkpoint_of_another_capacity(tmp_path, capsys, unet, frames):
     err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--checkpoint", str(unet),
-                  "--model", "paper")
-    assert "not those of model=paper" in err and "give a checkpoint trained with model=paper" in err
+                  "--capacity", "paper")
+    assert "not those of capacity=paper" in err and "give a checkpoint trained with capacity=paper" in err
+
+
+def test_the_old_capacity_option_names_the_new_one(tmp_path, capsys, unet, frames):
+    """``--model`` (the option's name before the ``capacity`` rename) is refused, naming ``--capacity``."""
+    err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--checkpoint", str(unet),
+                  "--model", "cpu")
+    assert "--model cpu: the option is now called --capacity" in err and "give --capacity cpu" in err
 
 
 def test_weights_that_do_not_fit_their_config(tmp_path, capsys, frames):
     """A bundle whose .pt holds paper-capacity weights, its JSON saying cpu: check_fits names the shapes."""
-    paper = untrained_bundle(tmp_path, "paper", "+experiment=unet", "model=paper")
-    cpu = untrained_bundle(tmp_path, "cpu", "+experiment=unet", "model=cpu")
+    paper = untrained_bundle(tmp_path, "paper", "+experiment=unet", "capacity=paper")
+    cpu = untrained_bundle(tmp_path, "cpu", "+experiment=unet", "capacity=cpu")
     cpu.write_bytes(paper.read_bytes())
     err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--checkpoint", str(cpu))
     assert "does not fit this model" in err and "shape differs" in err
 
 
 def test_adaptive_checkpoint_needs_a_scene(tmp_path, capsys, frames):
-    f = untrained_bundle(tmp_path, "f", "+experiment=F", "model=cpu")
+    f = untrained_bundle(tmp_path, "f", "+experiment=F", "capacity=cpu")
     err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--checkpoint", str(f))
     assert "samples adaptively" in err and "--scene path/to/scene.xml" in err
 
@@ -138,7 +146,7 @@ def test_unknown_checkpoint_lists_the_bundled_ones(tmp_path, capsys, frames):
 
 
 def test_scene_that_does_not_load(tmp_path, capsys):
-    f = untrained_bundle(tmp_path, "f", "+experiment=F", "model=cpu")
+    f = untrained_bundle(tmp_path, "f", "+experiment=F", "capacity=cpu")
     bad = tmp_path / "broken" / "scene.xml"
     bad.parent.mkdir()
     bad.write_text('<scene version="3.0.0"><shape type="obj"><string name="filename" value="gone.obj"/>'

@@ -47,7 +47,7 @@ def test_references_beside_the_frames_are_found_and_each_score_is_the_metrics_on
 def test_a_denoiser_scores_above_its_input_and_a_resumed_run_scores_every_frame(sequence, tmp_path):
     """An untrained U-Net is no denoiser, so scored against its own output as the reference: the output's
     PSNR is the cap, the input's is not; a rerun that writes nothing still scores both frames."""
-    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "model=cpu")
+    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "capacity=cpu")
     first = run([str(sequence), "-o", str(tmp_path / "out"), "--checkpoint", str(unet), "--no-progress"])
     refs = tmp_path / "refs"
     refs.mkdir()

@@ -9,6 +9,7 @@ import json
 import numpy as np
 import pytest
 
+from mcd.config import upgrade_saved
 from mcd.data.exr import read_exr
 from mcd.denoise.cli import run
 from mcd.denoise.frames import read_channels
@@ -32,7 +33,8 @@ def test_bundled_checkpoints_are_package_data_with_provenance():
         meta = json.loads((BUNDLED_DIR / f"{name}.json").read_text())
         assert meta["command"].startswith("python -m mcd.run")
         assert meta["metrics"]["commit"] != "unknown" or len(meta.get("source_commit", "")) == 40
-        assert meta["metrics"]["data_profile"] == "small" and meta["config"]["model"]
+        assert meta["metrics"]["data_profile"] == "small"
+        assert upgrade_saved(meta["config"])["capacity"]  # a bundle from before the rename says model
         assert meta["metrics"]["psnr"] > meta["metrics"]["input_psnr"]  # it beat its noisy input when tested
         assert (BUNDLED_DIR / meta["weights_file"]).stat().st_size < 8e6
 
@@ -76,7 +78,7 @@ def test_a_memory_cap_too_small_for_any_tile_is_refused(sequence, tmp_path, caps
 
 def test_fastdvdnet_reads_its_window_of_neighbours(sequence, tmp_path):
     folder, _ = sequence
-    fdv = untrained_bundle(tmp_path, "fastdvdnet", "+experiment=fastdvdnet", "model=cpu")
+    fdv = untrained_bundle(tmp_path, "fastdvdnet", "+experiment=fastdvdnet", "capacity=cpu")
     report = run([str(folder), "-o", str(tmp_path / "out"), "--checkpoint", str(fdv), "--no-progress"])
     assert report["frames"] == 4 and all((tmp_path / "out" / f"cbox_{f:04d}.exr").is_file() for f in range(4))
 

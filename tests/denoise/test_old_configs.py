@@ -21,7 +21,8 @@ def test_every_bundled_checkpoint_builds_and_loads_through_the_registry():
         loaded = load(name)
         cfg = json.loads((BUNDLED_DIR / f"{name}.json").read_text())["config"]
         # the model built today from the old config is the one built from today's experiment config
-        today = build(compose_cfg(f"+experiment={cfg['experiment']}", "model=cpu", f"budget={cfg['budget']}"))
+        today = build(compose_cfg(f"+experiment={cfg['experiment']}", "capacity=cpu",
+                                  f"budget={cfg['budget']}"))
         shapes = [tuple(p.shape) for p in today.parameters()]
         assert [tuple(p.shape) for p in loaded.model.parameters()] == shapes
 

@@ -24,7 +24,7 @@ def test_cbox_real_adaptive_render_spends_exactly_n_times_s(tmp_path, monkeypatc
         return real(scene, spp_map, seed, sensor=sensor)
 
     monkeypatch.setattr(spp_map_render, "render_spp_map", recording)
-    f = untrained_bundle(tmp_path, "f", "+experiment=F", "model=cpu")
+    f = untrained_bundle(tmp_path, "f", "+experiment=F", "capacity=cpu")
     out = tmp_path / "out"
     scene = VENDORED_DIR / "cbox" / "scene.xml"
     report = run(["--scene", str(scene), "-o", str(out), "--checkpoint", str(f), "--width", "32",
@@ -59,7 +59,7 @@ def colour_renders(monkeypatch) -> list[int]:
 def test_f_renders_only_what_it_reads(tmp_path, monkeypatch):
     """Without scores, F renders c_1 and its map's counts per frame: no uniform c_s it would not read."""
     spps = colour_renders(monkeypatch)
-    f = untrained_bundle(tmp_path, "f", "+experiment=F", "model=cpu")
+    f = untrained_bundle(tmp_path, "f", "+experiment=F", "capacity=cpu")
     report = run(["--scene", str(VENDORED_DIR / "cbox" / "scene.xml"), "-o", str(tmp_path / "out"),
                   "--checkpoint", str(f), "--width", "32", "--height", "32", "--frames", "2",
                   "--no-progress"])
@@ -71,7 +71,7 @@ def test_f_renders_only_what_it_reads(tmp_path, monkeypatch):
 
 def test_ntasad_reads_a_uniform_render_on_its_first_frame_only(tmp_path, monkeypatch):
     spps = colour_renders(monkeypatch)
-    nt = untrained_bundle(tmp_path, "nt", "+experiment=ntasad", "model=cpu")
+    nt = untrained_bundle(tmp_path, "nt", "+experiment=ntasad", "capacity=cpu")
     report = run(["--scene", str(VENDORED_DIR / "cbox" / "scene.xml"), "-o", str(tmp_path / "out"),
                   "--checkpoint", str(nt), "--width", "32", "--height", "32", "--frames", "2",
                   "--no-progress"])
@@ -87,8 +87,8 @@ def test_scores_of_two_methods_share_exposure_uniform_input_and_reference(tmp_pa
     scene = str(VENDORED_DIR / "cbox" / "scene.xml")
     common = ["--scene", scene, "--width", "32", "--height", "32", "--reference-spp", "4",
               "--reference-db", "30", "--reference-max-spp", "64", "--no-progress"]
-    f = untrained_bundle(tmp_path, "f", "+experiment=F", "model=cpu")
-    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "model=cpu")
+    f = untrained_bundle(tmp_path, "f", "+experiment=F", "capacity=cpu")
+    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "capacity=cpu")
     rf = run([*common, "-o", str(tmp_path / "f"), "--checkpoint", str(f)])
     printed_f = capsys.readouterr().out
     ru = run([*common, "-o", str(tmp_path / "u"), "--checkpoint", str(unet)])
@@ -136,7 +136,7 @@ def test_an_old_format_scene_without_defaults_renders_with_a_uniform_method(tmp_
     scene = tmp_path / "mine" / "sphere.xml"
     scene.parent.mkdir()
     scene.write_text(OLD_FORMAT)
-    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "model=cpu")
+    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "capacity=cpu")
     report = run(["--scene", str(scene), "-o", str(tmp_path / "out"), "--checkpoint", str(unet),
                   "--width", "32", "--height", "24", "--no-progress"])
     assert report["frames"][0]["samples"] == 32 * 24 * 4  # the uniform render c_s at the budget
@@ -147,7 +147,7 @@ def test_the_film_size_defaults_to_the_scenes_own(tmp_path):
     scene = tmp_path / "mine" / "sphere.xml"
     scene.parent.mkdir()
     scene.write_text(OLD_FORMAT.replace('"640"', '"40"').replace('"480"', '"30"'))
-    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "model=cpu")
+    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "capacity=cpu")
     report = run(["--scene", str(scene), "-o", str(tmp_path / "out"), "--checkpoint", str(unet),
                   "--no-progress"])
     assert report["size"] == [30, 40] and read_exr(tmp_path / "out" / "sphere_0000.exr").shape == (30, 40, 3)
@@ -155,7 +155,7 @@ def test_the_film_size_defaults_to_the_scenes_own(tmp_path):
 
 def test_bad_reference_settings_are_refused_before_rendering(tmp_path, capsys, monkeypatch):
     spps = colour_renders(monkeypatch)
-    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "model=cpu")
+    unet = untrained_bundle(tmp_path, "unet", "+experiment=unet", "capacity=cpu")
     base = ["--scene", str(VENDORED_DIR / "cbox" / "scene.xml"), "-o", str(tmp_path / "out"), "--checkpoint",
             str(unet), "--width", "32", "--height", "32", "--no-progress"]
     for extra, named in ((["--reference-spp", "3"], "--reference-spp=3"),

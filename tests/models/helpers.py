@@ -22,14 +22,14 @@ def row_cfg(row: str, profile: str = "cpu", budget: float = 4):
     switches, :func:`mcd.methods.component_experiment`, + the profile)."""
     exp = component_experiment(row)
     method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), exp["method"])
-    model = OmegaConf.load(CONF / "model" / f"{profile}.yaml")
-    return OmegaConf.create({"method": method, "budget": budget, "model": model})
+    model = OmegaConf.load(CONF / "capacity" / f"{profile}.yaml")
+    return OmegaConf.create({"method": method, "budget": budget, "capacity": model})
 
 
 def switch_cfg(bits: str, profile: str = "cpu", budget: float = 4):
     method = {"name": "two_stage", **{s: b == "1" for s, b in zip(SWITCHES, bits, strict=True)}}
-    model = OmegaConf.load(CONF / "model" / f"{profile}.yaml")
-    return OmegaConf.create({"method": method, "budget": budget, "model": model})
+    model = OmegaConf.load(CONF / "capacity" / f"{profile}.yaml")
+    return OmegaConf.create({"method": method, "budget": budget, "capacity": model})
 
 
 def frame(h: int = 32, w: int = 32, b: int = 1, scale: float = 1.0, seed: int = 0) -> dict[str, torch.Tensor]:

@@ -37,7 +37,7 @@ HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None
 def _rows(model, experiment: str, data_dir) -> list[dict[str, object]]:
     """``mcd.tools.edge_effect.measure`` of ``model`` on the test frames (2 per scene) of a 96x96 store."""
     cfg = compose([
-        f"+experiment={experiment}", "model=cpu", "data=tiny", "data.name=bundled_f",
+        f"+experiment={experiment}", "capacity=cpu", "data=tiny", "data.name=bundled_f",
         f"paths.data_dir={data_dir}",
         "data.width=96", "data.height=96", "data.segments=1", "data.frames_per_segment=4",
         "data.test_fraction=0.5", "data.val_clips=0", "data.clip_len=2",  # renders 2 test frames, 2 others

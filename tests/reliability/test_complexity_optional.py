@@ -13,7 +13,7 @@ from mcd.tools.complexity import main
 def test_complexity_without_pyoidn_lists_oidn_as_unavailable(tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyoidn", None)  # `import pyoidn` now raises ImportError
     out = tmp_path / "complexity.csv"
-    main(["--experiments", "A", "oidn", "noisy", "--model", "cpu", "--out", str(out), "--height", "64",
+    main(["--experiments", "A", "oidn", "noisy", "--capacity", "cpu", "--out", str(out), "--height", "64",
           "--width", "64"])
     printed = capsys.readouterr().out
     oidn = next(line for line in printed.splitlines() if line.startswith("oidn"))

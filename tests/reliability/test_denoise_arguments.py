@@ -20,7 +20,8 @@ CBOX = str(REPO / "scenes" / "cbox" / "scene.xml")
 
 @pytest.fixture(scope="module")
 def unet(tmp_path_factory) -> Path:
-    return untrained_bundle(tmp_path_factory.mktemp("bundles"), "unet-args", "+experiment=unet", "model=cpu")
+    return untrained_bundle(tmp_path_factory.mktemp("bundles"),
+                            "unet-args", "+experiment=unet", "capacity=cpu")
 
 
 def parse_error(capsys, parse, *argv: str) -> str:
@@ -98,11 +99,11 @@ def test_a_damaged_bundle_json_is_named_before_anything_is_built(tmp_path, capsy
     elif damage == "malformed":
         text = json.dumps(meta)[:-40]
     else:
-        meta["config"]["model"]["two_stage"]["denoiser"]["widths"] = [200_000] * 5
+        meta["config"]["capacity"]["two_stage"]["denoiser"]["widths"] = [200_000] * 5
         text = json.dumps(meta)
     pt.with_suffix(".json").write_text(text)
     err = refused(capsys, "--scene", CBOX, "-o", str(tmp_path / "o"), "--checkpoint", str(pt))
-    assert {"no_config": f"{pt.with_suffix('.json')}: its 'config' lacks experiment, method, model",
+    assert {"no_config": f"{pt.with_suffix('.json')}: its 'config' lacks experiment, method, capacity",
             "malformed": f"{pt.with_suffix('.json')}: not a readable bundle JSON",
             "absurd_widths": "above the limit of 2.68e+08"}[damage] in err
 

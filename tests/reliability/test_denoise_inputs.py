@@ -23,7 +23,8 @@ NOISY = ("--experiment", "noisy")
 
 @pytest.fixture(scope="module")
 def unet(tmp_path_factory) -> Path:
-    return untrained_bundle(tmp_path_factory.mktemp("bundles"), "unet-rel", "+experiment=unet", "model=cpu")
+    return untrained_bundle(tmp_path_factory.mktemp("bundles"),
+                            "unet-rel", "+experiment=unet", "capacity=cpu")
 
 
 def bomb(path: Path, good: Path) -> None:

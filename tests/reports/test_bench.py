@@ -35,7 +35,7 @@ def test_bench_cpu_writes_the_interface_columns(tmp_path):
             "--synthetic",
             "--allocator",
             "system",
-            "model=cpu",
+            "capacity=cpu",
         ]
     )
     rows = list(csv.DictReader(out.open()))
@@ -63,12 +63,12 @@ def test_bench_without_out_writes_under_outputs_not_reports(tmp_path, monkeypatc
     its README go to ``outputs/bench/`` under the working directory."""
     monkeypatch.chdir(tmp_path)
     bench.main(["--methods", "noisy", "--sizes", "16x16", "--devices", "cpu", "--warmup", "0", "--reps", "1",
-                "--synthetic", "--allocator", "system", "model=cpu"])
+                "--synthetic", "--allocator", "system", "capacity=cpu"])
     assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file()) == [
         "outputs/bench/README.md", "outputs/bench/bench.csv"]
 
 def test_unknown_method_is_a_row_not_a_crash(tmp_path):
-    rows = bench.run(["no_such_method"], ["32x32"], ["cpu"], ["model=cpu"], 0, 1, 1, 1, False, None)
+    rows = bench.run(["no_such_method"], ["32x32"], ["cpu"], ["capacity=cpu"], 0, 1, 1, 1, False, None)
     assert len(rows) == 1 and rows[0].ms_median is None and rows[0].status.startswith("failed to build")
 
 
@@ -90,7 +90,7 @@ def test_store_frames_are_read_through_the_store_and_tiled(cbox_store):
 
 def test_rows_carry_macs_throughput_memory_and_threads(cbox_store):
     _, store = cbox_store
-    rows = bench.run(["F", "unet"], ["32x32"], ["cpu"], ["model=cpu"], 1, 1, 1, 1, False,
+    rows = bench.run(["F", "unet"], ["32x32"], ["cpu"], ["capacity=cpu"], 1, 1, 1, 1, False,
                      bench.StoreFrame(store, "cbox"))
     for r in rows:
         assert r.status == "ok", r
@@ -112,7 +112,7 @@ def test_ratio_line_compares_f_with_oidn():
         channels_last=True,
         reps=10,
         warmup=3,
-        model="paper",
+        capacity="paper",
         inputs="synthetic (seeded)",
         status="ok",
         device_name="gpu",
@@ -165,7 +165,7 @@ def test_bench_gpu_paths(tmp_path):
             "3",
             "--out",
             str(out),
-            "model=cpu",
+            "capacity=cpu",
         ]
     )
     rows = [r for r in csv.DictReader(out.open()) if r["method"] == "F"]
@@ -179,7 +179,7 @@ def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
     F; each stage label has a time, and the stages with modules have their MACs."""
     out = tmp_path / "profile.md"
     bench_command(["--profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
-                "model=cpu"])
+                "capacity=cpu"])
     text = capsys.readouterr().out
     assert text.strip() == out.read_text().strip()
     rows = {line.split("|")[1].strip().replace("&nbsp;", ""): line.split("|")[2:6]

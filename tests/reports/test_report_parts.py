@@ -454,10 +454,11 @@ def _speed_job(root, name, experiment, capacity, size):
 
     d = _job(root, name, experiment=experiment, sweep="baselines",
              metrics={"psnr": 20.0, "rmse": 0.5, "experiment": experiment, "budget": 4})
-    cfg = compose([f"+experiment={experiment}", f"model={capacity}", f"data.height={size[0]}",
+    cfg = compose([f"+experiment={experiment}", f"capacity={capacity}", f"data.height={size[0]}",
                    f"data.width={size[1]}"])
     OmegaConf.save(cfg, d / "resolved_config.yaml")
-    (d / ".hydra" / "hydra.yaml").write_text(f"hydra:\n  runtime:\n    choices:\n      model: {capacity}\n")
+    choices = f"hydra:\n  runtime:\n    choices:\n      capacity: {capacity}\n"
+    (d / ".hydra" / "hydra.yaml").write_text(choices)
     return cfg
 
 

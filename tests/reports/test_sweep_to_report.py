@@ -118,7 +118,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
             "2",
             "--out",
             str(bench_csv),
-            "model=cpu",
+            "capacity=cpu",
         ],
         tmp_path,
     )
@@ -197,7 +197,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
 
     readme = (report / "README.md").read_text()
     assert "python -m mcd.run -m +sweep=ablation +experiment=A,F" in readme  # command
-    assert "Data profile(s): tiny" in readme and "model=cpu" in readme  # profile and config
+    assert "Data profile(s): tiny" in readme and "capacity=cpu" in readme  # profile and config
     assert "Commit(s) of the runs: " in readme and "Commit(s) of the runs: unknown" not in readme
     assert "Device(s): CPU" in readme and "Wall time:" in readme
     assert "C_spp4" in readme and "failed" in readme  # the failed job is listed with its error

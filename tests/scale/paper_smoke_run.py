@@ -2,7 +2,7 @@
 rank: ``python tests/scale/paper_smoke_run.py <data_dir> <out_dir>``.
 
 The parts ``mcd.run`` trains with, built as it builds them (mcd/run.py ``build``), on a synthetic 1920x1080
-store that ``test_paper_smoke.py`` wrote: ``model=paper`` row F, the store packed into the training store
+store that ``test_paper_smoke.py`` wrote: ``capacity=paper`` row F, the store packed into the training store
 (every rank packs; the per-scene lock lets one do it), 256x256 crops from it with two loader workers, two DDP
 processes on gloo (``trainer=ddp`` on CPU), two epochs of one clip per rank. The store has no render keys,
 so the reader is a :class:`mcd.data.store.StoreReader` where ``mcd.run`` has a builder that would render it
@@ -33,7 +33,8 @@ FRAMES = 7
 
 def overrides(data_dir: str) -> list[str]:
     """The paper's model and trainer at paper shapes, on the synthetic scene ``synth``."""
-    return ["+experiment=F", "model=paper", "data=tiny", "data.name=paper1080", f"paths.data_dir={data_dir}",
+    return ["+experiment=F", "capacity=paper", "data=tiny", "data.name=paper1080",
+            f"paths.data_dir={data_dir}",
             "data.width=1920", "data.height=1080", "data.segments=1", f"data.frames_per_segment={FRAMES}",
             "data.test_fraction=0.143", "data.val_clips=1", "data.clip_len=2", "data.train_crop=256",
             "data.val_crop=256", "data.num_workers=2", "data.cache_in_memory=false",

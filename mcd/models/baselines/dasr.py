@@ -62,7 +62,7 @@ class DASR(nn.Module):
 
 @register("dasr")
 def build_dasr(method: DictConfig, model: DictConfig, budget: float) -> DASR:
-    """DASR from ``method.sampling.levels``, the widths ``model.dasr`` and the budget."""
+    """DASR from ``method.sampling.levels``, the widths ``capacity.dasr`` and the budget."""
     m = widths_of(model, "dasr")
     levels = (method.get("sampling", None) or {}).get("levels", 5)
     return DASR(float(budget), m.encoder, m.bottleneck, m.last, int(levels))

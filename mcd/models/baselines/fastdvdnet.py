@@ -68,7 +68,7 @@ class FastDVDnet(nn.Module):
         self.key = uniform_key(budget, "fastdvdnet")
         widths = tuple(int(w) for w in widths)
         if len(widths) != 3:
-            raise ValueError(f"model.fastdvdnet.widths needs 3 block widths, got {list(widths)}")
+            raise ValueError(f"capacity.fastdvdnet.widths needs 3 block widths, got {list(widths)}")
         self.stage1 = DenBlock(10, widths, int(interm))
         self.stage2 = DenBlock(10, widths, int(interm))
 
@@ -97,6 +97,6 @@ class FastDVDnet(nn.Module):
 
 @register("fastdvdnet")
 def build_fastdvdnet(method: DictConfig, model: DictConfig, budget: float) -> FastDVDnet:
-    """FastDVDnet from the budget and the widths ``model.fastdvdnet`` (``widths``, ``interm``)."""
+    """FastDVDnet from the budget and the widths ``capacity.fastdvdnet`` (``widths``, ``interm``)."""
     m = widths_of(model, "fastdvdnet")
     return FastDVDnet(budget, tuple(m.widths), m.interm)

@@ -156,7 +156,7 @@ class NTASAD(nn.Module):
 
 @register("ntasad")
 def build_ntasad(method: DictConfig, model: DictConfig, budget: float) -> NTASAD:
-    """NTASAD from ``method.sampling.levels``, the widths ``model.ntasad`` and the budget."""
+    """NTASAD from ``method.sampling.levels``, the widths ``capacity.ntasad`` and the budget."""
     m = widths_of(model, "ntasad")
     levels = (method.get("sampling", None) or {}).get("levels", 5)
     return NTASAD(budget, int(m.enc), int(m.dec), int(m.full), int(levels))

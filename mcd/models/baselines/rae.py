@@ -165,6 +165,6 @@ class RAE(nn.Module):
 
 @register("rae")
 def build_rae(method: DictConfig, model: DictConfig, budget: float) -> RAE:
-    """RAE from the budget and the widths ``model.rae`` (``encoder``, ``bottleneck``, ``last``)."""
+    """RAE from the budget and the widths ``capacity.rae`` (``encoder``, ``bottleneck``, ``last``)."""
     m = widths_of(model, "rae")
     return RAE(budget, m.encoder, m.bottleneck, m.last)

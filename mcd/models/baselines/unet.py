@@ -1,6 +1,6 @@
 """Table 1's U-Net = component row A (docs/baselines.md "U-Net"): the project's denoiser ``F_d`` alone on the
 uniform render at the budget + G-buffers, single frame, direct RGB output. Same code as row A: a thin alias of
-``two_stage`` with the switches ``UN AS KP PP FG SA = 100000`` and the widths of ``model.two_stage``."""
+``two_stage`` with the switches ``UN AS KP PP FG SA = 100000`` and the widths of ``capacity.two_stage``."""
 
 from __future__ import annotations
 
