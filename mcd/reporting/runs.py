@@ -283,9 +283,9 @@ class Sweep:
 
 def _widened(task: list[str], sweep_dir: Path) -> list[str]:
     """``task`` (a sweep's command-line overrides from its multirun.yaml) with each key its jobs ran with
-    several values of widened to all of them. A sweep split over processes that share one directory
-    (scripts/converged_reports.sh runs two) keeps only the last process's command in multirun.yaml; widened,
-    the command runs every job the directory holds."""
+    several values of widened to all of them. A sweep split over processes that share one directory keeps
+    only the last process's command in multirun.yaml; widened, the command runs every job the directory
+    holds."""
     seen: dict[str, list[str]] = {}
     for overrides in sorted(sweep_dir.glob("*/.hydra/overrides.yaml")):
         for item in OmegaConf.load(overrides):

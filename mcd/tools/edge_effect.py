@@ -22,7 +22,7 @@ writes ``edges.json`` into each run directory (per frame, per scene and over sce
 ``mcd.metrics.aggregate`` does; with the command, the commit and the weights: the checkpoint the run tested,
 or for a transfer job tested as loaded the weights it started from). The whole frames must score the run's own
 PSNR within ``PSNR_AGREEMENT_DB``, else nothing is written for that run. ``mcd.report`` reads the file
-into the ``edge effect`` column of every table. ``scripts/converged_reports.sh report`` runs it on every job.
+into the ``edge effect`` column of every table. ``scripts/current_report.sh report`` runs it on every job.
 """
 
 from __future__ import annotations
