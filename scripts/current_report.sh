@@ -36,7 +36,7 @@ TAG=_current
 NAME=${NAME:-$DATA$TAG}
 OUT=${OUT:-reports}
 STEPS=${BUDGET_STEPS:-3000}
-CAPACITY=model=cpu  # the capacity profile of every job
+CAPACITY=capacity=cpu  # the capacity profile of every job
 COMMON=(data="$DATA" train=plateau "train.max_steps=$STEPS" "$CAPACITY" trainer.enable_progress_bar=false)
 LAUNCH=(hydra/launcher=joblib "hydra.launcher.n_jobs=${JOBS:-2}")  # one sweep, its jobs JOBS at a time
 export OMP_NUM_THREADS=1
