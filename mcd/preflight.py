@@ -1,9 +1,10 @@
 """Checks of a run's config that must fail before anything is rendered or trained (docs/reliability.md).
 
 :func:`check_run` refuses a budget that is not a number or has no stored uniform render, images smaller
-than the SSIM window and training crops the frames cannot hold; the store checks every scene file before its
-first render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`), and the model its own budget rule
-when it is built (row F's adaptive sampling needs ``1 < s``; a method without it reads ``c_s``).
+than the SSIM window, training crops the frames cannot hold and a malformed ``data.augment`` block; the
+store checks every scene file before its first render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`),
+and the model its own budget rule when it is built (row F's adaptive sampling needs ``1 < s``; a method
+without it reads ``c_s``).
 """
 
 from __future__ import annotations
@@ -56,8 +57,17 @@ def check_crops(cfg: DictConfig) -> None:
                          f"uniform crops; docs/training.md, 'Crops at frame edges')")
 
 
+def check_augment(cfg: DictConfig) -> None:
+    """ValueError naming the key unless ``data.augment`` holds known keys with valid values
+    (:meth:`mcd.data.augment.Augment.from_cfg`)."""
+    from mcd.data.augment import Augment
+
+    Augment.from_cfg(cfg.data)
+
+
 def check_run(cfg: DictConfig) -> None:
     """Every check of this module, in the order a user would fix them."""
     check_budget(cfg)
     check_image_size(cfg)
     check_crops(cfg)
+    check_augment(cfg)

@@ -11,7 +11,8 @@ on their whole test sequences.
   and buffers), batch ``train.batch_size``, shuffled; along each axis the crop lies against a frame edge
   (either one, equally) with probability ``data.train_crop_at_edge``, elsewhere uniformly (docs/training.md,
   "Crops at frame edges": uniform crops almost never hold the frame's outer pixels, which every test frame
-  has);
+  has); then the augmentations ``data.augment`` switches on (:mod:`mcd.data.augment`, docs/training.md,
+  "Augmentations"; all off by default, as in the paper), one draw per clip;
 - val: clips with a centre crop ``data.val_crop`` (the whole frame if it is smaller), batch 1;
 - test: whole frames, one current frame per batch in sequence order, ``T = past + 1 + future`` of the model's
   ``window`` with the sequence's edge frames repeated, the current frame at index ``past``, and ``reset`` True
@@ -44,6 +45,7 @@ import torch
 from omegaconf import DictConfig
 from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, Subset
 
+from mcd.data.augment import Augment
 from mcd.data.buffers import BUFFERS, validate_buffers
 from mcd.data.clips import ExrClips
 from mcd.data.splits import split_frames
@@ -55,7 +57,7 @@ log = logging.getLogger(__name__)
 
 
 class ClipDataset(Dataset):
-    """Training (random crop) or validation (centre crop) clips."""
+    """Training (random crop, then ``augment`` if given) or validation (centre crop) clips."""
 
     def __init__(
         self,
@@ -65,11 +67,12 @@ class ClipDataset(Dataset):
         size: tuple[int, int],
         random_crop: bool,
         at_edge: float = 0.0,
+        augment: Augment | None = None,
     ):
         self.frames, self.clips, self.random_crop = frames, clips, random_crop
         self.h, self.w = size
         self.ch, self.cw = min(crop, self.h), min(crop, self.w)
-        self.at_edge = at_edge
+        self.at_edge, self.augment = at_edge, augment
 
     def __len__(self) -> int:
         return len(self.clips)
@@ -80,7 +83,8 @@ class ClipDataset(Dataset):
             y, x = self._offset(self.h - self.ch), self._offset(self.w - self.cw)
         else:
             y, x = (self.h - self.ch) // 2, (self.w - self.cw) // 2
-        return self.frames.clip(scene, frames, (y, x, self.ch, self.cw))
+        clip = self.frames.clip(scene, frames, (y, x, self.ch, self.cw))
+        return clip if self.augment is None else self.augment(clip)
 
     def _offset(self, last: int) -> int:
         """A random crop offset in ``0 .. last``: ``0`` or ``last`` (equally) with probability ``at_edge``,
@@ -155,6 +159,7 @@ class MCDDataModule(L.LightningDataModule):
         h, w = int(d.height), int(d.width)
         check_crops(self.cfg)
         crop, at_edge = int(d.train_crop), float(d.get("train_crop_at_edge", 0.0))
+        augment = Augment.from_cfg(d)
         train, val, test = [], [], []
         for scene in dict.fromkeys(self.train_scenes + self.test_scenes):
             sp = split_frames(
@@ -171,12 +176,13 @@ class MCDDataModule(L.LightningDataModule):
                 self.train_store.check_frames(scene, [f for s, c in train + val if s == scene for f in c],
                                               self.store.manifest(scene))
             clips = self.train_store
-        self.train_set = ClipDataset(clips, train, crop, (h, w), random_crop=True, at_edge=at_edge)
+        self.train_set = ClipDataset(clips, train, crop, (h, w), random_crop=True, at_edge=at_edge,
+                                     augment=augment)
         self.val_set = ClipDataset(clips, val, int(d.val_crop), (h, w), random_crop=False)
         self.test_set = SequenceDataset(self._frames, test, self.window)
         log.info(
             "datamodule %s: loading buffers %s; train %d clips of %d (crop %d, at a frame edge %.2f per "
-            "axis) from %s (%s); "
+            "axis; augmentations: %s) from %s (%s); "
             "val %d clips (crop %d); "
             "test %d frames from %s (window %s)",
             d.name,
@@ -185,6 +191,7 @@ class MCDDataModule(L.LightningDataModule):
             int(d.clip_len),
             crop,
             at_edge,
+            "none" if augment is None else augment.describe(),
             ",".join(self.train_scenes),
             "EXR" if self.train_store is None else f"training store {self.train_store.root}",
             len(val),
