@@ -33,8 +33,10 @@ METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse
            "scenes_test", "params_m", "macs_g", "best_val_psnr", "train_steps", "stop_reason", "epochs",
            "train_s", "wall_s", "commit", "dirty", "device", "torch", "precision", "data_profile",
            "capacity_profile", "train_profile", "budget", "seed", "experiment")
-#: Data keys the inputs are normalised with (mcd.data.exposure) and the scene renders use.
-DATA_KEYS = ("name", "exposure_target", "max_depth", "gbuffer_spp", "ref_spp", "width", "height")
+#: Data keys the inputs are normalised with (mcd.data.exposure) and the scene renders use, and what the model
+#: was trained on: its scenes, the held-out ones, the augmentations (docs/training.md, "Augmentations").
+DATA_KEYS = ("name", "exposure_target", "max_depth", "gbuffer_spp", "ref_spp", "width", "height",
+             "train_scenes", "transfer_scenes", "augment")
 
 
 def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
@@ -77,7 +79,7 @@ def write_bundle(weights: dict[str, torch.Tensor], cfg: DictConfig, name: str, p
         "method": OmegaConf.to_container(cfg.method, resolve=True),
         "capacity": OmegaConf.to_container(cfg.capacity, resolve=True),
         "budget": cfg.budget,
-        "data": {k: cfg.data.get(k) for k in DATA_KEYS},
+        "data": {k: _plain(cfg.data.get(k)) for k in DATA_KEYS},
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     pt = out_dir / f"{name}.pt"
@@ -86,6 +88,11 @@ def write_bundle(weights: dict[str, torch.Tensor], cfg: DictConfig, name: str, p
             **provenance, "config": config}
     (out_dir / f"{name}.json").write_text(json.dumps(meta, indent=1) + "\n")
     return meta
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with OmegaConf lists and dicts as plain ones (for the JSON)."""
+    return OmegaConf.to_container(value, resolve=True) if OmegaConf.is_config(value) else value
 
 
 def main(argv: list[str] | None = None) -> None:

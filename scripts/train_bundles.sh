@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Retrain the bundled checkpoints (docs/denoise.md "Bundled checkpoints"): row F and the U-Net (row A) on
+# data=bundle (every vendored scene and four procedural rooms, the augmentations of docs/training.md
+# "Augmentations" on, four real interiors held out), then bundle them into mcd/bundled/ and score them on the
+# held-out interiors beside OIDN (python -m mcd.tools.bundle_scores), writing the table into docs/denoise.md.
+#
+#   scripts/train_bundles.sh [hydra override ...]   # overrides reach both trainings and the scoring
+#
+# Env: PY (default .venv/bin/python); STAGES (default "train bundle score"); OUT (default outputs/bundles: the
+# two run directories and their logs); STEPS (default 3000, train=plateau's budget) and MINUTES (default null:
+# a wall-clock cap of each training, validation included); BUNDLE_DIR (default mcd/bundled); DOC (default
+# docs/denoise.md). The two trainings run at once, one thread each (docs/training.md "CPU threads"); a rerun
+# resumes an unfinished training from its last.ckpt (ckpt_path=auto). Needs MCD_SCENES_DIR for the held-out
+# interiors (docs/scenes.md).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PY=${PY:-.venv/bin/python}
+OUT=$(realpath -m "${OUT:-outputs/bundles}")
+BUNDLE_DIR=${BUNDLE_DIR:-mcd/bundled}
+NAMES=(F-cpu-small unet-cpu-small)
+declare -A EXPERIMENT=([F-cpu-small]=F [unet-cpu-small]=A)
+export OMP_NUM_THREADS=1
+
+# The trainings leave the held-out interiors out of their store work ('data.transfer_scenes=[]': mcd.run
+# renders every frame of a profile's transfer scenes); the score stage renders only their test frames.
+train() {
+  mkdir -p "$OUT"
+  local name pids=()
+  for name in "${NAMES[@]}"; do
+    "$PY" -m mcd.run "+experiment=${EXPERIMENT[$name]}" data=bundle train=plateau "train.max_steps=${STEPS:-3000}" \
+      "train.max_minutes=${MINUTES:-null}" trainer.enable_progress_bar=false ckpt_path=auto \
+      'data.transfer_scenes=[]' "hydra.run.dir=$OUT/$name" "$@" > "$OUT/$name.log" 2>&1 &
+    pids+=($!)
+  done
+  for pid in "${pids[@]}"; do wait "$pid"; done
+}
+
+for stage in ${STAGES:-train bundle score}; do
+  case $stage in
+    train) train "$@" ;;
+    bundle) for name in "${NAMES[@]}"; do "$PY" -m mcd.tools.bundle "$OUT/$name" --name "$name" --out "$BUNDLE_DIR"; done ;;
+    score)
+      bundles=()
+      for name in "${NAMES[@]}"; do bundles+=("$BUNDLE_DIR/$name.pt"); done
+      "$PY" -m mcd.tools.bundle_scores --bundles "${bundles[@]}" --write "${DOC:-docs/denoise.md}" "$@" ;;
+    *) echo "unknown stage $stage (train, bundle, score)" >&2; exit 2 ;;
+  esac
+done
