@@ -205,6 +205,12 @@ def test_the_page_in_headless_chromium(report):
             assert page.locator("#metrics tr").count() == 1 + 3  # header, noisy, A, F
             f_psnr = f"{f0['images'][2]['metrics']['psnr']:.2f}"
             assert f_psnr in page.locator("#metrics").inner_text()
+            best = page.locator("#metrics td.best")  # the best of each metric over the three rows, in bold
+            assert best.count() == len(data["metrics"])
+            values = {k: [im["metrics"][k] for im in f0["images"][:3]] for k in data["metrics"]}
+            tops = [max(values["psnr"]), max(values["ssim"]), min(values["rmse"]), min(values["flip"])]
+            assert best.all_inner_texts() == [f"{tops[0]:.2f}", f"{tops[1]:.4f}", f"{tops[2]:#.4g}",
+                                              f"{tops[3]:.4f}"]
             pictures = [u for u in loaded if u.endswith(".webp")]
             assert pictures and all("_ev+0" in u or "_flip" in u or "map" in u or "kernel" in u
                                     or "weight" in u for u in pictures), pictures  # only the shown stop

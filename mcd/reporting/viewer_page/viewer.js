@@ -20,6 +20,7 @@
   const fmt = { psnr: (v) => v.toFixed(2), ssim: (v) => v.toFixed(4), rmse: (v) => v.toPrecision(4),
                 flip: (v) => v.toFixed(4) };
   const label = { psnr: "PSNR (dB)", ssim: "SSIM", rmse: "rMSE", flip: "FLIP" };
+  const higherIsBetter = { psnr: true, ssim: true, rmse: false, flip: false };
   const show = (key, v) => (v === null || v === undefined ? "–" : fmt[key](v));
 
   // Every picture of the frame that the wipe can show: id -> {title, src()}.
@@ -185,11 +186,20 @@
       th.textContent = text;
       head.appendChild(th);
     }
-    for (const im of f.images) {
-      if (im.key === "reference") continue;
+    const rows = f.images.filter((im) => im.key !== "reference");
+    const best = {};  // the best value of each metric over the rows, drawn bold
+    for (const k of D.metrics) {
+      const values = rows.map((im) => im.metrics[k]).filter((v) => v !== null && v !== undefined);
+      if (values.length) best[k] = higherIsBetter[k] ? Math.max(...values) : Math.min(...values);
+    }
+    for (const im of rows) {
       const row = t.insertRow();
       row.insertCell().textContent = im.title;
-      for (const k of D.metrics) row.insertCell().textContent = show(k, im.metrics[k]);
+      for (const k of D.metrics) {
+        const cell = row.insertCell();
+        cell.textContent = show(k, im.metrics[k]);
+        if (im.metrics[k] === best[k]) cell.className = "best";
+      }
     }
   }
 
