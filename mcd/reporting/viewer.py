@@ -11,16 +11,16 @@ scene and frame that the runs saved samples of (``train.sample_frames``, ``mcd.l
 - the full method's sampling map ``m`` and its kernel map (kernel index ``h[0]`` and identity weight, paper
   Sec. 4.1), pictured as the strips picture them (``mcd.lit.samples.picture``).
 
-Bytes: every picture is a lossless 8-bit WebP file (a quarter smaller than PNG; lossless, so the noise
-shows as the metrics score it). The colour pictures are tone-mapped by ``mcd.metrics.to_display`` (what PSNR
-and FLIP see) after an exposure of ``2**ev``, one file per stop of :data:`STOPS`, and the page loads only the
-shown frame's pictures at the shown stop. Pre-exposed stops keep the page on plain ``<img>`` elements: a
-continuous exposure would need float data drawn through a canvas, and Chromium forbids reading back pixels of
-images from ``file://`` pages, so the floats would have to travel base64-encoded inside scripts (a third
-larger, and about as large as two stops of WebP at these sizes). Error and map pictures do not depend on
-exposure: one file each. A frame larger than :data:`MAX_SIDE` on a side is cut to its noisiest
-:data:`MAX_SIDE` square (``strips.crop_box``). The viewer holds ``frames x (methods + 2) x len(STOPS)``
-colour pictures and ``frames x (methods + 1)`` error maps; docs/benchmark.md "Viewer" gives measured sizes.
+Bytes: every picture is a lossless 8-bit WebP file (smaller than PNG; lossless, so the noise shows as the
+metrics score it). The colour pictures are tone-mapped by ``mcd.metrics.to_display`` (what PSNR and FLIP see)
+after an exposure of ``2**ev``, one file per stop of :data:`STOPS`, and the page loads only the shown frame's
+pictures at the shown stop. Pre-exposed stops keep the page on plain ``<img>`` elements: a continuous exposure
+would need float data drawn through a canvas, and Chromium forbids reading back pixels of images from
+``file://`` pages, so the floats would have to travel base64-encoded inside scripts (docs/benchmark.md
+"Viewer" weighs the two). Error and map pictures do not depend on exposure: one file each. A frame larger
+than :data:`MAX_SIDE` on a side is cut to its noisiest :data:`MAX_SIDE` square (``strips.crop_box``). The
+viewer holds ``frames x (methods + 2) x len(STOPS)`` colour pictures and ``frames x (methods + 1)`` error
+maps; docs/benchmark.md "Viewer" gives measured sizes.
 
 The page is ``index.html``, ``viewer.js`` and ``viewer.css`` (copied from ``mcd/reporting/viewer_page/``)
 with the report's data in ``data.js``, which sets ``window.MCD_VIEWER``: a script, because Chromium refuses
