@@ -4,12 +4,19 @@
 
 from __future__ import annotations
 
+import importlib.util
+import os
 import shutil
 import subprocess
 import sys
 import zipfile
 from pathlib import Path
 
+import pytest
+from omegaconf import OmegaConf
+
+from mcd.methods import COMPONENTS
+from mcd.models.switches import SWITCHES
 from mcd.paths import CONF_DIR, PACKAGE_DIR, VENDORED_SCENES_DIR
 
 REPO = Path(__file__).resolve().parents[1]
@@ -20,15 +27,21 @@ def _files(folder: Path) -> set[str]:
             if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".md"}
 
 
-def test_the_wheel_carries_conf_scenes_and_bundles(tmp_path):
-    """Build the wheel from a copy of the sources (so the checkout gets no build folder) and compare its
-    files with the package's data folders."""
-    src = tmp_path / "src"
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory) -> Path:
+    """The wheel, built from a copy of the sources (so the checkout gets no build folder)."""
+    tmp = tmp_path_factory.mktemp("wheel")
+    src = tmp / "src"
     shutil.copytree(PACKAGE_DIR, src / "mcd", ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(REPO / "pyproject.toml", src)
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                    "-w", str(tmp_path / "dist"), str(src)], check=True, capture_output=True, timeout=300)
-    (wheel,) = (tmp_path / "dist").glob("mcd-*.whl")
+                    "-w", str(tmp / "dist"), str(src)], check=True, capture_output=True, timeout=300)
+    (built,) = (tmp / "dist").glob("mcd-*.whl")
+    return built
+
+
+def test_the_wheel_carries_conf_scenes_and_bundles(wheel):
+    """The wheel's files against the package's data folders."""
     names = set(zipfile.ZipFile(wheel).namelist())
     wanted = (_files(CONF_DIR) | _files(VENDORED_SCENES_DIR) | _files(PACKAGE_DIR / "bundled")
               | _files(PACKAGE_DIR / "reporting" / "viewer_page"))
@@ -36,3 +49,44 @@ def test_the_wheel_carries_conf_scenes_and_bundles(tmp_path):
     assert "mcd/conf/config.yaml" in wanted and "mcd/scenes/cbox/scene.xml" in wanted
     assert wanted - names == set(), "package data missing from the wheel: pyproject.toml [tool.setuptools]"
     assert {"mcd/run.py", "mcd/denoise/cli.py", "mcd/bench/__main__.py"} <= names
+
+
+def test_the_installed_package_runs_from_another_folder(wheel, tmp_path):
+    """The wheel installed (not editable) into a folder of its own and run from a folder outside the checkout,
+    with nothing of the checkout on the path: ``python -m mcd.run --help`` lists the groups (``paths``) and
+    rows A-M (registered from the component table, mcd/config.py); ``+experiment=C`` composes to row C; a
+    ``paths.scenes_dir`` that names no folder is refused naming the key; ``mcd-denoise --experiment oidn``
+    denoises frames rendered by the installed ``mcd.denoise.render_frames`` from its vendored Cornell box."""
+    site = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "-q",
+                    "--target", str(site), str(wheel)], check=True, capture_output=True, timeout=300)
+    work = tmp_path / "work"
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MCD_")}
+    env |= {"PYTHONPATH": str(site), "OMP_NUM_THREADS": "1"}
+
+    def mcd(*args: str, check: bool = True) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, *args], cwd=work, env=env, capture_output=True, text=True,
+                              check=check, timeout=600)
+
+    where = mcd("-c", "import mcd, mcd.paths as p; print(mcd.__file__); print(p.CONF_DIR)").stdout.split()
+    assert all(Path(w).is_relative_to(site) for w in where), where
+    groups = mcd("-m", "mcd.run", "--help").stdout
+    assert "paths: default" in groups
+    assert "experiment: A, B, C, D, E, F, G, H, I, J, K, L, M, dasr," in groups
+    row_c = OmegaConf.create(mcd("-m", "mcd.run", "+experiment=C", "--cfg", "job").stdout)
+    assert {s: row_c.method[s] for s in SWITCHES} == COMPONENTS["C"]["switches"]
+    refused = mcd("-m", "mcd.render", f"paths.scenes_dir={tmp_path / 'nowhere'}", check=False)
+    assert refused.returncode != 0
+    assert "paths.scenes_dir=" in refused.stderr and "no such folder" in refused.stderr
+    assert not (work / "data").exists()
+    cbox = Path(where[1]).parent / "scenes" / "cbox" / "scene.xml"
+    mcd("-m", "mcd.denoise.render_frames", str(cbox), "frames", "--frames", "2", "--width", "32",
+        "--height", "32", "--gbuffer-spp", "4")
+    denoise = str(site / "bin" / "mcd-denoise")  # the console script the wheel installs
+    if importlib.util.find_spec("pyoidn") is None:
+        out = mcd(denoise, "frames", "-o", "out", "--experiment", "oidn", check=False)
+        assert out.returncode != 0 and "pip install 'mcd[oidn]'" in out.stderr
+        return
+    mcd(denoise, "frames", "-o", "out", "--experiment", "oidn")
+    assert sorted(p.name for p in (work / "out").glob("*.exr")) == ["cbox_0000.exr", "cbox_0001.exr"]
