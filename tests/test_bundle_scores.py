@@ -7,6 +7,7 @@ import importlib.util
 
 import pytest
 
+from mcd.methods import display_name
 from mcd.tools import bundle_scores
 from tests.conftest import store32_overrides
 
@@ -32,10 +33,11 @@ def test_scores_table_written_between_markers(cbox_store, tmp_path, capsys):
     assert "old table" not in text and text.endswith("<!-- /bundle-scores -->\nrest\n")
     assert printed.strip() in text and "load average" in text and "commit" in text
     rows = _rows(text)
-    methods = ["unet-cpu-small", "noisy input"] + (["OIDN"] if importlib.util.find_spec("pyoidn") else [])
+    noisy_input, oidn = display_name("noisy"), display_name("oidn")
+    methods = ["unet-cpu-small", noisy_input] + ([oidn] if importlib.util.find_spec("pyoidn") else [])
     assert {m for s, m in rows if s == "cbox"} == set(methods)
     assert {m for s, m in rows if s == "**mean**"} == set(methods)
-    unet, noisy = rows[("cbox", "unet-cpu-small")], rows[("cbox", "noisy input")]
+    unet, noisy = rows[("cbox", "unet-cpu-small")], rows[("cbox", noisy_input)]
     assert unet[0] > noisy[0] + 1 and unet[1] > noisy[1]  # the denoiser beats its input: PSNR and SSIM
     for values in rows.values():
         assert 0 < values[1] <= 1 and values[2] >= 0 and 0 <= values[3] <= 1

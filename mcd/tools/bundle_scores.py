@@ -36,12 +36,15 @@ from mcd.data.clips import ExrClips
 from mcd.data.shards import Selection
 from mcd.data.splits import test_frame_count
 from mcd.lit.test_recorder import hwc
+from mcd.methods import display_name
 from mcd.metrics import frame_metrics
 
 log = logging.getLogger(__name__)
 
 #: The scores of the table, in its column order.
 SCORES = ("psnr", "ssim", "rmse", "flip")
+#: The references scored beside the bundles (never trained on a scene).
+REFERENCES = (display_name("oidn"), display_name("noisy"))
 BEGIN, END = "<!-- bundle-scores -->", "<!-- /bundle-scores -->"
 
 
@@ -59,10 +62,10 @@ def _methods(bundles: list[str], data_overrides: list[str]) -> list[tuple[str, n
     try:
         oidn = build(oidn_cfg).eval()
     except ImportError as e:
-        log.warning("OIDN left out: %s", e)
+        log.warning("%s left out: %s", display_name("oidn"), e)
     else:
-        out.append(("OIDN", oidn, oidn_cfg))
-    out.append(("noisy input", None, oidn_cfg))
+        out.append((display_name("oidn"), oidn, oidn_cfg))
+    out.append((display_name("noisy"), None, oidn_cfg))
     return out
 
 
@@ -128,7 +131,7 @@ def table(bundles: list[str], data_overrides: list[str]) -> tuple[str, DictConfi
         for label, model, mcfg in methods:
             s = score(store, scene, frames, model, budget)
             means[label].append(s)
-            seen = label not in ("OIDN", "noisy input") and scene in (mcfg.data.get("train_scenes") or [])
+            seen = label not in REFERENCES and scene in (mcfg.data.get("train_scenes") or [])
             lines.append(f"| {scene} | {label}{' (trained on it)' if seen else ''} | {_cells(s)} |")
             log.info("%s %s: %s", scene, label, s)
     for label, rows in means.items():
