@@ -95,13 +95,55 @@ def test_one_registry_type_for_methods_and_losses() -> None:
         build(cfg)
 
     @register("test_only_identity")
-    def identity(method, model, budget):  # the constructor gets its own settings, nothing else
-        assert method.name == "test_only_identity" and "two_stage" in model and budget == cfg.budget
+    def identity(**kwargs):  # the factory gets its own settings as plain kwargs, nothing else
+        assert kwargs["budget"] == cfg.budget and kwargs["UN"] is True and "name" not in kwargs
+        assert "two_stage" not in kwargs and "denoiser" not in kwargs  # its capacity entry: none
         return nn.Identity()
 
     try:
         assert isinstance(build(cfg), nn.Identity)
         with pytest.raises(ValueError, match="method 'test_only_identity' is registered twice"):
-            register("test_only_identity")(lambda method, model, budget: None)
+            register("test_only_identity")(lambda **kwargs: None)
     finally:
         METHODS.unregister("test_only_identity")
+
+
+def test_factories_take_plain_kwargs_from_build() -> None:
+    """``METHODS.get(name)(**kwargs)`` (BasicSR's style): ``build`` hands each factory its method settings,
+    its capacity entry and the budget as keywords; a key the factory does not take, or one it needs that the
+    config lacks, is refused naming it."""
+    import inspect
+
+    import torch
+
+    from mcd.models import METHODS, build
+    from mcd.models.registry import factory_kwargs
+
+    cfg = compose_cfg("+experiment=rae", "capacity=cpu")
+    kwargs = factory_kwargs(cfg)
+    assert kwargs == {"budget": 4.0, "encoder": list(cfg.capacity.rae.encoder),
+                      "bottleneck": cfg.capacity.rae.bottleneck, "last": list(cfg.capacity.rae.last)}
+    direct = METHODS.get("rae")(**kwargs)
+    built = build(cfg)
+    assert [p.shape for p in direct.parameters()] == [p.shape for p in built.parameters()]
+    knobs = list(inspect.signature(METHODS.get("rae")).parameters)
+    assert knobs == ["budget", "encoder", "bottleneck", "last"]
+    unet = factory_kwargs(compose_cfg("+experiment=unet", "capacity=paper"))
+    assert unet["denoiser"]["widths"] == [32, 64, 64, 64, 64]  # unet reads capacity.two_stage
+    with open_dict(cfg):
+        cfg.method.depth = 3
+    with pytest.raises(ValueError, match=r"method.depth \(or capacity.rae.depth\): not a setting of method"):
+        build(cfg)
+    cfg = compose_cfg("+experiment=rae", "capacity=cpu")
+    with open_dict(cfg):
+        del cfg.capacity.rae.bottleneck
+    with pytest.raises(ValueError, match=r"method rae needs bottleneck"):
+        build(cfg)
+    cfg = compose_cfg("+experiment=F")
+    with open_dict(cfg):
+        cfg.method.ghost = {"kernel": 3}
+    with pytest.raises(ValueError, match=r"method.ghost and capacity.two_stage.ghost both set"):
+        build(cfg)
+    cfg = compose_cfg("+experiment=unet", "+method.colors=none")  # unet hands two_stage's check its keys
+    with torch.device("meta"), pytest.raises(ValueError, match=r"method.colors \(or capacity.two_stage"):
+        build(cfg)

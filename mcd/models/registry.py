@@ -1,42 +1,88 @@
-"""The methods by name (``method.name``): :data:`METHODS`, a :class:`mcd.registry.Registry`.
+"""The methods by name (``method.name``): :data:`METHODS`, a :class:`mcd.registry.Registry` (after BasicSR's:
+``METHODS.get(name)(**kwargs)``).
 
-A method registers ``@METHODS.register(name)`` (``mcd.models.register``) on a constructor
-``(method, capacity, budget) -> nn.Module`` that takes its own settings: ``method`` the method's config
-(the ``conf/method/`` group), ``capacity`` the capacity profile (``conf/capacity/``; the constructor reads
-its own entry, ``capacity.<name>``) and ``budget`` the average samples per pixel. :func:`build` is the one
-place that hands a run's config to it.
+A method registers ``@METHODS.register(name)`` (``mcd.models.register``) on a factory that takes plain keyword
+arguments, so that its signature documents its knobs: ``budget`` (average samples per pixel), the settings
+of its ``conf/method/<name>.yaml`` (less :data:`RUN_KEYS`, which the run reads) and the keys of its entry in
+the capacity profile (``conf/capacity/<profile>.yaml``: ``capacity.<name>``, or
+:data:`CAPACITY_ENTRY`'s). :func:`build` is the one place that turns a run's config into those arguments
+(:func:`factory_kwargs`); a key the factory does not take, or one it needs that the config lacks, is refused
+naming the key and the factory's settings (docs/architecture.md, "Models").
 """
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
+from typing import Any
 
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
 from mcd.models.output_steps import attach_output_steps
 from mcd.registry import Registry
 
-Factory = Callable[[DictConfig, DictConfig, float], nn.Module]
+Factory = Callable[..., nn.Module]
 
 #: Every method; importing ``mcd.models.two_stage`` and ``mcd.models.baselines`` registers the built-in ones.
 METHODS: Registry[Factory] = Registry("method", ("mcd.models.two_stage", "mcd.models.baselines"))
 register = METHODS.register
 
+#: Keys of a method's section that the run reads, not its factory: its name, whether it trains, and the
+#: output steps :func:`build` adds (mcd/models/output_steps.py).
+RUN_KEYS = ("name", "trainable", "mean_match", "pass_misses")
+#: The capacity profile's entry a method reads where it is not its own name: the U-Net is row A, the
+#: two-stage model's ``F_d`` (docs/baselines.md "U-Net").
+CAPACITY_ENTRY = {"unet": "two_stage"}
 
-def widths_of(capacity: DictConfig, key: str) -> DictConfig:
-    """The capacity profile's entry ``capacity.<key>``; ``KeyError`` naming the key and the profiles."""
-    entry = capacity.get(key) if capacity is not None else None
-    if entry is None:
-        raise KeyError(f"capacity.{key} (the widths of {key}) is missing; pick a capacity profile that has "
-                       "it, e.g. capacity=cpu or capacity=paper (conf/capacity/)")
-    return entry
+
+def factory_kwargs(cfg: DictConfig) -> dict[str, Any]:
+    """The keyword arguments of ``cfg.method.name``'s factory: ``budget``, the method's settings less
+    :data:`RUN_KEYS`, and the keys of its capacity entry (absent for a method without widths), as plain
+    Python values. ValueError naming a key that both sections set."""
+    method = OmegaConf.to_container(cfg.method, resolve=True)
+    assert isinstance(method, dict)
+    name = str(method["name"])
+    kwargs: dict[str, Any] = {k: v for k, v in method.items() if k not in RUN_KEYS}
+    entry = CAPACITY_ENTRY.get(name, name)
+    capacity = cfg.get("capacity")
+    widths = capacity.get(entry) if capacity is not None else None
+    if widths is not None:
+        sizes = OmegaConf.to_container(widths, resolve=True)
+        assert isinstance(sizes, dict)
+        both = sorted(set(sizes) & set(kwargs))
+        if both:
+            raise ValueError(f"method.{both[0]} and capacity.{entry}.{both[0]} both set {both[0]!r} of "
+                             f"method {name}: keep it in one of them")
+        kwargs.update(sizes)
+    return {"budget": float(cfg.budget), **kwargs}
+
+
+def check_call(name: str, factory: Factory, kwargs: dict[str, Any]) -> None:
+    """ValueError naming a setting method ``name``'s ``factory`` does not take, or one it needs and did not
+    get (a factory with ``**kwargs`` checks its own)."""
+    params = inspect.signature(factory).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return
+    entry = CAPACITY_ENTRY.get(name, name)
+    unknown = sorted(set(kwargs) - set(params))
+    if unknown:
+        raise ValueError(f"method.{unknown[0]} (or capacity.{entry}.{unknown[0]}): not a setting of method "
+                         f"{name}; its settings: {', '.join(params)}")
+    missing = [k for k, p in params.items() if p.default is inspect.Parameter.empty and k not in kwargs
+               and p.kind is not inspect.Parameter.VAR_POSITIONAL]
+    if missing:
+        raise ValueError(f"method {name} needs {', '.join(missing)}: set them in method.* (conf/method/{name}"
+                         f".yaml) or capacity.{entry}.* (pick a capacity profile that has them, e.g. "
+                         "capacity=cpu or capacity=paper, conf/capacity/)")
 
 
 def build(cfg: DictConfig) -> nn.Module:
-    """The model named by ``cfg.method.name``, from ``cfg.method``, ``cfg.capacity`` and ``cfg.budget``, with
-    the output steps its method sets (``method.mean_match``, ``method.pass_misses``:
+    """The model named by ``cfg.method.name``: its factory called with :func:`factory_kwargs`, with the
+    output steps its method sets (``method.mean_match``, ``method.pass_misses``:
     :func:`mcd.models.output_steps.attach_output_steps`; docs/method.md "Output")."""
-    budget = float(cfg.budget)
-    module = METHODS.get(str(cfg.method.name))(cfg.method, cfg.get("capacity"), budget)
-    return attach_output_steps(module, cfg.method, budget)
+    name = str(cfg.method.name)
+    factory = METHODS.get(name)
+    kwargs = factory_kwargs(cfg)
+    check_call(name, factory, kwargs)
+    return attach_output_steps(factory(**kwargs), cfg.method, float(cfg.budget))

@@ -22,7 +22,6 @@ The stages run under ``torch.profiler.record_function`` labels (:data:`STAGES`),
 from __future__ import annotations
 
 import torch
-from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
 from torch.profiler import record_function
 
@@ -30,7 +29,7 @@ from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import pool_picture
-from mcd.models.registry import register, widths_of
+from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
@@ -140,15 +139,20 @@ class TwoStage(nn.Module):
 
 
 @register("two_stage")
-def build_two_stage(method: DictConfig, model: DictConfig, budget: float) -> TwoStage:
-    """``TwoStage`` from its method settings (switches, ``sampling.levels``, ``colour``, ``kp``,
-    ``denoiser_output``: conf/method/two_stage.yaml; the output steps: mcd.models.registry.build), the widths
-    ``capacity.two_stage`` and the budget."""
-    switches = check_switches(method, complete=True)
-    sizes = OmegaConf.to_container(widths_of(model, "two_stage"), resolve=True)
-    sampling = method.get("sampling", None) or {}
-    kp = method.get("kp", None)
-    return TwoStage(switches, budget, sizes, levels=int(sampling.get("levels", 5)),
-                    colour=method.get("colour", "log1p"),
-                    kp=OmegaConf.to_container(kp, resolve=True) if kp is not None else None,
-                    denoiser_output=str(method.get("denoiser_output", "direct")))
+def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG: bool, SA: bool,
+                    denoiser: dict, sampler: dict, kernel_pool: dict, ghost: dict, pooling: dict,
+                    attention: dict,
+                    sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
+                    denoiser_output: str = "direct") -> TwoStage:
+    """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
+    switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
+    ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
+    ``denoiser_output``; and its widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level
+    widths and convs per level), ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large
+    kernel, groups, mid ratio), ``pooling``, ``attention`` (docs/method.md). The output steps are
+    :func:`mcd.models.registry.build`'s."""
+    switches = check_switches({"UN": UN, "AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}, complete=True)
+    sizes = {"denoiser": denoiser, "sampler": sampler, "kernel_pool": kernel_pool, "ghost": ghost,
+             "pooling": pooling, "attention": attention}
+    return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
+                    kp=kp, denoiser_output=str(denoiser_output))

@@ -17,13 +17,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import torch
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.rae import RAEUNet
 from mcd.models.inputs import compress, crop, expand, gbuffers, grey, need, pad_to_multiple
-from mcd.models.registry import register, widths_of
+from mcd.models.registry import register
 from mcd.sampling import adaptive_render, stack_buffers, stack_names
 
 
@@ -61,8 +60,9 @@ class DASR(nn.Module):
 
 
 @register("dasr")
-def build_dasr(method: DictConfig, model: DictConfig, budget: float) -> DASR:
-    """DASR from ``method.sampling.levels``, the widths ``capacity.dasr`` and the budget."""
-    m = widths_of(model, "dasr")
-    levels = (method.get("sampling", None) or {}).get("levels", 5)
-    return DASR(float(budget), m.encoder, m.bottleneck, m.last, int(levels))
+def build_dasr(*, budget: float, encoder: list[int], bottleneck: int, last: list[int],
+               sampling: dict | None = None) -> DASR:
+    """DASR at ``budget`` with its widths (``capacity.dasr``): ``encoder`` (full resolution .. 1/16),
+    ``bottleneck``, ``last`` (the full-resolution decoder's two convs); ``sampling.levels`` (5) of
+    conf/method/dasr.yaml (docs/baselines.md)."""
+    return DASR(float(budget), encoder, int(bottleneck), last, int((sampling or {}).get("levels", 5)))

@@ -12,13 +12,12 @@ Inputs per frame: no noise-level map (Monte Carlo noise is not Gaussian); stage 
 from __future__ import annotations
 
 import torch
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
-from mcd.models.registry import register, widths_of
+from mcd.models.registry import register
 
 FRAMES = 3  # frames per block
 
@@ -96,7 +95,7 @@ class FastDVDnet(nn.Module):
 
 
 @register("fastdvdnet")
-def build_fastdvdnet(method: DictConfig, model: DictConfig, budget: float) -> FastDVDnet:
-    """FastDVDnet from the budget and the widths ``capacity.fastdvdnet`` (``widths``, ``interm``)."""
-    m = widths_of(model, "fastdvdnet")
-    return FastDVDnet(budget, tuple(m.widths), m.interm)
+def build_fastdvdnet(*, budget: float, widths: list[int], interm: int) -> FastDVDnet:
+    """FastDVDnet at ``budget`` with its widths (``capacity.fastdvdnet``): ``widths``, the three block widths
+    at 1, 1/2, 1/4; ``interm``, maps per frame after the grouped input conv (docs/baselines.md)."""
+    return FastDVDnet(budget, tuple(widths), int(interm))

@@ -4,7 +4,6 @@ at the budget, no parameters, no training (``method.trainable: false``)."""
 
 from __future__ import annotations
 
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
 from mcd.models.baselines.uniform import uniform_key
@@ -33,6 +32,6 @@ class Noisy(nn.Module):
 
 
 @register("noisy")
-def build_noisy(method: DictConfig, model: DictConfig, budget: float) -> Noisy:
-    """The noisy input at the budget."""
+def build_noisy(*, budget: float) -> Noisy:
+    """The noisy input at ``budget``."""
     return Noisy(budget)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import torch
 import torch.nn.functional as F
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
 from mcd.data.buffers import GBUFFERS
@@ -32,7 +31,7 @@ from mcd.models.baselines.uniform import uniform_key
 from mcd.models.baselines.warp import warp
 from mcd.models.inputs import compress, crop, gbuffers, grey, need, pad_to_multiple
 from mcd.models.kernel_pool import apply_pixel_kernels
-from mcd.models.registry import register, widths_of
+from mcd.models.registry import register
 from mcd.sampling import adaptive_render, stack_buffers, stack_names
 
 #: Per-pixel kernel size at every level.
@@ -155,8 +154,8 @@ class NTASAD(nn.Module):
 
 
 @register("ntasad")
-def build_ntasad(method: DictConfig, model: DictConfig, budget: float) -> NTASAD:
-    """NTASAD from ``method.sampling.levels``, the widths ``capacity.ntasad`` and the budget."""
-    m = widths_of(model, "ntasad")
-    levels = (method.get("sampling", None) or {}).get("levels", 5)
-    return NTASAD(budget, int(m.enc), int(m.dec), int(m.full), int(levels))
+def build_ntasad(*, budget: float, enc: int, dec: int, full: int, sampling: dict | None = None) -> NTASAD:
+    """NTASAD at ``budget`` with its widths (``capacity.ntasad``): ``enc`` (encoder, every level), ``dec``
+    (decoder, 1/16 .. 1/2), ``full`` (full-resolution decoder); ``sampling.levels`` (5) of
+    conf/method/ntasad.yaml (docs/baselines.md)."""
+    return NTASAD(budget, int(enc), int(dec), int(full), int((sampling or {}).get("levels", 5)))

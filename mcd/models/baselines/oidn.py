@@ -13,7 +13,6 @@ from types import ModuleType
 
 import numpy as np
 import torch
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
 from mcd.models.baselines.oidn_network import MODEL_OF_QUALITY, OIDNUNet
@@ -82,6 +81,6 @@ class OIDN(nn.Module):
 
 
 @register("oidn")
-def build_oidn(method: DictConfig, model: DictConfig, budget: float) -> OIDN:
-    """OIDN on ``c{budget}``; ``method.quality`` (high/balanced/fast, default high)."""
-    return OIDN(budget, str(method.get("quality", "high")))
+def build_oidn(*, budget: float, quality: str = "high") -> OIDN:
+    """OIDN on ``c{budget}``; ``quality``: high / balanced / fast (conf/method/oidn.yaml)."""
+    return OIDN(budget, str(quality))

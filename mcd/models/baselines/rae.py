@@ -13,13 +13,12 @@ from collections.abc import Sequence
 
 import torch
 import torch.nn.functional as F
-from omegaconf import DictConfig
 from torch import Tensor, nn
 
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
-from mcd.models.registry import register, widths_of
+from mcd.models.registry import register
 
 #: Albedo offset of the demodulation ``c / (albedo + eps)`` (black albedo stays finite).
 DEMOD_EPS = 1e-2
@@ -164,7 +163,7 @@ class RAE(nn.Module):
 
 
 @register("rae")
-def build_rae(method: DictConfig, model: DictConfig, budget: float) -> RAE:
-    """RAE from the budget and the widths ``capacity.rae`` (``encoder``, ``bottleneck``, ``last``)."""
-    m = widths_of(model, "rae")
-    return RAE(budget, m.encoder, m.bottleneck, m.last)
+def build_rae(*, budget: float, encoder: list[int], bottleneck: int, last: list[int]) -> RAE:
+    """RAE at ``budget`` with its widths (``capacity.rae``): ``encoder`` (recurrent levels, full resolution ..
+    1/16), ``bottleneck`` (recurrent, 1/32), ``last`` (the full-resolution decoder's two convs)."""
+    return RAE(budget, encoder, int(bottleneck), last)

@@ -4,10 +4,11 @@ uniform render at the budget + G-buffers, single frame, direct RGB output. Same 
 
 from __future__ import annotations
 
-from omegaconf import DictConfig, OmegaConf
+from typing import Any
+
 from torch import nn
 
-from mcd.models.registry import register
+from mcd.models.registry import check_call, register
 from mcd.models.switches import SWITCHES
 from mcd.models.two_stage import build_two_stage
 
@@ -15,11 +16,16 @@ ROW_A = {s: s == "UN" for s in SWITCHES}
 
 
 @register("unet")
-def build_unet(method: DictConfig, model: DictConfig, budget: float) -> nn.Module:
-    """Row A of the two-stage model; a switch other than UN turned on is an error (use ``two_stage`` then)."""
-    on = [s for s in SWITCHES if s != "UN" and bool(method.get(s, False))]
+def build_unet(*, budget: float, UN: bool = True, AS: bool = False, KP: bool = False, PP: bool = False,
+               FG: bool = False, SA: bool = False, **two_stage: Any) -> nn.Module:
+    """Row A of the two-stage model at ``budget``: :func:`mcd.models.two_stage.build_two_stage`'s settings
+    and widths (``capacity.two_stage``) with only ``UN`` on; a switch other than UN turned on is an error
+    (use ``two_stage`` then)."""
+    on = [s for s, v in {"AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}.items() if v]
     if on:
         raise ValueError(f"method.name=unet is component row A (only UN); it cannot take "
                          f"method.{on[0]}=true. Use method=two_stage (conf/method/) for other switch rows, "
                          "or +experiment=unet")
-    return build_two_stage(OmegaConf.merge(method, ROW_A), model, budget)
+    kwargs = {"budget": budget, **ROW_A, **two_stage}
+    check_call("two_stage", build_two_stage, kwargs)  # names a key the two-stage model does not take
+    return build_two_stage(**kwargs)
