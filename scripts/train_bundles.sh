@@ -41,8 +41,8 @@ for stage in ${STAGES:-train bundle score}; do
     bundle) for name in "${NAMES[@]}"; do "$PY" -m mcd.tools.bundle "$OUT/$name" --name "$name" --out "$BUNDLE_DIR"; done ;;
     score)
       bundles=()
-      for name in "${NAMES[@]}"; do bundles+=("$BUNDLE_DIR/$name.pt"); done
-      "$PY" -m mcd.tools.bundle_scores --bundles "${bundles[@]}" --write "${DOC:-docs/denoise.md}" "$@" ;;
+      for name in "${NAMES[@]}"; do bundles+=(--bundle "$BUNDLE_DIR/$name.pt"); done
+      "$PY" -m mcd.tools.bundle_scores "${bundles[@]}" --write "${DOC:-docs/denoise.md}" "$@" ;;
     *) echo "unknown stage $stage (train, bundle, score)" >&2; exit 2 ;;
   esac
 done

@@ -26,10 +26,10 @@ def test_scores_table_written_between_markers(cbox_store, tmp_path, capsys):
     overrides = [*store32_overrides(store.root.parent)[1:], "data.transfer_scenes=[cbox]"]
     doc = tmp_path / "doc.md"
     doc.write_text("intro\n<!-- bundle-scores -->\nold table\n<!-- /bundle-scores -->\nrest\n")
-    bundle_scores.main(["--bundles", "unet-cpu-small", "--data", "tiny", "--write", str(doc), *overrides])
+    bundle_scores.main(["--bundle", "unet-cpu-small", "--data", "tiny", "--write", str(doc), *overrides])
     printed = capsys.readouterr().out
     text = doc.read_text()
-    assert text.startswith("intro\n<!-- bundle-scores -->\n`python -m mcd.tools.bundle_scores --bundles")
+    assert text.startswith("intro\n<!-- bundle-scores -->\n`python -m mcd.tools.bundle_scores --bundle")
     assert "old table" not in text and text.endswith("<!-- /bundle-scores -->\nrest\n")
     assert printed.strip() in text and "load average" in text and "commit" in text
     rows = _rows(text)

@@ -6,9 +6,9 @@ scenes the bundles never trained on), each method runs on the scene's whole test
 ``mcd.run``'s test does (``reset()`` at the sequence start, the frame window of the model; the adaptive
 methods build their simulated adaptive render from the stored ``c_1 .. c_32``), and each output frame is
 scored against the reference by :func:`mcd.metrics.frame_metrics`: PSNR, SSIM, rMSE and FLIP, averaged over
-the frames of a scene. The methods: the given bundles (``--bundles``: names of ``mcd/bundled``, bundle
-``.pt`` files or run directories; default every bundled checkpoint), OIDN (``+experiment=oidn``, when its
-package is installed) and the noisy uniform render at the budget. What the store lacks of the scenes' test
+the frames of a scene. The methods: the given bundles (``--bundle``, repeated: names of ``mcd/bundled``,
+bundle ``.pt`` files or run directories; default every bundled checkpoint), OIDN (``+experiment=oidn``, when
+its package is installed) and the noisy uniform render at the budget. What the store lacks of the scenes' test
 frames is rendered first (only those frames: a transfer scene is never trained on).
 
 Prints a Markdown table with the command, commit, machine and load average above it; ``--write FILE`` also
@@ -175,8 +175,8 @@ def main(argv: list[str] | None = None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
     p = argparse.ArgumentParser(prog="python -m mcd.tools.bundle_scores",
                                 description=__doc__.split("\n\n")[0])
-    p.add_argument("--bundles", nargs="+",
-                   help="bundle names, .pt files or run dirs (default: every bundled checkpoint)")
+    p.add_argument("--bundle", action="append", dest="bundles",
+                   help="a bundle name, .pt file or run dir; repeat for more (default: every bundled one)")
     p.add_argument("--data", default="bundle", help="the data profile whose transfer scenes are scored")
     p.add_argument("--write", type=Path, help="also write the table into this file between the markers")
     p.add_argument("overrides", nargs="*",
