@@ -188,8 +188,10 @@ def make_report(
     bench: Path | None = DEFAULT_BENCH,
     notes: list[str] | None = None,
     command: str | None = None,
+    with_viewer: bool = True,
 ) -> Path:
-    """Write the whole report for the runs under `dirs`; returns the report directory."""
+    """Write the whole report for the runs under `dirs`; returns the report directory. ``with_viewer=False``
+    writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``)."""
     from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
     from mcd.reporting.provenance import Provenance
     from mcd.reporting.runs import find_runs, find_sweeps
@@ -218,7 +220,9 @@ def make_report(
     strip_files = strips.write(runs, out_dir, prov)
     frame_files = frames.write(runs, out_dir, prov)
     curve_files = curves.write(runs, out_dir, prov)
-    viewer_page = viewer.write(runs, out_dir, name)
+    viewer_page = viewer.write(runs, out_dir, name) if with_viewer else None
+    if not with_viewer:
+        viewer.remove(out_dir)
     records.keep(runs, sweeps, out_dir)
 
     found = gather_findings(runs, results)
@@ -268,6 +272,11 @@ def main(argv: list[str] | None = None) -> None:
         help="a line for the README's provenance (e.g. reduced epochs); repeatable",
     )
     parser.add_argument(
+        "--no-viewer",
+        action="store_true",
+        help="write no comparison viewer (<report>/viewer/, the heaviest part) and remove an earlier one",
+    )
+    parser.add_argument(
         "--index",
         action="store_true",
         help="only write the reports index (<out>/README.md) and README.md's results from the current report",
@@ -301,7 +310,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"index written to {index.write_index(args.out, current)}; results of {current} in {readme}")
         return
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
-    out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command)
+    out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command, not args.no_viewer)
     print(f"report written to {out_dir}/README.md")
     print(f"index written to {index.write_index(args.out, current)}")
     if out_dir.name == current:

@@ -76,6 +76,11 @@ def index_path(report_dir: Path) -> Path | None:
     return path if path.is_file() else None
 
 
+def remove(report_dir: Path) -> None:
+    """Remove the viewer of the report at ``report_dir``, if it has one (``mcd.report --no-viewer``)."""
+    shutil.rmtree(Path(report_dir) / VIEWER_DIR, ignore_errors=True)
+
+
 def _methods(runs: list[Run], main: Run) -> list[tuple[str, str, Run]]:
     """``(key, title, run)`` of every method to show: Table 1's (``strips.table1_runs``), with the run of the
     frames (``strips.strip_run``) first when Table 1 lacks it."""

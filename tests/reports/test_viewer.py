@@ -290,3 +290,11 @@ def test_hdr_extremes_black_frames_and_odd_sizes_make_finite_pictures(tmp_path):
     assert read(entry["images"][1]["stops"][0])[2, 2].max() == 0  # a negative value shows black
     assert read(entry["images"][2]["stops"][-1]).max() == 0  # black at every stop
     assert all(0 <= im["flip"]["mean"] <= 1 for im in entry["images"][:2])
+
+
+def test_no_viewer_writes_none_and_removes_an_earlier_one(report, tmp_path):
+    out, sweep = report
+    shutil.copytree(out / "viewer", tmp_path / "nv" / "viewer")
+    make_report([sweep], tmp_path, name="nv", bench=None, with_viewer=False)
+    assert not (tmp_path / "nv" / "viewer").exists() and viewer.index_path(tmp_path / "nv") is None
+    assert "viewer/index.html" not in (tmp_path / "nv" / "README.md").read_text()
