@@ -16,16 +16,29 @@ from mcd.models.inputs import with_constant
 BlockFactory = Callable[[int, int], nn.Module]
 
 
-class ConvReLU(nn.Module):
-    """3x3 convolution (zero padding 1) + ReLU."""
+#: ``padding_mode`` of a block's convolutions: ``zeros`` (``F_d`` and the baselines) or ``replicate`` (the
+#: sampling network ``F_s``, whose map must not see the frame's border as an edge: docs/method.md "Adaptive
+#: sampling", step 6).
+PADDING_MODES = ("zeros", "replicate")
 
-    def __init__(self, cin: int, cout: int) -> None:
+
+def check_padding(padding: str) -> str:
+    """``padding`` if it is one of :data:`PADDING_MODES`, else a ``ValueError`` naming it."""
+    if padding not in PADDING_MODES:
+        raise ValueError(f"padding mode {padding!r}: expected one of {PADDING_MODES}")
+    return padding
+
+
+class ConvReLU(nn.Module):
+    """3x3 convolution (padding 1, ``padding``: zeros or replicate) + ReLU."""
+
+    def __init__(self, cin: int, cout: int, padding: str = "zeros") -> None:
         super().__init__()
-        self.conv = nn.Conv2d(cin, cout, 3, padding=1)
+        self.conv = nn.Conv2d(cin, cout, 3, padding=1, padding_mode=check_padding(padding))
         self.act = nn.ReLU(inplace=True)
 
     def forward(self, x: Tensor) -> Tensor:
-        if fused_conv.applies(self.conv.weight, [x]):
+        if self.conv.padding_mode == "zeros" and fused_conv.applies(self.conv.weight, [x]):
             return fused_conv.conv2d(x, self.conv.weight, self.conv.bias, self.conv.padding, relu=True)
         return self.act(self.conv(x))
 
@@ -34,7 +47,7 @@ class ConvReLU(nn.Module):
         the image; in CPU inference mode without building the concatenation
         (:func:`mcd.models.cpu_fast.fused_conv.conv_on_parts`)."""
         whole = with_constant(parts, constant)
-        if fused_conv.applies(self.conv.weight, whole):
+        if self.conv.padding_mode == "zeros" and fused_conv.applies(self.conv.weight, whole):
             return fused_conv.conv_on_parts(self.conv, whole, relu=True)
         return self.forward(torch.cat(whole, 1) if len(whole) > 1 else whole[0])
 

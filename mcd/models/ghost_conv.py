@@ -21,6 +21,7 @@ from collections.abc import Sequence
 import torch
 from torch import Tensor, nn
 
+from mcd.models.blocks import check_padding
 from mcd.models.cpu_fast import fused_conv
 from mcd.models.cpu_fast.ghost_conv import (
     fast_path_applies,
@@ -34,7 +35,8 @@ from mcd.models.inputs import with_constant
 class FastGhostConv(nn.Module):
     """``cin -> cout`` Fast GhostConv block (``cout`` must be even: half primary, half ghost)."""
 
-    def __init__(self, cin: int, cout: int, kernel: int = 7, groups: int = 4, mid_ratio: float = 0.5) -> None:
+    def __init__(self, cin: int, cout: int, kernel: int = 7, groups: int = 4, mid_ratio: float = 0.5,
+                 padding: str = "zeros") -> None:
         super().__init__()
         if cout % 2:
             raise ValueError(f"FastGhostConv needs an even output width (half primary, half ghost); "
@@ -44,9 +46,10 @@ class FastGhostConv(nn.Module):
         mid = max(1, round(cout * mid_ratio))
         g = math.gcd(groups, math.gcd(cin, mid))
         half = cout // 2
-        self.group = nn.Conv2d(cin, mid, kernel, padding=kernel // 2, groups=g)
+        check_padding(padding)
+        self.group = nn.Conv2d(cin, mid, kernel, padding=kernel // 2, groups=g, padding_mode=padding)
         self.point = nn.Conv2d(mid, half, 1)
-        self.ghost = nn.Conv2d(half, half, 3, padding=1, groups=half)
+        self.ghost = nn.Conv2d(half, half, 3, padding=1, groups=half, padding_mode=padding)
         self.act = nn.ReLU(inplace=True)
 
     def forward(self, x: Tensor) -> Tensor:
@@ -59,7 +62,7 @@ class FastGhostConv(nn.Module):
         (docs/inference.md; a U-Net decoder block is handed its upsampled features and skip, the kernel-map
         head the kernel descriptor)."""
         if fast_path_applies(self.group, parts):
-            if fused_conv.applies(self.ghost.weight, parts):
+            if self.ghost.padding_mode == "zeros" and fused_conv.applies(self.ghost.weight, parts):
                 return primary_and_ghost(self.group, self.point, self.ghost, parts, constant)
             primary = group_then_point(self.group, self.point.weight, self.point.bias, parts, constant)
         else:

@@ -22,6 +22,8 @@ pool").
 
 from __future__ import annotations
 
+from typing import Any
+
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
@@ -51,6 +53,21 @@ def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
         dy, dx = divmod(t, size)
         out.addcmul_(kernels[:, t : t + 1], padded[..., dy : dy + h, dx : dx + w])
     return out
+
+
+def filter_below(image: Tensor, kernels: Tensor, ceiling: float | None) -> Tensor:
+    """:func:`apply_pixel_kernels` of ``min(image, ceiling)``, plus what ``image`` holds above ``ceiling``
+    at the pixel itself (``ceiling`` in ``image``'s range; None: the kernels on ``image`` as it is).
+
+    A pool kernel is a blur (softmax taps, all positive), applied in the compressed range: next to a light
+    source it spread the light's log value over the dark pixels around it (a ring several times brighter
+    than the reference) and took most of the light's own energy away (docs/method.md "Kernel pool"). Above
+    the ceiling a pixel's excess is no noise for a 5x5 blur to spread; it stays where it is, and the
+    pixels around it see the light at the ceiling only."""
+    if ceiling is None:
+        return apply_pixel_kernels(image, kernels)
+    below = image.clamp_max(ceiling)
+    return apply_pixel_kernels(below, kernels) + (image - below)
 
 
 def identity_kernel(size: int) -> Tensor:
@@ -133,8 +150,9 @@ HEAD_OUTPUTS = ("tanh", "rms_centred")
 REMOVED_OPTIONS = {"denoiser_reads_adaptive": False, "temperature": 1.0, "pool_init_scale": 1.0}
 
 
-def kp_options_of(options: dict | None) -> dict[str, str]:
-    """``method.kp`` as the kernel pool reads it: ``{"head_output": ...}`` (default ``rms_centred``).
+def kp_options_of(options: dict | None) -> dict[str, Any]:
+    """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ...}`` (defaults
+    ``rms_centred`` and None: a config from before ``highlight`` filters every value; conf/method sets 4.0).
 
     A removed option (:data:`REMOVED_OPTIONS`) is accepted at its remaining value and refused otherwise,
     naming the key; an unknown key is refused too.
@@ -146,16 +164,22 @@ def kp_options_of(options: dict | None) -> dict[str, str]:
                              f"config (or checkpoint) was made with another value, which this version cannot "
                              f"build (check out the commit it records)")
     head_output = str(options.pop("head_output", "rms_centred"))
+    highlight = options.pop("highlight", None)
     if options:
-        raise ValueError(f"method.kp: unknown option(s) {sorted(options)}; the one option is head_output "
-                         f"({' | '.join(HEAD_OUTPUTS)})")
-    return {"head_output": head_output}
+        raise ValueError(f"method.kp: unknown option(s) {sorted(options)}; the options are head_output "
+                         f"({' | '.join(HEAD_OUTPUTS)}) and highlight (a linear value > 0, or null)")
+    if highlight is not None and not float(highlight) > 0:
+        raise ValueError(f"method.kp.highlight={highlight}: give a linear value > 0 (the pool filters what "
+                         "lies below it) or null (it filters every value)")
+    return {"head_output": head_output, "highlight": None if highlight is None else float(highlight)}
 
 
 class KernelMapHead(nn.Module):
-    """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor)."""
+    """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor); ``padding`` is
+    the last convolution's ``padding_mode`` (``block`` has its own: mcd.models.sampler.SamplingNetwork)."""
 
-    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms_centred") -> None:
+    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms_centred",
+                 padding: str = "zeros") -> None:
         super().__init__()
         if output not in HEAD_OUTPUTS:
             raise ValueError(f"method.kp.head_output={output!r}: expected one of {HEAD_OUTPUTS}")
@@ -165,7 +189,7 @@ class KernelMapHead(nn.Module):
             layers.append(block(cin, w))
             cin = w
         self.blocks = nn.Sequential(*layers)
-        self.out = nn.Conv2d(cin, 2, 3, padding=1)
+        self.out = nn.Conv2d(cin, 2, 3, padding=1, padding_mode=padding)
 
     def scale(self, z: Tensor) -> Tensor:
         """What enters ``tanh`` for the head's raw output ``z`` (``output``: as is, or RMS-normalised with the

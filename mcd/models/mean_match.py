@@ -10,8 +10,12 @@ with a smooth weight between the two bands. One gain for the whole frame let a v
 holds most of a frame's linear energy while the loss (in the compressed range) barely constrains its value,
 rescale every other pixel when the network got the light wrong; a gain without the highlights left the lights
 and bright regions uncorrected (both measured: docs/method.md). The band weights come from the output, which
-has little noise, so the render's means over them stay unbiased estimates of the reference's. The gains are
-part of the model in training too (gradients flow through them).
+has little noise, so the render's means over them stay unbiased estimates of the reference's; the output is
+first brought to the render's scale by the ratio of the two frames' medians, so that its own scale moves no
+pixel between the bands. The gains are part of the model in training too (gradients flow through them), and
+they leave the output's scale free: a trained F's output was 2-3x too bright away from the light, and, with
+bands read off that output as it was, the pixels next to the light fell in the blend towards the light's gain
+and came out about twice too bright, a halo that rMSE weighs (docs/method.md "Output").
 
 Every method that sets ``method.mean_match`` gets it, matched to the render it denoised
 (:mod:`mcd.models.output_steps`), so every learned method of Table 1 ends in the same output step
@@ -44,16 +48,29 @@ def _band_gain(out: Tensor, render: Tensor, weight: Tensor) -> Tensor:
     return ((want + e) / (have + e)).clamp(1.0 / GAIN_MAX, GAIN_MAX)
 
 
+def _median_ratio(render: Tensor, seen: Tensor) -> Tensor:
+    """``[B, 1, 1, 1]``: the frame median of the render's largest channel over that of ``seen`` (the output's
+    largest channel), clamped to ``[1 / GAIN_MAX, GAIN_MAX]``: the output's scale against the render's where
+    most pixels are, which no light and no highlight moves."""
+    b = render.shape[0]
+    want = render.detach().amax(dim=1).reshape(b, -1).median(dim=1).values
+    have = seen.reshape(b, -1).median(dim=1).values
+    return ((want + EPS) / (have + EPS)).clamp(1.0 / GAIN_MAX, GAIN_MAX).view(b, 1, 1, 1)
+
+
 def match_frame_mean(output: Tensor, render: Tensor) -> Tensor:
     """``output`` with each channel's mean matched to the render's, separately over the highlights and over
     the rest (``[B, 3, H, W]``, linear HDR, computed in fp32; module docstring). A pixel's highlight weight
     rises smoothly from 0 at ``HIGHLIGHT / 4`` to 1 at ``HIGHLIGHT * 4`` (in log brightness of the output's
-    largest channel, without gradient), and its gain is the weighted mix of the two bands' gains, so the
-    frame mean is matched as a whole too. Values are clamped at 0 first (``mcd.models.inputs.expand``
-    produces none below 0; a render has none after the store's sanitising)."""
+    largest channel times :func:`_median_ratio`, without gradient; so scaling ``output`` by ``k`` changes no
+    weight and the result not at all while the medians' ratio stays within its clamp), and its gain is the
+    weighted mix of the two bands' gains, so the frame mean is matched as a whole too. Values are clamped at
+    0 first (``mcd.models.inputs.expand`` produces none below 0; a render has none after the store's
+    sanitising)."""
     out = output.float().clamp_min(0)
     rend = render.float().clamp_min(0)
-    level = torch.log2(out.detach().amax(dim=1, keepdim=True).clamp_min(1e-12) / HIGHLIGHT)
+    seen = out.detach().amax(dim=1, keepdim=True)
+    level = torch.log2((seen * _median_ratio(rend, seen)).clamp_min(1e-12) / HIGHLIGHT)
     w = ((level + 2.0) / 4.0).clamp(0.0, 1.0)
     w = w * w * (3.0 - 2.0 * w)  # smoothstep
     gain = w * _band_gain(out, rend, w) + (1.0 - w) * _band_gain(out, rend, 1.0 - w)

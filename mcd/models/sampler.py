@@ -18,7 +18,7 @@ from mcd.models.ghost_conv import FastGhostConv
 from mcd.models.kernel_pool import (
     KernelMapHead,
     KernelPool,
-    apply_pixel_kernels,
+    filter_below,
     interpolate_kernels,
     kp_options_of,
 )
@@ -29,13 +29,19 @@ SAMPLER_IN = 12
 
 
 class SamplingNetwork(nn.Module):
-    """``F_s``: logits for the sampling map and, with KP, the kernel pool and kernel-map head."""
+    """``F_s``: logits for the sampling map and, with KP, the kernel pool and kernel-map head.
+
+    ``padding`` is the ``padding_mode`` of every convolution (``method.sampler_padding``): ``replicate`` (the
+    config's default) keeps a flat input's logits flat up to the frame's border, so the map spends no samples
+    on the border for being the border; ``zeros`` (configs from before the option) makes the border look like
+    an edge (docs/method.md "Adaptive sampling", step 6)."""
 
     def __init__(self, widths: list[int], convs: int, kernel_pool: bool, ghost: bool,
                  ghost_cfg: dict | None = None, kp_cfg: dict | None = None,
-                 kp_options: dict | None = None) -> None:
+                 kp_options: dict | None = None, padding: str = "zeros") -> None:
         super().__init__()
-        block: BlockFactory = partial(FastGhostConv, **(ghost_cfg or {})) if ghost else ConvReLU
+        block: BlockFactory = (partial(FastGhostConv, **(ghost_cfg or {}), padding=padding) if ghost
+                               else partial(ConvReLU, padding=padding))
         self.unet = UNet(SAMPLER_IN, 1, widths, convs, block=block)
         self.pool: KernelPool | None = None
         self.head: KernelMapHead | None = None
@@ -45,16 +51,19 @@ class SamplingNetwork(nn.Module):
             options = kp_options_of(kp_options)
             self.pool = KernelPool(widths[-1], **kp)
             head_in = widths[0] + 7 + 3 + self.pool.describe.out_channels
-            self.head = KernelMapHead(head_in, head_widths, block, output=options["head_output"])
+            self.head = KernelMapHead(head_in, head_widths, block, output=options["head_output"],
+                                      padding=padding)
 
     def forward(self, x: Tensor) -> dict[str, Tensor]:
         """``{"logits", "finest", "coarsest"}`` for the 12-channel sampler input."""
         y = self.unet(x)
         return {"logits": y["out"], "finest": y["finest"], "coarsest": y["coarsest"]}
 
-    def initial_denoise(self, finest: Tensor, coarsest: Tensor, g: Tensor,
-                        image: Tensor) -> dict[str, Tensor]:
-        """Kernel map and initial denoise ``i_bar`` of ``image`` (the adaptive image, network range)."""
+    def initial_denoise(self, finest: Tensor, coarsest: Tensor, g: Tensor, image: Tensor,
+                        ceiling: float | None = None) -> dict[str, Tensor]:
+        """Kernel map and initial denoise ``i_bar`` of ``image`` (the adaptive image, network range); the
+        kernels filter ``image`` below ``ceiling`` (network range; ``method.kp.highlight`` there) and pass
+        its excess (:func:`mcd.models.kernel_pool.filter_below`)."""
         if self.pool is None or self.head is None:
             raise RuntimeError("initial_denoise needs the kernel pool (method.KP=true)")
         adjusted = self.pool.adjust(coarsest)
@@ -64,6 +73,6 @@ class SamplingNetwork(nn.Module):
         normalised = self.pool.normalised(adjusted)
         with record_function("kernel application"):
             kernels = interpolate_kernels(normalised, kmap.float())
-            initial = apply_pixel_kernels(image.float(), kernels)
+            initial = filter_below(image.float(), kernels, ceiling)
         return {"kernel_map": kmap, "initial": initial, "pool": normalised}
 

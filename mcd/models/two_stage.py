@@ -28,7 +28,7 @@ from torch.profiler import record_function
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
-from mcd.models.kernel_pool import pool_picture
+from mcd.models.kernel_pool import kp_options_of, pool_picture
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
@@ -48,7 +48,8 @@ class TwoStage(nn.Module):
     window = (0, 0)
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
-                 colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct") -> None:
+                 colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
+                 sampler_padding: str = "zeros") -> None:
         super().__init__()
         self.sw = dict(switches)
         self.budget, self.levels, self.colour = float(budget), levels, colour
@@ -67,8 +68,12 @@ class TwoStage(nn.Module):
             self.sampler: SamplingNetwork | None = SamplingNetwork(
                 list(smp["widths"]), smp["convs"], kernel_pool=self.sw["KP"], ghost=self.sw["FG"],
                 ghost_cfg=dict(widths.get("ghost", {})), kp_cfg=dict(widths.get("kernel_pool", {})),
-                kp_options=kp)
+                kp_options=kp, padding=sampler_padding)
             self.reads_adaptive = not self.sw["KP"]
+            highlight = kp_options_of(kp)["highlight"]
+            #: ``method.kp.highlight`` in the network range: the kernel pool filters below it
+            self.kp_ceiling = (None if highlight is None
+                               else float(compress(torch.tensor(highlight, device="cpu"), colour)))
             cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
         else:
             self.sampler = None
@@ -120,7 +125,7 @@ class TwoStage(nn.Module):
             feats = [ic, g, smap]
             if self.sw["KP"]:
                 with record_function("kernel pool"):
-                    kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic)
+                    kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic, self.kp_ceiling)
                 feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, smap]
                 out["kernel_map"] = kp["kernel_map"].float()
                 if not self.training:  # a picture of this frame's adjusted pool for the samples
@@ -143,16 +148,17 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
                     denoiser: dict, sampler: dict, kernel_pool: dict, ghost: dict, pooling: dict,
                     attention: dict,
                     sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
-                    denoiser_output: str = "direct") -> TwoStage:
+                    denoiser_output: str = "direct", sampler_padding: str = "zeros") -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
-    ``denoiser_output``; and its widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level
-    widths and convs per level), ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large
-    kernel, groups, mid ratio), ``pooling``, ``attention`` (docs/method.md). The output steps are
-    :func:`mcd.models.registry.build`'s."""
+    ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions: ``replicate`` in the config, ``zeros``
+    for a config from before the key); and its widths (``capacity.two_stage``, conf/capacity/): ``denoiser``
+    (F_d's level widths and convs per level), ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast
+    GhostConv's large kernel, groups, mid ratio), ``pooling``, ``attention`` (docs/method.md). The output
+    steps are :func:`mcd.models.registry.build`'s."""
     switches = check_switches({"UN": UN, "AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}, complete=True)
     sizes = {"denoiser": denoiser, "sampler": sampler, "kernel_pool": kernel_pool, "ghost": ghost,
              "pooling": pooling, "attention": attention}
     return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
-                    kp=kp, denoiser_output=str(denoiser_output))
+                    kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding))

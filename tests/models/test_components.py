@@ -195,11 +195,41 @@ def test_removed_kernel_pool_options_load_at_their_one_value_and_are_refused_oth
     that remains they build, at another they are refused naming the key, and an unknown key is refused."""
     from mcd.models.kernel_pool import REMOVED_OPTIONS, kp_options_of
 
-    assert kp_options_of({**REMOVED_OPTIONS, "head_output": "tanh"}) == {"head_output": "tanh"}
-    assert kp_options_of(None) == {"head_output": "rms_centred"}
+    old = kp_options_of({**REMOVED_OPTIONS, "head_output": "tanh"})
+    assert old == {"head_output": "tanh", "highlight": None}
+    assert kp_options_of(None) == {"head_output": "rms_centred", "highlight": None}
+    assert kp_options_of({"highlight": 4}) == {"head_output": "rms_centred", "highlight": 4.0}
+    with pytest.raises(ValueError, match="method.kp.highlight"):
+        kp_options_of({"highlight": 0})
     with pytest.raises(ValueError, match="method.kp.denoiser_reads_adaptive"):
         kp_options_of({"denoiser_reads_adaptive": True})
     with pytest.raises(ValueError, match="method.kp.temperature"):
         kp_options_of({"temperature": 8.0})
     with pytest.raises(ValueError, match="unknown option"):
         kp_options_of({"head_outptu": "tanh"})
+
+
+@pytest.mark.parametrize("ceiling", [None, 4.0])
+def test_the_pool_spreads_no_light_into_the_dark_around_it(ceiling):
+    """A 3x3 light of 1e5 on a flat 0.3 wall, blurred by the 5x5 box (the pool's widest kernel) in the
+    network range (``log1p``), as the kernel pool does: below ``method.kp.highlight`` (4) the wall next to
+    the light stays below 1 and the light keeps 40% of its value; filtering every value (a config from
+    before the option) made a ring of up to 18 around the light and took the light down to 74
+    (docs/method.md "Kernel pool")."""
+    from mcd.models.inputs import compress, expand
+    from mcd.models.kernel_pool import filter_below
+
+    image = torch.full((1, 3, 15, 15), 0.3)
+    image[..., 6:9, 6:9] = 1e5
+    kernels = torch.full((1, 25, 15, 15), 1 / 25)
+    top = None if ceiling is None else float(compress(torch.tensor(ceiling)))
+    out = expand(filter_below(compress(image), kernels, top))
+    ring = torch.zeros(15, 15, dtype=torch.bool)
+    ring[4:11, 4:11] = True
+    ring[6:9, 6:9] = False
+    far = out[..., :2, :]
+    torch.testing.assert_close(far, torch.full_like(far, 0.3))
+    if ceiling is None:
+        assert float(out[..., ring].max()) > 10 and float(out[..., 6:9, 6:9].max()) < 100
+    else:
+        assert float(out[..., ring].max()) < 1 and float(out[..., 6:9, 6:9].min()) > 4e4

@@ -31,6 +31,25 @@ def test_a_wrong_light_does_not_rescale_the_rest_of_the_frame():
     torch.testing.assert_close(matched.mean((-2, -1)), render.mean((-2, -1)))
 
 
+def test_an_output_too_bright_around_a_right_light_gets_no_halo():
+    """The bands are told apart at the render's scale (the medians' ratio), so the output's own scale does not
+    move a pixel between them: an output whose light is right but whose rest is 3x too bright, as a trained
+    F's was, is corrected by the rest's gain up to the light's edge. Before, the pixels next to the light
+    (3.0 in the output, in the blend between the bands) kept part of the light's gain of 1 and came out about
+    twice too bright: a bright ring, which rMSE weighs (docs/method.md "Output")."""
+    render = torch.full((1, 3, 24, 24), 0.3)
+    render[..., 9:12, 9:12] = 1e5            # the light
+    ring = torch.zeros(1, 1, 24, 24, dtype=torch.bool)
+    ring[..., 8:13, 8:13] = True
+    ring[..., 9:12, 9:12] = False
+    render = torch.where(ring, torch.tensor(1.0), render)
+    out = torch.where(render > 1e3, render, 3.0 * render)
+    matched = match_frame_mean(out, render)
+    torch.testing.assert_close(matched, render, rtol=1e-3, atol=0.0)
+    for k in (0.5, 2.0):  # scaling the output leaves the result as it was, the light included
+        torch.testing.assert_close(match_frame_mean(out * k, render), matched, rtol=1e-4, atol=0.0)
+
+
 def test_black_frames_stay_black_and_the_gain_is_clamped():
     black = torch.zeros(1, 3, 8, 8)
     assert torch.equal(match_frame_mean(black, black), black)

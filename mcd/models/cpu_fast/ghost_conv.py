@@ -290,4 +290,8 @@ def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
         return conv(x)
     cout, cin_g = conv.weight.shape[:2]
     mask = torch.block_diag(*[x.new_ones(cout // g, cin_g) for _ in range(g)])[:, :, None, None]
-    return F.conv2d(x, conv.weight.repeat(1, g, 1, 1) * mask, conv.bias, padding=conv.padding)
+    padding = conv.padding
+    if conv.padding_mode != "zeros":  # replicate: pad first, as nn.Conv2d does
+        ph, pw = conv.padding
+        x, padding = F.pad(x, (pw, pw, ph, ph), mode=conv.padding_mode), 0
+    return F.conv2d(x, conv.weight.repeat(1, g, 1, 1) * mask, conv.bias, padding=padding)

@@ -1,0 +1,75 @@
+"""The sampling network at the frame's border (``method.sampler_padding``; docs/method.md "Adaptive sampling",
+step 6): with replicate padding a flat input gives a flat map up to the border, so no sample goes to the
+border for being the border; with zero padding (configs from before the option) the border looks like an
+edge."""
+
+import pytest
+import torch
+
+from mcd.models.cpu_fast.ghost_conv import grouped_conv
+from mcd.models.registry import build
+from mcd.models.sampler import SamplingNetwork
+from mcd.sampling import normalise_map, shares
+from tests.models.helpers import frame, row_cfg
+
+
+def _sampler(padding: str, ghost: bool) -> SamplingNetwork:
+    torch.manual_seed(0)
+    return SamplingNetwork([8, 16, 32], 2, kernel_pool=True, ghost=ghost, padding=padding,
+                           kp_cfg={"q": 16, "head_widths": [8, 8]})
+
+
+def _flat_input(h: int = 37, w: int = 50) -> torch.Tensor:
+    x = torch.full((1, 12, h, w), 0.3)
+    x[:, 3:6] = torch.tensor([0.0, 0.0, 1.0]).view(1, 3, 1, 1)   # one flat wall: normal along z
+    return x
+
+
+@pytest.mark.parametrize("ghost", [True, False])
+@pytest.mark.parametrize("mode", ["train", "inference"])
+def test_replicate_padding_keeps_a_flat_frames_map_flat_to_the_border(ghost, mode):
+    """Odd sizes (padded to the U-Net's stride inside), both block kinds, the training and the CPU inference
+    paths: every pixel of a flat frame gets the same logit, hence the budget's samples, border included."""
+    net = _sampler("replicate", ghost)
+    x = _flat_input()
+    if mode == "train":
+        logits = net.train()(x)["logits"].detach()
+    else:
+        with torch.inference_mode():
+            logits = net.eval()(x)["logits"]
+    assert float(logits.max() - logits.min()) < 1e-5
+    m = normalise_map(shares(logits), budget=4)
+    assert float(m.min()) == float(m.max()) == 3.0
+
+
+def test_zero_padding_makes_the_border_of_a_flat_frame_look_like_an_edge():
+    """The mechanism the option removes: the same untrained network with zero padding gives the border pixels
+    of a flat frame other logits than the interior's."""
+    logits = _sampler("zeros", ghost=True)(_flat_input())["logits"].detach()[0, 0]
+    centre = logits[logits.shape[0] // 2, logits.shape[1] // 2]
+    assert float((logits[0] - centre).abs().max()) > 1e-3
+
+
+@pytest.mark.parametrize("padding_mode", ["zeros", "replicate"])
+def test_cpu_training_path_of_grouped_convs_keeps_the_padding_mode(padding_mode):
+    torch.manual_seed(0)
+    conv = torch.nn.Conv2d(12, 8, 7, padding=3, groups=4, padding_mode=padding_mode)
+    x = torch.randn(2, 12, 9, 10, requires_grad=True)
+    torch.testing.assert_close(grouped_conv(conv, x), conv(x))
+
+
+def _padding_modes(model: torch.nn.Module) -> set[str]:
+    """The padding modes of the sampler's convolutions that pad."""
+    return {m.padding_mode for m in model.sampler.modules()
+            if isinstance(m, torch.nn.Conv2d) and m.padding != (0, 0)}
+
+
+def test_row_f_pads_its_sampler_by_replication_and_old_configs_keep_zeros():
+    cfg = row_cfg("F")
+    assert cfg.method.sampler_padding == "replicate"
+    assert _padding_modes(build(cfg)) == {"replicate"}
+    del cfg.method["sampler_padding"]   # a config written before the option (the bundled F's)
+    model = build(cfg)
+    assert _padding_modes(model) == {"zeros"}
+    with torch.no_grad():
+        assert torch.isfinite(model.eval()(frame(24, 24))["output"]).all()
