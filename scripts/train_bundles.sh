@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Retrain the bundled checkpoints (docs/denoise.md "Bundled checkpoints"): row F and the U-Net (row A) on
-# data=bundle (every vendored scene and four procedural rooms, the augmentations of docs/training.md
+# data=bundle (every vendored scene and two procedural rooms, the augmentations of docs/training.md
 # "Augmentations" on, four real interiors held out), then bundle them into mcd/bundled/ and score them on the
 # held-out interiors beside OIDN (python -m mcd.tools.bundle_scores), writing the table into docs/denoise.md.
 #
