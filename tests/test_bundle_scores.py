@@ -55,3 +55,16 @@ def test_a_profile_without_transfer_scenes_is_refused_before_any_work(tmp_path):
     with pytest.raises(SystemExit, match="data.transfer_scenes is empty"):
         bundle_scores.main(["--data", "tiny", f"paths.data_dir={tmp_path}"])
     assert not any(tmp_path.iterdir())
+
+
+def test_trained_on_reads_the_record_or_the_profile_it_names():
+    from omegaconf import OmegaConf
+
+    def cfg(**data):
+        return OmegaConf.create({"data": data})
+
+    # a bundle written before its training scenes were recorded: those of the profile it names
+    assert bundle_scores.trained_on(cfg(name="small")) == ["staircase2", "bathroom", "cbox",
+                                                            "cornell-box-picture", "room0"]
+    assert bundle_scores.trained_on(cfg(name="small", train_scenes=["cbox"])) == ["cbox"]
+    assert bundle_scores.trained_on(cfg(name="gone")) == []

@@ -38,6 +38,7 @@ from mcd.data.splits import test_frame_count
 from mcd.lit.test_recorder import hwc
 from mcd.methods import display_name
 from mcd.metrics import frame_metrics
+from mcd.paths import CONF_DIR
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +68,21 @@ def _methods(bundles: list[str], data_overrides: list[str]) -> list[tuple[str, n
         out.append((display_name("oidn"), oidn, oidn_cfg))
     out.append((display_name("noisy"), None, oidn_cfg))
     return out
+
+
+def trained_on(cfg: DictConfig) -> list[str]:
+    """The scenes a bundle's model trained on: its recorded ``data.train_scenes``, or for a bundle written
+    before they were recorded, those of the data profile it names (``data.name``, when it is one of
+    ``conf/data``); empty when neither is known."""
+    from mcd.config import compose
+
+    recorded = cfg.data.get("train_scenes")
+    if recorded is not None:
+        return list(recorded)
+    name = str(cfg.data.get("name"))
+    if not (CONF_DIR / "data" / f"{name}.yaml").is_file():
+        return []
+    return list(compose([f"data={name}"]).data.train_scenes)
 
 
 @torch.inference_mode()
@@ -116,6 +132,7 @@ def table(bundles: list[str], data_overrides: list[str]) -> tuple[str, DictConfi
                          "scored on held-out scenes (use --data bundle, or name them with "
                          "'data.transfer_scenes=[..]')")
     methods = _methods(bundles, data_overrides)
+    trained = {label: trained_on(mcfg) if label not in REFERENCES else [] for label, _, mcfg in methods}
     budget = float(cfg.budget)
     store = StoreBuilder.from_cfg(cfg)
     need: set[str] = set()
@@ -128,10 +145,10 @@ def table(bundles: list[str], data_overrides: list[str]) -> tuple[str, DictConfi
     lines, means = [], {label: [] for label, _, _ in methods}
     for scene in scenes:
         frames = list(range(n_test))
-        for label, model, mcfg in methods:
+        for label, model, _ in methods:
             s = score(store, scene, frames, model, budget)
             means[label].append(s)
-            seen = label not in REFERENCES and scene in (mcfg.data.get("train_scenes") or [])
+            seen = label not in REFERENCES and scene in trained[label]
             lines.append(f"| {scene} | {label}{' (trained on it)' if seen else ''} | {_cells(s)} |")
             log.info("%s %s: %s", scene, label, s)
     for label, rows in means.items():
