@@ -1,0 +1,84 @@
+"""A short real training of row F on a 64x64 Cornell box (the ``tiny`` profile's scene, light and size): F's
+output beats its noisy input on rMSE, and its sampling map's border ring is not brighter than the content
+explains (docs/method.md "Dark regions"; issue 34, item 3).
+
+Before the fixes F's output had 2-4x the input's rMSE on this scene from the first steps on (a bright ring
+around the ceiling light: the kernel pool's blur of the light, the residual F_d's correction of it and the
+frame-mean match's bands) and its map spent 2-5x the interior's samples on the top row and the left column
+(zero padding in ``F_s``). The README's full training is measured in docs/method.md.
+"""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mcd.data.exr import read_exr
+from mcd.data.store import StoreReader
+from tests.conftest import compose_cfg
+
+REPO = Path(__file__).resolve().parents[1]
+#: The ``tiny`` profile narrowed to the Cornell box over 16 frames: 3 test frames, 1 validation clip.
+STORE = ["data=tiny", "data.name=test64", "data.frames_per_segment=8", "data.train_scenes=[cbox]",
+         "data.test_scenes=[cbox]"]
+#: Steps of the training: before the fixes F failed both checks at this budget (and at every one measured).
+STEPS = 200
+#: Width of the border ring of the sampling map, in pixels.
+RING = 2
+#: How much brighter than the content's ratio the map's ring may be (a trained map is not exact).
+SLACK = 1.25
+
+
+def ring_ratio(image: np.ndarray) -> float:
+    """Mean of ``image`` (``H x W``) over its outer ``RING``-pixel ring over its mean over the rest."""
+    ring = np.ones(image.shape, dtype=bool)
+    ring[RING:-RING, RING:-RING] = False
+    return float(image[ring].mean() / image[~ring].mean())
+
+
+@pytest.fixture(scope="module")
+def f_run(tmp_path_factory):
+    """Row F trained ``STEPS`` steps on the 64x64 Cornell box and tested on its test frames."""
+    root = tmp_path_factory.mktemp("trained_f")
+    overrides = [*STORE, f"paths.data_dir={root / 'data'}"]
+    env = {**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "2"),
+           "HYDRA_FULL_ERROR": "1"}
+    args = ["+experiment=F", *overrides, f"train.max_steps={STEPS}", "train.max_minutes=null",
+            "train.sample_frames=[0,1,2]", "trainer.enable_progress_bar=false", f"hydra.run.dir={root / 'F'}"]
+    proc = subprocess.run([sys.executable, "-m", "mcd.run", *args], cwd=REPO, env=env, capture_output=True,
+                          text=True, timeout=1800)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return root / "F", StoreReader.from_cfg(compose_cfg(*overrides))
+
+
+@pytest.mark.slow
+def test_f_beats_its_noisy_input_on_rmse(f_run):
+    """rMSE, on every test frame. FLIP is not asserted: at this budget F's output is blotchy on the flat
+    walls, which FLIP weighs more than the input's fine noise (0.19 against 0.14 with the fixes, 0.20
+    before; the ring is not where FLIP's gap lies); the converged F of reports/small_converged beats the
+    input's FLIP on every scene (docs/method.md "Dark regions")."""
+    run, _ = f_run
+    frames = pd.read_csv(run / "frames.csv")
+    assert len(frames) == 3
+    assert (frames["rmse"] < frames["input_rmse"]).all(), frames.to_string()
+
+
+@pytest.mark.slow
+def test_the_border_ring_of_the_sampling_map_is_explained_by_the_content(f_run):
+    """The map's ring-to-interior ratio against that of the per-pixel relative error (rMSE's terms) of a 1-spp
+    render, the error more samples would lower: the top rows of this frame are the dark ceiling, where that
+    error is high, so some more samples there are the content's due; twice the interior's, for the border's
+    sake, are not."""
+    run, store = f_run
+    maps, errors = [], []
+    for frame in range(3):
+        maps.append(read_exr(run / "samples" / "cbox" / f"{frame:04d}_sampling_map.exr")[..., 0])
+        ref, c1 = store.load("cbox", frame, "ref"), store.load("cbox", frame, "c1")
+        errors.append(((c1.astype(np.float64) - ref) ** 2 / (ref.astype(np.float64) ** 2 + 1e-2)).mean(-1))
+    content = ring_ratio(np.mean(errors, axis=0))
+    spent = ring_ratio(np.mean(maps, axis=0))
+    assert spent <= SLACK * max(1.0, content), f"map ring / interior {spent:.2f}, content's {content:.2f}"
