@@ -27,17 +27,20 @@ STORE = ["data=tiny", "data.name=test64", "data.frames_per_segment=8", "data.tra
          "data.test_scenes=[cbox]"]
 #: Steps of the training: before the fixes F failed both checks at this budget (and at every one measured).
 STEPS = 200
-#: Width of the border ring of the sampling map, in pixels.
+#: Width of each side of the sampling map's border ring, in pixels.
 RING = 2
-#: How much brighter than the content's ratio the map's ring may be (a trained map is not exact).
+#: How much brighter than the content's ratio (or than the interior) a side may be (a trained map is not
+#: exact).
 SLACK = 1.25
 
 
-def ring_ratio(image: np.ndarray) -> float:
-    """Mean of ``image`` (``H x W``) over its outer ``RING``-pixel ring over its mean over the rest."""
-    ring = np.ones(image.shape, dtype=bool)
-    ring[RING:-RING, RING:-RING] = False
-    return float(image[ring].mean() / image[~ring].mean())
+def side_ratios(image: np.ndarray) -> dict[str, float]:
+    """Per side (top, bottom, left, right), the mean of ``image`` (``H x W``) over that side's ``RING``-pixel
+    band over its mean inside the ring."""
+    sides = {"top": np.s_[:RING, :], "bottom": np.s_[-RING:, :], "left": np.s_[:, :RING],
+             "right": np.s_[:, -RING:]}
+    inner = float(image[RING:-RING, RING:-RING].mean())
+    return {side: float(image[band].mean()) / inner for side, band in sides.items()}
 
 
 @pytest.fixture(scope="module")
@@ -69,16 +72,18 @@ def test_f_beats_its_noisy_input_on_rmse(f_run):
 
 @pytest.mark.slow
 def test_the_border_ring_of_the_sampling_map_is_explained_by_the_content(f_run):
-    """The map's ring-to-interior ratio against that of the per-pixel relative error (rMSE's terms) of a 1-spp
-    render, the error more samples would lower: the top rows of this frame are the dark ceiling, where that
-    error is high, so some more samples there are the content's due; twice the interior's, for the border's
-    sake, are not."""
+    """Each side's map-to-interior ratio against that of the per-pixel relative error (rMSE's terms) of a
+    1-spp render, the error more samples would lower: the top rows of this frame are the dark ceiling, where
+    that error is 3.7x the interior's, so more samples there are the content's due; the other sides hold
+    less error than the interior, and the zero-padded sampler gave them 1.3-1.45x its samples at 200 steps
+    (2-5x after the README's training)."""
     run, store = f_run
     maps, errors = [], []
     for frame in range(3):
         maps.append(read_exr(run / "samples" / "cbox" / f"{frame:04d}_sampling_map.exr")[..., 0])
         ref, c1 = store.load("cbox", frame, "ref"), store.load("cbox", frame, "c1")
         errors.append(((c1.astype(np.float64) - ref) ** 2 / (ref.astype(np.float64) ** 2 + 1e-2)).mean(-1))
-    content = ring_ratio(np.mean(errors, axis=0))
-    spent = ring_ratio(np.mean(maps, axis=0))
-    assert spent <= SLACK * max(1.0, content), f"map ring / interior {spent:.2f}, content's {content:.2f}"
+    content = side_ratios(np.mean(errors, axis=0))
+    for side, spent in side_ratios(np.mean(maps, axis=0)).items():
+        assert spent <= SLACK * max(1.0, content[side]), \
+            f"{side}: map / interior {spent:.2f}, content's {content[side]:.2f}"
