@@ -8,18 +8,65 @@ else: the tracked ``reports/complexity.csv`` changes only when asked for by name
 :func:`mcd.config.experiment_names` (rows A-M from the component table, then ``conf/experiment/*.yaml``),
 so a new method only needs its config (and its paper numbers in :mod:`mcd.methods`). The counting itself is
 :mod:`mcd.models.complexity`.
+
+Below the table it prints the shares (``--shares cpu``, the default; ``--shares none`` skips them): each
+trained Table 1 method's MACs in that profile over its MACs in the ``paper`` profile, both counted from the
+built models, and each share's ratio to F's. The ``cpu`` profile keeps every ratio within
+:data:`SHARE_BAND` of 1 (issue 34: Table 1 compares designs, not budgets; docs/training.md "Capacity
+profiles"). ``--shares-out PATH`` also writes them as CSV (``name, gmacs_1080p, paper_profile_gmacs_1080p,
+share, ratio_to_F``).
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import math
 from pathlib import Path
 
 from mcd.config import compose, experiment_names
-from mcd.methods import paper_complexity
+from mcd.methods import CATALOGUE, paper_complexity
 from mcd.models.complexity import complexity
+
+#: How far each trained method's share of its paper-size MACs may be from F's, relative (issue 34).
+SHARE_BAND = 0.15
+#: The method every share is compared with: the paper's own (row F).
+SHARE_REFERENCE = "F"
+
+
+def trained_methods() -> list[str]:
+    """Table 1's trained methods (:data:`mcd.methods.CATALOGUE`): the ones whose shares must be equal."""
+    return [m.experiment for m in CATALOGUE if m.table1 and m.trainable]
+
+
+def shares(capacity: str = "cpu", overrides: tuple[str, ...] = (), height: int = 1080,
+           width: int = 1920) -> list[dict]:
+    """One row per trained method: its MACs in ``capacity`` (with ``overrides``) and in the ``paper``
+    profile at ``height x width``, the share (their ratio) and the share's ratio to F's."""
+    rows = []
+    for name in trained_methods():
+        cfg = compose([f"+experiment={name}", f"capacity={capacity}", *overrides])
+        ours = complexity(cfg, height, width)[1]
+        paper = _paper_gmacs(name, height, width)
+        rows.append({"name": name, "gmacs_1080p": round(ours, 2),
+                     "paper_profile_gmacs_1080p": round(paper, 2), "share": ours / paper})
+    reference = next(r["share"] for r in rows if r["name"] == SHARE_REFERENCE)
+    for r in rows:
+        r["ratio_to_F"] = r["share"] / reference
+    return rows
+
+
+@functools.cache
+def _paper_gmacs(name: str, height: int, width: int) -> float:
+    """GMACs of ``name`` in the ``paper`` profile (counted once per process)."""
+    return complexity(compose([f"+experiment={name}", "capacity=paper"]), height, width)[1]
+
+
+def outside_band(rows: list[dict]) -> list[str]:
+    """The methods whose share is more than :data:`SHARE_BAND` away from F's, each with its figures."""
+    return [f"{r['name']}: {100 * r['share']:.1f}% of its paper-size MACs, {r['ratio_to_F']:.2f}x F's"
+            for r in rows if abs(r["ratio_to_F"] - 1) > SHARE_BAND]
 
 
 def table(experiments: list[str], capacity: str, height: int, width: int,
@@ -59,6 +106,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("-o", "--out", type=Path, default=None,
                         help="also write the table as CSV here (default: print only)")
+    parser.add_argument("--shares", default="cpu",
+                        help="print each trained method's share of its paper-size MACs in this profile, and "
+                             "its ratio to F's ('none': skip)")
+    parser.add_argument("--shares-out", type=Path, default=None, help="also write the shares as CSV here")
     args = parser.parse_args(argv)
     unavailable: dict[str, str] = {}
     rows = table(args.experiments or experiment_names(), args.capacity, args.height, args.width, unavailable)
@@ -69,14 +120,31 @@ def main(argv: list[str] | None = None) -> None:
               f"{_rel(r['params_m'], r['paper_params_m']):>8}{r['gmacs_1080p']:>10.2f}"
               f"{r['paper_gmacs']:>9.2f}{_rel(r['gmacs_1080p'], r['paper_gmacs']):>8}"
               + (f"  unavailable: {unavailable[r['name']]}" if r["name"] in unavailable else ""))
-    if args.out is None:
+    if args.out is not None:
+        _write_csv(args.out, rows)
+    if args.shares == "none":
         return
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with args.out.open("w", newline="") as f:
+    share_rows = shares(args.shares, height=args.height, width=args.width)
+    print(f"\nshares: capacity={args.shares} MACs / capacity=paper MACs, {args.width}x{args.height}; "
+          f"band: within {100 * SHARE_BAND:.0f}% of {SHARE_REFERENCE}'s")
+    print(f"{'name':<12}{'gmacs':>10}{'paper':>10}{'share':>8}{'x F':>7}")
+    for r in share_rows:
+        print(f"{r['name']:<12}{r['gmacs_1080p']:>10.2f}{r['paper_profile_gmacs_1080p']:>10.2f}"
+              f"{100 * r['share']:>7.1f}%{r['ratio_to_F']:>7.2f}")
+    for problem in outside_band(share_rows):
+        print(f"outside the band: {problem}")
+    if args.shares_out is not None:
+        _write_csv(args.shares_out, [{**r, "share": round(r["share"], 4),
+                                      "ratio_to_F": round(r["ratio_to_F"], 3)} for r in share_rows])
+
+
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    print(f"wrote {args.out}")
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

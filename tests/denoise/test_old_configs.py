@@ -7,8 +7,9 @@ from __future__ import annotations
 import json
 
 import torch
-from omegaconf import OmegaConf
+from omegaconf import OmegaConf, open_dict
 
+from mcd.config import upgrade_saved
 from mcd.denoise.weights import BUNDLED_DIR, bundled_names, load
 from mcd.losses import build_loss
 from mcd.models import build
@@ -19,10 +20,13 @@ def test_every_bundled_checkpoint_builds_and_loads_through_the_registry():
     assert bundled_names()
     for name in bundled_names():
         loaded = load(name)
-        cfg = json.loads((BUNDLED_DIR / f"{name}.json").read_text())["config"]
-        # the model built today from the old config is the one built from today's experiment config
-        today = build(compose_cfg(f"+experiment={cfg['experiment']}", "capacity=cpu",
-                                  f"budget={cfg['budget']}"))
+        cfg = upgrade_saved(json.loads((BUNDLED_DIR / f"{name}.json").read_text())["config"])
+        # the model built today from the old config is the one built from today's experiment config at the
+        # bundle's own widths (a bundle keeps the widths it was trained with when a profile changes)
+        today_cfg = compose_cfg(f"+experiment={cfg['experiment']}", f"budget={cfg['budget']}")
+        with open_dict(today_cfg):
+            today_cfg.capacity = cfg["capacity"]
+        today = build(today_cfg)
         shapes = [tuple(p.shape) for p in today.parameters()]
         assert [tuple(p.shape) for p in loaded.model.parameters()] == shapes
 
