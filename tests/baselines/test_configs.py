@@ -66,8 +66,9 @@ def test_paper_profile_matches_table1_within_10_percent(name: str) -> None:
 
 
 def test_cpu_profile_is_much_smaller_than_paper() -> None:
+    """About a fifth of the paper's size (equal MAC shares: tests/models/test_capacity_shares.py)."""
     for name in FIVE[1:]:
         small = build(compose([f"+experiment={name}", "capacity=cpu"]))
         n = sum(p.numel() for p in small.parameters())
-        assert n < 0.1 * TABLE1[name]["params_m"] * 1e6, f"{name}: cpu profile has {n} params"
+        assert n < 0.3 * TABLE1[name]["params_m"] * 1e6, f"{name}: cpu profile has {n} params"
     assert OmegaConf.select(compose(["+experiment=rae", "capacity=cpu"]), "capacity.rae.encoder") is not None
