@@ -17,8 +17,8 @@ cd "$(dirname "$0")/.."
 PY=${PY:-.venv/bin/python}
 OUT=$(realpath -m "${OUT:-outputs/bundles}")
 BUNDLE_DIR=${BUNDLE_DIR:-mcd/bundled}
-NAMES=(F-cpu-small unet-cpu-small)
-declare -A EXPERIMENT=([F-cpu-small]=F [unet-cpu-small]=A)
+NAMES=(F-cpu-bundle unet-cpu-bundle)
+declare -A EXPERIMENT=([F-cpu-bundle]=F [unet-cpu-bundle]=A)
 export OMP_NUM_THREADS=1
 
 # The trainings leave the held-out interiors out of their store work ('data.transfer_scenes=[]': mcd.run
@@ -42,6 +42,7 @@ for stage in ${STAGES:-train bundle score}; do
     score)
       bundles=()
       for name in "${NAMES[@]}"; do bundles+=(--bundle "$BUNDLE_DIR/$name.pt"); done
+      bundles+=(--bundle F-cpu-small --bundle unet-cpu-small)  # the previous bundles, trained on data=small
       "$PY" -m mcd.tools.bundle_scores "${bundles[@]}" --write "${DOC:-docs/denoise.md}" "$@" ;;
     *) echo "unknown stage $stage (train, bundle, score)" >&2; exit 2 ;;
   esac
