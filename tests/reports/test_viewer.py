@@ -23,29 +23,12 @@ from mcd.report import make_report
 from mcd.reporting import viewer
 from mcd.reporting.runs import find_runs
 from mcd.reporting.strips import crop_box, samples
+from tests.reports.test_sweep_to_report import SMALL as TINY32
 
 REPO = Path(__file__).resolve().parents[2]
 LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
-#: The tiny profile cut to one 32x32 scene of 14 frames (two test frames, both saved as samples) and two
-#: training steps per method.
-SMALL = [
-    "data.width=32",
-    "data.height=32",
-    "data.segments=1",
-    "data.frames_per_segment=14",
-    "data.ref_spp=16",
-    "data.gbuffer_spp=4",
-    "data.train_scenes=[cbox]",
-    "data.test_scenes=[cbox]",
-    "~data.scenes.staircase2",
-    "data.train_crop=32",
-    "data.val_crop=32",
-    "train.epochs=1",
-    "train.batch_size=2",
-    "train.limit_train_batches=2",
-    "trainer.enable_progress_bar=false",
-    "train.sample_frames=[0,1]",
-]
+#: The sweep-to-report test's 32x32 profile, its two test frames both saved as samples.
+SMALL = [*TINY32, "train.sample_frames=[0,1]"]
 
 
 @pytest.fixture(scope="module")
