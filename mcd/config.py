@@ -30,6 +30,7 @@ RENAMED_GROUPS: dict[str, str] = {"model": "capacity"}
 #: (``metrics.json``, mcd/run_record.py).
 RENAMED_KEYS: dict[str, str] = {**RENAMED_GROUPS, "model_profile": "capacity_profile"}
 
+
 def check_overrides(overrides: Iterable[str]) -> None:
     """ValueError for the first override that names a renamed group (``model=paper``,
     ``model.rae.bottleneck=8``, ``+model=cpu``, ``~model``), saying what to type instead
@@ -42,7 +43,6 @@ def check_overrides(overrides: Iterable[str]) -> None:
             fixed = override.replace(head, new, 1)
             raise ValueError(f"{override}: the config group '{head}' is now called '{new}' (conf/{new}/, the "
                              f"capacity profiles; docs/architecture.md); give {fixed}")
-
 
 
 def upgrade_saved(saved: Any) -> Any:
