@@ -6,22 +6,24 @@
   same second get two directories (and an ad-hoc ``-m`` sweep's). ``mcd.hydra_callbacks`` calls it at
   import: Hydra instantiates the callbacks of ``conf/config.yaml`` before it resolves those directories, so
   every command composing that config has it.
-- :func:`hold` takes ``<run dir>/run.lock`` with ``fcntl.flock`` for as long as the run lives; a second
-  process on the same directory (two ``ckpt_path=auto`` resumes, a ``hydra.run.dir`` given twice, two copies
-  of one sweep) is refused with :class:`RunDirInUse`, naming the owner's pid. The kernel drops the lock when
-  the owner dies, so a killed run never leaves a stale lock behind.
+- :func:`hold` takes ``<run dir>/run.lock`` with ``fcntl.flock`` (:func:`mcd.file_lock.exclusive`) for as
+  long as the run lives; a second process on the same directory (two ``ckpt_path=auto`` resumes, a
+  ``hydra.run.dir`` given twice, two copies of one sweep) is refused with :class:`RunDirInUse`, naming the
+  owner's pid. The kernel drops the lock when the owner dies, so a killed run never leaves a stale lock
+  behind.
 """
 
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import os
 import secrets
 import socket
 import time
 from collections.abc import Iterator
 from pathlib import Path
+
+from mcd import file_lock
 
 #: The lock file inside a run directory.
 LOCK_NAME = "run.lock"
@@ -57,21 +59,15 @@ def hold(run_dir: Path) -> Iterator[None]:
     if path.exists() and not path.is_file():
         raise RunDirInUse(f"{path} is not a regular file: remove it (the run directory's lock file, "
                           "docs/reliability.md) and start the run again")
-    with open(path, "a+") as f:
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            f.seek(0)
-            owner = f.read().strip() or "pid unknown"
+    with file_lock.exclusive(path, blocking=False) as f:
+        if f is None:
+            owner = path.read_text().strip() or "pid unknown"
             raise RunDirInUse(
                 f"{run_dir} is in use by another run ({owner}); wait for it to finish, or give this run its "
-                "own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)") from None
-        try:
-            f.seek(0)
-            f.truncate()
-            f.write(f"pid {os.getpid()} on {socket.gethostname()}, since "
-                    f"{time.strftime('%Y-%m-%d %H:%M:%S')}\n")
-            f.flush()
-            yield
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+                "own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a sweep)")
+        f.seek(0)
+        f.truncate()
+        f.write(f"pid {os.getpid()} on {socket.gethostname()}, since "
+                f"{time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+        f.flush()
+        yield

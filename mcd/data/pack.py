@@ -13,26 +13,24 @@ back and compared (CRC-32), and only then recorded in the scene's pack record (w
 then rename). A pack killed at any point (kill -9 included) loses nothing: run again, it skips recorded frames
 whose EXR sources are unchanged and packs the rest. A store packed with another config is refused before any
 work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR store that lacks a file, naming
-the render command. One packer per scene at a time (``<scene>.lock``, ``fcntl.flock``): a second one (another
-DDP rank) waits, then reuses the first one's frames.
+the render command. One packer per scene at a time (``<scene>.lock``, :func:`mcd.file_lock.exclusive`): a
+second one (another DDP rank) waits, then reuses the first one's frames.
 """
 
 from __future__ import annotations
 
-import fcntl
 import json
 import logging
 import os
 import time
 import zlib
 from collections.abc import Iterable
-from contextlib import contextmanager
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from omegaconf import DictConfig
 
+from mcd import file_lock
 from mcd.data.buffers import BUFFERS
 from mcd.data.splits import split_frames
 from mcd.data.store import StoreReader
@@ -94,7 +92,7 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
     t0 = time.perf_counter()
     report = {"root": str(settings.dir), "packed": 0, "reused": 0, "clamped": 0}
     for scene, frames in todo.items():
-        with _scene_lock(settings.dir / f"{scene}.lock"):
+        with file_lock.exclusive(settings.dir / f"{scene}.lock"):  # one packer per scene: others wait
             got = _pack_scene(store, reader, scene, frames, (int(cfg.data.height), int(cfg.data.width)))
         for k in ("packed", "reused", "clamped"):
             report[k] += got[k]
@@ -103,18 +101,6 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
              "range, in %.1f s", settings.dir, settings.dtype, report["packed"], report["reused"],
              report["clamped"], report["seconds"])
     return report
-
-
-@contextmanager
-def _scene_lock(path: Path):
-    """Hold an exclusive ``flock`` on ``path`` (one packer per scene; others wait)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "a") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> np.memmap:

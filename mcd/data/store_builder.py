@@ -26,7 +26,6 @@ one's achieved PSNR (``psnr_estimate`` in the manifest). Training and validation
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import json
 import logging
@@ -42,6 +41,7 @@ from typing import Any, Self
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from mcd import file_lock
 from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS, GBUFFERS, NEGATIVE_OK, buffer_spp, validate_buffers
 from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import auto_exposure, depth_scale
@@ -418,29 +418,22 @@ class StoreBuilder(StoreReader):
 
     @contextlib.contextmanager
     def _scene_lock(self, scene: str) -> Iterator[None]:
-        """Hold ``<scene>/.lock`` (``fcntl.flock``) for a short read-modify-write of the scene's manifest.
+        """Hold ``<scene>/.lock`` (:func:`mcd.file_lock.exclusive`) for a short read-modify-write of the
+        scene's manifest.
 
         Every writer of the scene's manifest holds it, so a process that takes it reads the manifest every
         other process left and loses none of their entries; the manifest's own temp files (``.*.tmp*`` beside
         it, left by a killed run) are removed under it.
         """
         folder = self.root / scene
-        folder.mkdir(parents=True, exist_ok=True)
         lock = folder / ".lock"
         if lock.exists() and not lock.is_file():
             raise RuntimeError(f"{lock}: the scene's lock file is not a regular file; remove it (`rm -r "
                                f"{lock}`, after checking it holds nothing you need) and run again")
-        with open(lock, "a") as f:
-            try:
-                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                fcntl.flock(f, fcntl.LOCK_EX)
-            try:
-                for stale in folder.glob(".*.tmp*"):  # of a killed run
-                    stale.unlink(missing_ok=True)
-                yield
-            finally:
-                fcntl.flock(f, fcntl.LOCK_UN)
+        with file_lock.exclusive(lock):
+            for stale in folder.glob(".*.tmp*"):  # of a killed run
+                stale.unlink(missing_ok=True)
+            yield
 
     @contextlib.contextmanager
     def _frame_lock(self, scene: str, frame: int, blocking: bool) -> Iterator[bool]:
@@ -448,19 +441,13 @@ class StoreBuilder(StoreReader):
         holds nothing) when another process holds it and `blocking` is off. Under it no other process writes
         in the frame's folder, so temp files there (``.*.tmp*``, of a killed run) are removed."""
         folder = self.root / scene / f"{frame:04d}"
-        folder.mkdir(parents=True, exist_ok=True)
-        with open(folder / ".lock", "a") as f:
-            try:
-                fcntl.flock(f, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
-            except BlockingIOError:
+        with file_lock.exclusive(folder / ".lock", blocking=blocking) as lock_file:
+            if lock_file is None:
                 yield False
                 return
-            try:
-                for stale in folder.glob(".*.tmp*"):
-                    stale.unlink(missing_ok=True)
-                yield True
-            finally:
-                fcntl.flock(f, fcntl.LOCK_UN)
+            for stale in folder.glob(".*.tmp*"):
+                stale.unlink(missing_ok=True)
+            yield True
 
     def _remove_stale_temps(self, scene: str) -> None:
         """Remove the temp files of killed runs in the scene's frame folders that no live writer holds."""
