@@ -49,7 +49,8 @@ def test_the_index_has_one_row_per_report_folder_and_marks_the_current_one(tmp_p
     bench.mkdir()
     (bench / "README.md").write_text("# Inference speed (python -m mcd.bench)\n\nrows\n")
     (tmp_path / "reports" / "scratch").mkdir()
-    (current / "viewer.html").write_text("<html></html>")
+    (current / "viewer").mkdir()
+    (current / "viewer" / "index.html").write_text("<html></html>")  # where mcd.reporting.viewer writes it
     index.write_index(tmp_path / "reports", "current")
     text = (tmp_path / "reports" / "README.md").read_text()
     rows = {line.split(" | ")[0].lstrip("| "): line.split(" | ") for line in text.splitlines()
@@ -58,7 +59,7 @@ def test_the_index_has_one_row_per_report_folder_and_marks_the_current_one(tmp_p
     row = rows["**current** (current)"]
     assert row[1] == "What current is." and row[2] == "tiny" and row[3] == "cpu" and row[4] == "abcdef1"
     assert row[5].startswith("2 trained runs") and "optimiser steps 30" in row[5]
-    assert "[README](current/README.md)" in row[7] and "[viewer](current/viewer.html)" in row[7]
+    assert "[README](current/README.md)" in row[7] and "[viewer](current/viewer/index.html)" in row[7]
     assert rows["older"][1] == "What older is." and "viewer" not in rows["older"][7]
     assert rows["bench"][1] == "Inference speed (python -m mcd.bench)"
     assert rows["scratch"][1] == "no README.md"
