@@ -7,8 +7,8 @@ Hydra's ConfigStore from the component table (:data:`mcd.methods.COMPONENTS`), r
 source of each row's switches (docs/method.md, "Component study").
 
 It is also the one place that knows the config groups renamed since (:data:`RENAMED_GROUPS`): an override
-naming an old group is refused before any work (:func:`check_overrides`, in :func:`compose` and
-:func:`hydra_main`), and a config saved under an old name reads as today's (:func:`upgrade_saved`).
+naming an old group is refused before any work (:func:`check_overrides`, in :func:`compose`; on a command
+line, :func:`exit_on_renamed`), and a config saved under an old name reads as today's (:func:`upgrade_saved`).
 """
 
 from __future__ import annotations
@@ -43,6 +43,18 @@ def check_overrides(overrides: Iterable[str]) -> None:
             fixed = override.replace(head, new, 1)
             raise ValueError(f"{override}: the config group '{head}' is now called '{new}' (conf/{new}/, the "
                              f"capacity profiles; docs/architecture.md); give {fixed}")
+
+
+def exit_on_renamed(overrides: Iterable[str]) -> None:
+    """End the command, when an override names a renamed group, with :func:`check_overrides`' message on one
+    line (``error: ...``, no traceback) and exit status 2, before any work: the command-line check of the
+    Hydra commands (:func:`hydra_main`) and of the tools that take Hydra overrides (``python -m mcd.bench``'s
+    modes, ``python -m mcd.tools.bundle_scores``); docs/architecture.md, "Config"."""
+    try:
+        check_overrides(overrides)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 def upgrade_saved(saved: Any) -> Any:
@@ -106,11 +118,7 @@ def hydra_main(task: Callable[[DictConfig], Any]) -> Callable[[], Any]:
 
     @functools.wraps(main)
     def checked(*args: Any, **kwargs: Any) -> Any:
-        try:
-            check_overrides(a for a in sys.argv[1:] if not a.startswith("-"))
-        except ValueError as err:
-            print(f"error: {err}", file=sys.stderr)
-            raise SystemExit(2) from None
+        exit_on_renamed(a for a in sys.argv[1:] if not a.startswith("-"))
         return main(*args, **kwargs)
 
     return checked

@@ -36,15 +36,27 @@ def test_the_new_group_composes():
     assert "model" not in compose()
 
 
-def test_a_hydra_command_refuses_the_old_group_before_any_work(tmp_path):
-    """``python -m mcd.run model=paper`` exits 2 with the message and writes no run directory."""
+@pytest.mark.parametrize("command", [
+    ["mcd.run", "+experiment=F", "model=paper"],  # a Hydra command (mcd.config.hydra_main)
+    ["mcd.run", "model.x=1"],
+    ["mcd.bench", "speed", "model=cpu"],  # the tools that take Hydra overrides on an argparse line
+    ["mcd.bench", "profile", "--synthetic", "model=cpu"],
+    ["mcd.bench", "train", "model=cpu"],
+    ["mcd.tools.bundle_scores", "model=cpu"],
+], ids=lambda c: " ".join(c))
+def test_a_command_line_naming_the_old_group_ends_in_one_error_line_before_any_work(tmp_path, command):
+    """Exit status 2 and one line, ``error: <override>: ... give capacity...``, with no traceback and nothing
+    written (a run's default directory would land in the working directory)."""
     env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, "-m", "mcd.run", "+experiment=F", "model=paper",
-                           f"hydra.run.dir={tmp_path / 'run'}"], capture_output=True, text=True, env=env,
+    done = subprocess.run([sys.executable, "-m", *command], capture_output=True, text=True, env=env,
                           cwd=tmp_path, timeout=300)
+    old = command[-1]
     assert done.returncode == 2, done.stderr
-    assert "give capacity=paper" in done.stderr and "Traceback" not in done.stderr
-    assert not (tmp_path / "run").exists()
+    assert "Traceback" not in done.stderr
+    assert done.stderr.splitlines() == [
+        f"error: {old}: the config group 'model' is now called 'capacity' (conf/capacity/, the capacity "
+        f"profiles; docs/architecture.md); give {old.replace('model', 'capacity', 1)}"]
+    assert not any(tmp_path.iterdir())
 
 
 def _as_before_the_rename(config: dict) -> dict:

@@ -59,7 +59,7 @@ import torch
 from torch import Tensor, nn
 
 from mcd import allocator
-from mcd.config import check_overrides, compose
+from mcd.config import compose, exit_on_renamed
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
@@ -535,13 +535,10 @@ def main(argv: list[str] | None = None) -> None:
                              f"reports/bench/bench.csv)")
     allocator.add_option(parser)
     args = parser.parse_args(argv)
+    overrides = list(args.overrides)
+    exit_on_renamed(overrides)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     log.info("allocator: %s", allocator.apply(args.allocator))
-    overrides = list(args.overrides)
-    try:
-        check_overrides(overrides)
-    except ValueError as err:
-        parser.error(str(err))
     if not any(o.startswith("capacity=") for o in overrides):
         overrides.append("capacity=paper")
     sizes = [s for s in args.sizes.split(",") if s]

@@ -199,6 +199,9 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("overrides", nargs="*",
                    help="further Hydra overrides of the data (e.g. paths.data_dir=..)")
     args = p.parse_args(argv)
+    from mcd.config import exit_on_renamed
+
+    exit_on_renamed(args.overrides)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     from mcd.denoise.weights import bundled_names
 

@@ -28,7 +28,7 @@ from torch import nn
 from torch.profiler import ProfilerActivity, profile
 
 from mcd import allocator
-from mcd.config import compose
+from mcd.config import compose, exit_on_renamed
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
 from mcd.models.complexity import dummy_batch, flop_counter_mode
@@ -158,6 +158,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, help="also write the table (markdown) here")
     allocator.add_option(parser)
     args = parser.parse_args(argv)
+    exit_on_renamed(args.overrides)
     memory = allocator.apply(args.allocator)
     overrides = list(args.overrides)
     if not any(o.startswith("capacity=") for o in overrides):
