@@ -10,7 +10,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,7 +18,7 @@ from omegaconf import DictConfig, ListConfig
 from mcd.data.buffers import BUFFERS, CHANNELS, COLOUR_BUFFERS, GBUFFERS, buffer_spp, run_buffers
 from mcd.data.splits import split_frames, test_frame_count
 from mcd.data.store import StoreReader
-from mcd.machine import status_mb
+from mcd.machine import restart_peak_rss, status_mb
 
 log = logging.getLogger("mcd.workload")
 
@@ -194,7 +193,7 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
             torch.cuda.reset_peak_memory_stats()
             base = torch.cuda.memory_allocated()
         else:
-            Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS
+            restart_peak_rss()  # VmHWM := VmRSS
             base = status_mb("VmRSS")
         t0, c0 = time.perf_counter(), time.process_time()
         pred = module.run_clip(batch, with_ref=True)

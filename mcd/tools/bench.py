@@ -43,7 +43,6 @@ docs/inference.md); ``python -m mcd.bench train``: training throughput (mcd/tool
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
 import logging
 import math
@@ -63,7 +62,7 @@ from mcd.config import compose, exit_on_renamed
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
-from mcd.machine import device_name
+from mcd.machine import device_name, restart_peak_rss, status_mb
 from mcd.methods import CATALOGUE, display_name
 from mcd.models.latency import model_inputs, time_calls
 from mcd.provenance import short_commit
@@ -208,20 +207,20 @@ def frame_buffers(
 
 def reset_peak_rss() -> None:
     """Hand freed heap back to the OS (:func:`mcd.allocator.hand_back`, so memory an earlier method freed does
-    not count) and restart the process's peak resident memory (``VmHWM``) from its current size (Linux)."""
+    not count) and restart the process's peak resident memory from its current size
+    (:func:`mcd.machine.restart_peak_rss`)."""
     allocator.hand_back()
-    with contextlib.suppress(OSError):
-        Path("/proc/self/clear_refs").write_text("5")
+    restart_peak_rss()
 
 
 def peak_rss_gb() -> float | None:
-    """The process's peak resident memory in GB (10^9 bytes) since the last :func:`reset_peak_rss`; None
-    where ``/proc`` does not report it."""
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) * 1024 / 1e9
-    return None
+    """The process's peak resident memory (``VmHWM``, :func:`mcd.machine.status_mb`) in GB (10^9 bytes) since
+    the last :func:`reset_peak_rss`; None where ``/proc`` does not report it."""
+    try:
+        mb = status_mb("VmHWM")
+    except OSError:
+        return None
+    return None if math.isnan(mb) else mb * 2**20 / 1e9
 
 
 def bench_one(
