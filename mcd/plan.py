@@ -8,7 +8,8 @@ The plan counts, from the config alone:
   :func:`mcd.workload.requested_buffers`; ``motion`` brings ``depth``), per scene and in all, uncompressed
   float32 (G-buffers and motion are stored ZIP-compressed, so smaller: an upper bound);
 - the training store's bytes (:mod:`mcd.data.train_store`: the training and validation frames of
-  ``data.train_scenes``, the run's buffers, float32 and float16);
+  ``data.train_scenes``, the run's buffers, float32 and float16), per frame as the pack writes it: square
+  tiles, the last row and column padded (:func:`mcd.data.train_store.frame_bytes`), and in all;
 - the samples to render: per frame, every colour buffer at its spp (references of test frames between
   ``data.ref_spp`` and ``data.ref_quality.max_spp``, the spp their quality target needs, plus the pilot of
   frame 0), the G-buffers once at ``data.gbuffer_spp``; times pixels, frames and scenes;
@@ -111,9 +112,9 @@ def lines(p: dict[str, Any]) -> list[str]:
         f"EXR store ({','.join(wk['render_buffers'])}; float32, uncompressed upper bound): "
         f"{_gb(wk['exr_frame_bytes'])} per frame x {n} = {_gb(wk['exr_scene_bytes'])} per scene x {ns} = "
         f"{_gb(wk['exr_bytes'])}",
-        f"training store ({','.join(wk['train_buffers'])}: {wk['train_channels']} channels, "
-        f"{wk['train_store_frames']} training and validation frames): "
-        f"{_gb(wk['train_store_bytes']['float32'])} float32, "
+        f"training store ({','.join(wk['train_buffers'])}: {wk['train_channels']} channels, tiles padded): "
+        f"{_gb(wk['train_store_frame_bytes']['float32'])} per frame x {wk['train_store_frames']} training "
+        f"and validation frames = {_gb(wk['train_store_bytes']['float32'])} float32, "
         f"{_gb(wk['train_store_bytes']['float16'])} float16",
         f"samples: {_range(*wk['spp_per_scene'])} spp per pixel per scene (all buffers and frames) x {w * h} "
         f"pixels x {ns} scenes = {_range(*wk['samples'])}",

@@ -64,7 +64,10 @@ def _train_buffers(cfg: DictConfig) -> list[str]:
 
 
 def work(cfg: DictConfig) -> dict[str, Any]:
-    """The plan's counts from the config alone (:mod:`mcd.plan`): bytes, samples, steps."""
+    """The plan's counts from the config alone (:mod:`mcd.plan`): bytes, samples, steps. A training store
+    frame counts as the pack writes it, its tiles padded (:func:`mcd.data.train_store.frame_bytes`)."""
+    from mcd.data import train_store
+
     d = cfg.data
     reader = StoreReader.from_cfg(cfg, overrides=[])  # registers scenes given by path
     scenes, n = reader.scene_names, reader.n_frames
@@ -94,6 +97,7 @@ def work(cfg: DictConfig) -> dict[str, Any]:
         split, train_error = {"train": [], "val": []}, str(err)
     packed_frames = sum(len(c) for c in split["train"] + split["val"]) * len(d.train_scenes)
     channels = sum(CHANNELS[b] for b in train)
+    packed = {dt: train_store.frame_bytes(h, w, channels, t) for dt, t in train_store.DTYPES.items()}
     clips = len(split["train"]) * len(d.train_scenes)
     t = cfg.train
     devices = cfg.trainer.get("devices", 1)
@@ -114,8 +118,8 @@ def work(cfg: DictConfig) -> dict[str, Any]:
         "exr_frame_bytes": sum(frame_bytes.values()), "exr_scene_bytes": sum(frame_bytes.values()) * n,
         "exr_bytes": sum(frame_bytes.values()) * n * len(scenes),
         "train_store_frames": packed_frames, "train_channels": channels,
-        "train_store_bytes": {dt: packed_frames * channels * w * h * size
-                              for dt, size in (("float32", 4), ("float16", 2))},
+        "train_store_frame_bytes": packed,
+        "train_store_bytes": {dt: packed_frames * b for dt, b in packed.items()},
         "samples": (lo * w * h * len(scenes), hi * w * h * len(scenes)),
         "spp_per_scene": (lo, hi),
         "train_clips": clips, "batch": batch, "ranks": ranks, "steps_per_epoch": steps,

@@ -6,7 +6,11 @@ from __future__ import annotations
 
 import logging
 
+import numpy as np
+import pytest
+
 from mcd.data import StoreBuilder
+from mcd.data.pack import pack
 from mcd.plan import main
 from mcd.workload import announce, work
 from tests.conftest import compose_cfg, store32_overrides
@@ -14,15 +18,18 @@ from tests.conftest import compose_cfg, store32_overrides
 
 def test_paper_counts_match_the_protocols_arithmetic():
     """Row F on the paper profile: 11 stored buffers (31 channels + motion's depth), 19 scenes x 500 frames at
-    1080p; 16 training scenes x (500 - 100 test) packed frames; 76 training clips per scene."""
+    1080p; 16 training scenes x (500 - 100 test) packed frames, each 17 x 30 tiles of 64 (1088 x 1920, the
+    last tile row padded); 76 training clips per scene."""
     wk = work(compose_cfg("data=paper", "capacity=paper", "train=paper"))
-    pixels = 1920 * 1080
+    pixels, padded = 1920 * 1080, 1920 * 1088
     channels = 3 * 8 + 1 + 3 + 3  # c1_in, c1..c32, ref; depth, normal, albedo
     assert wk["exr_frame_bytes"] == pixels * channels * 4
     assert wk["exr_bytes"] == pixels * channels * 4 * 500 * 19
     assert wk["train_store_frames"] == 16 * 400 and wk["train_channels"] == channels
-    assert wk["train_store_bytes"] == {"float32": 6400 * channels * pixels * 4,
-                                       "float16": 6400 * channels * pixels * 2}
+    assert wk["train_store_frame_bytes"] == {"float32": padded * channels * 4,
+                                             "float16": padded * channels * 2}
+    assert wk["train_store_bytes"] == {"float32": 6400 * channels * padded * 4,
+                                       "float16": 6400 * channels * padded * 2}
     # spp per pixel per scene: the uniform stack and c1_in every frame, references at 2048 (train) or up to
     # 16384 (the 100 test frames), the pilot's 2048, G-buffers at 64
     stack = 1 + (1 + 2 + 4 + 8 + 16 + 32)
@@ -30,6 +37,24 @@ def test_paper_counts_match_the_protocols_arithmetic():
                                    500 * (stack + 64) + 400 * 2048 + 100 * 16384 + 2048)
     assert wk["samples"] == tuple(s * pixels * 19 for s in wk["spp_per_scene"])
     assert wk["train_clips"] == 16 * 76 and wk["steps_per_epoch"] == 152 and wk["run_steps"] == 300 * 152
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float16"])
+def test_the_training_store_bytes_are_what_the_pack_writes(cbox_store, tmp_path, dtype):
+    """The plan's bytes per packed frame are those of a real packed store (32x32 frames: one 64x64 tile each,
+    three quarters padding), and its frame count is the frames the pack wrote."""
+    _, store = cbox_store
+    cfg = compose_cfg(*store32_overrides(store.data_dir), "data.train_store.format=array",
+                      f"data.train_store.dtype={dtype}", f"data.train_store.dir={tmp_path / 'ts'}")
+    wk = work(cfg)
+    report = pack(cfg, store, wk["train_buffers"])
+    array = tmp_path / "ts" / "cbox.npy"
+    mm = np.load(array, mmap_mode="r")  # (every frame, tiles_y, tiles_x, channels, 64, 64): test frames holes
+    on_disk_per_frame = (array.stat().st_size - mm.offset) / mm.shape[0]
+    assert wk["train_store_frame_bytes"][dtype] == on_disk_per_frame == 64 * 64 * wk["train_channels"] * (
+        4 if dtype == "float32" else 2)
+    assert report["packed"] == wk["train_store_frames"]
+    assert wk["train_store_bytes"][dtype] == report["packed"] * on_disk_per_frame
 
 
 def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):

@@ -45,7 +45,7 @@ from mcd.data.clips import ExrClips
 from mcd.data.pack import pack
 from mcd.data.store import StoreReader
 from mcd.data.synthetic_store import synthetic_data_cfg, write_synthetic_store
-from mcd.data.train_store import TrainStore, TrainStoreSettings
+from mcd.data.train_store import TrainStore, TrainStoreSettings, frame_bytes
 from mcd.machine import status_mb
 
 PROFILE, SCENE = "loaderbench", "synthetic"
@@ -209,8 +209,7 @@ def measure(folder: Path | str, buffers: Sequence[str], *, width: int = 1920, he
     cold = _in_child(_array_worker, store, clips[::-1], seconds, True)
     channels = max(end for _, end in store.ranges.values())
     clip_bytes = clip_len * channels * crop * crop * store.dtype.itemsize
-    t_ = store.tile  # a packed frame's bytes, its tiles padded
-    frame_bytes = channels * -(-width // t_) * t_ * -(-height // t_) * t_ * store.dtype.itemsize
+    packed_bytes = frame_bytes(height, width, channels, store.dtype, store.tile)
     out: dict[str, Any] = {
         "clips_per_s": warm["clips"] / warm["wall_s"],
         "exr_clips_per_s": exr["clips"] / exr["wall_s"],
@@ -231,7 +230,7 @@ def measure(folder: Path | str, buffers: Sequence[str], *, width: int = 1920, he
         "clips_timed": {"clips_per_s": warm["clips"], "cold_clips_per_s": cold["clips"],
                         "exr_clips_per_s": exr["clips"]},
         "crop_mb_per_clip": clip_bytes / 2**20,
-        "store_mb_per_frame": frame_bytes / 2**20,
+        "store_mb_per_frame": packed_bytes / 2**20,
         "exr_mb_per_frame": sum(r["bytes"] for k, r in reader.manifest(SCENE)["files"].items()
                                 if k.startswith("0001/")) / 2**20,
         "pack_s_per_frame": packed["seconds"] / max(packed["packed"], 1) if packed["packed"] else None,

@@ -46,6 +46,7 @@ from mcd.data.train_store import (
     check_meta,
     frame_digest,
     pack_command,
+    tile_grid,
     to_tiles,
 )
 
@@ -109,8 +110,7 @@ def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple
     packed again)."""
     path = store.scene_path(scene)
     n_channels = max(end for _, end in store.ranges.values())
-    shape = (reader.frame_count(scene), -(-size[0] // store.tile), -(-size[1] // store.tile), n_channels,
-             store.tile, store.tile)
+    shape = (reader.frame_count(scene), *tile_grid(*size, store.tile), n_channels, store.tile, store.tile)
     if path.is_file():
         mm = np.load(path, mmap_mode="r+")
         if mm.shape == shape and mm.dtype == store.dtype:

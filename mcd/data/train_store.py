@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any, Self
 
 import numpy as np
+import numpy.typing as npt
 import torch
 from omegaconf import DictConfig
 
@@ -69,10 +70,24 @@ _NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.form
 TILE = 64
 
 
+def tile_grid(height: int, width: int, tile: int = TILE) -> tuple[int, int]:
+    """``(tiles_y, tiles_x)``: the ``ceil(H / tile) x ceil(W / tile)`` tiles a frame is cut into, the last row
+    and column padded with zeros (docs/training_store.md, "Layout")."""
+    return -(-height // tile), -(-width // tile)
+
+
+def frame_bytes(height: int, width: int, channels: int, dtype: npt.DTypeLike, tile: int = TILE) -> int:
+    """Bytes one packed frame takes in its scene's array: its :func:`tile_grid` of ``channels x tile x tile``
+    values of ``dtype``, the padding included (docs/training_store.md, "Layout"; ``python -m mcd.plan`` counts
+    the store with it)."""
+    tiles_y, tiles_x = tile_grid(height, width, tile)
+    return tiles_y * tiles_x * channels * tile * tile * np.dtype(dtype).itemsize
+
+
 def to_tiles(frame: np.ndarray, tile: int = TILE) -> np.ndarray:
     """A ``(C, H, W)`` frame as ``(ceil(H / tile), ceil(W / tile), C, tile, tile)`` tiles, zero-padded."""
     c, h, w = frame.shape
-    ty, tx = -(-h // tile), -(-w // tile)
+    ty, tx = tile_grid(h, w, tile)
     padded = np.zeros((c, ty * tile, tx * tile), dtype=frame.dtype)
     padded[:, :h, :w] = frame
     return np.ascontiguousarray(padded.reshape(c, ty, tile, tx, tile).transpose(1, 3, 0, 2, 4))
