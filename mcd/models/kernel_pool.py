@@ -55,7 +55,7 @@ def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
     return out
 
 
-def filter_below(image: Tensor, kernels: Tensor, ceiling: float | None) -> Tensor:
+def filter_below(image: Tensor, kernels: Tensor, ceiling: float | None, hits: Tensor | None = None) -> Tensor:
     """:func:`apply_pixel_kernels` of ``min(image, ceiling)``, plus what ``image`` holds above ``ceiling``
     at the pixel itself (``ceiling`` in ``image``'s range; None: the kernels on ``image`` as it is).
 
@@ -63,11 +63,22 @@ def filter_below(image: Tensor, kernels: Tensor, ceiling: float | None) -> Tenso
     source it spread the light's log value over the dark pixels around it (a ring several times brighter
     than the reference) and took most of the light's own energy away (docs/method.md "Kernel pool"). Above
     the ceiling a pixel's excess is no noise for a 5x5 blur to spread; it stays where it is, and the
-    pixels around it see the light at the ceiling only."""
-    if ceiling is None:
-        return apply_pixel_kernels(image, kernels)
-    below = image.clamp_max(ceiling)
-    return apply_pixel_kernels(below, kernels) + (image - below)
+    pixels around it see the light at the ceiling only.
+
+    ``hits`` (``[B, 1, H, W]``, bool; ``method.kp.skip_misses``): where False (a pixel that saw no geometry,
+    :func:`mcd.models.misses.miss_mask`) the pixel keeps ``image``, and no kernel reads it: each kernel's taps
+    on such pixels are dropped and the rest renormalised (a normalised convolution). Such a pixel is already
+    noise-free (:mod:`mcd.models.misses`); blurred, it put light into the Cornell box's black frame and
+    darkened the rows beside it (docs/method.md "Dark regions").
+    """
+    below = image if ceiling is None else image.clamp_max(ceiling)
+    if hits is None:
+        return apply_pixel_kernels(below, kernels) + (image - below)
+    weight = hits.to(image.dtype)
+    total = apply_pixel_kernels(weight, kernels)
+    filtered = apply_pixel_kernels(below * weight, kernels) / total.clamp_min(1e-12)
+    # a hit pixel's own tap is positive (softmax taps, blended with the identity), so total > 0 there
+    return torch.where(hits & (total > 0), filtered + (image - below), image)
 
 
 def identity_kernel(size: int) -> Tensor:
@@ -151,8 +162,10 @@ REMOVED_OPTIONS = {"denoiser_reads_adaptive": False, "temperature": 1.0, "pool_i
 
 
 def kp_options_of(options: dict | None) -> dict[str, Any]:
-    """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ...}`` (defaults
-    ``rms_centred`` and None: a config from before ``highlight`` filters every value; conf/method sets 4.0).
+    """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ..., "skip_misses":
+    ...}`` (defaults ``rms_centred``, None and False: a config from before ``highlight`` filters every value,
+    one from before ``skip_misses`` filters across pixels that saw no geometry; conf/method sets 4.0 and
+    false, docs/method.md "Dark regions" measures true).
 
     A removed option (:data:`REMOVED_OPTIONS`) is accepted at its remaining value and refused otherwise,
     naming the key; an unknown key is refused too.
@@ -165,13 +178,18 @@ def kp_options_of(options: dict | None) -> dict[str, Any]:
                              f"build (check out the commit it records)")
     head_output = str(options.pop("head_output", "rms_centred"))
     highlight = options.pop("highlight", None)
+    skip_misses = options.pop("skip_misses", False)
     if options:
         raise ValueError(f"method.kp: unknown option(s) {sorted(options)}; the options are head_output "
-                         f"({' | '.join(HEAD_OUTPUTS)}) and highlight (a linear value > 0, or null)")
+                         f"({' | '.join(HEAD_OUTPUTS)}), highlight (a linear value > 0, or null) and "
+                         f"skip_misses (true or false)")
     if highlight is not None and not float(highlight) > 0:
         raise ValueError(f"method.kp.highlight={highlight}: give a linear value > 0 (the pool filters what "
                          "lies below it) or null (it filters every value)")
-    return {"head_output": head_output, "highlight": None if highlight is None else float(highlight)}
+    if not isinstance(skip_misses, bool):
+        raise ValueError(f"method.kp.skip_misses={skip_misses!r}: give true or false")
+    return {"head_output": head_output, "highlight": None if highlight is None else float(highlight),
+            "skip_misses": skip_misses}
 
 
 class KernelMapHead(nn.Module):

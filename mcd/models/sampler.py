@@ -60,10 +60,11 @@ class SamplingNetwork(nn.Module):
         return {"logits": y["out"], "finest": y["finest"], "coarsest": y["coarsest"]}
 
     def initial_denoise(self, finest: Tensor, coarsest: Tensor, g: Tensor, image: Tensor,
-                        ceiling: float | None = None) -> dict[str, Tensor]:
+                        ceiling: float | None = None, hits: Tensor | None = None) -> dict[str, Tensor]:
         """Kernel map and initial denoise ``i_bar`` of ``image`` (the adaptive image, network range); the
         kernels filter ``image`` below ``ceiling`` (network range; ``method.kp.highlight`` there) and pass
-        its excess (:func:`mcd.models.kernel_pool.filter_below`)."""
+        its excess, and read only the pixels where ``hits`` holds, the others keeping ``image``
+        (``method.kp.skip_misses``; :func:`mcd.models.kernel_pool.filter_below`)."""
         if self.pool is None or self.head is None:
             raise RuntimeError("initial_denoise needs the kernel pool (method.KP=true)")
         adjusted = self.pool.adjust(coarsest)
@@ -73,6 +74,6 @@ class SamplingNetwork(nn.Module):
         normalised = self.pool.normalised(adjusted)
         with record_function("kernel application"):
             kernels = interpolate_kernels(normalised, kmap.float())
-            initial = filter_below(image.float(), kernels, ceiling)
+            initial = filter_below(image.float(), kernels, ceiling, hits)
         return {"kernel_map": kmap, "initial": initial, "pool": normalised}
 

@@ -29,6 +29,7 @@ from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import kp_options_of, pool_picture
+from mcd.models.misses import miss_mask
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
@@ -70,10 +71,13 @@ class TwoStage(nn.Module):
                 ghost_cfg=dict(widths.get("ghost", {})), kp_cfg=dict(widths.get("kernel_pool", {})),
                 kp_options=kp, padding=sampler_padding)
             self.reads_adaptive = not self.sw["KP"]
-            highlight = kp_options_of(kp)["highlight"]
+            options = kp_options_of(kp)
+            highlight = options["highlight"]
             #: ``method.kp.highlight`` in the network range: the kernel pool filters below it
             self.kp_ceiling = (None if highlight is None
                                else float(compress(torch.tensor(highlight, device="cpu"), colour)))
+            #: ``method.kp.skip_misses``: the kernel pool reads and changes only pixels that saw geometry
+            self.kp_skip_misses = options["skip_misses"]
             cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
         else:
             self.sampler = None
@@ -125,7 +129,9 @@ class TwoStage(nn.Module):
             feats = [ic, g, smap]
             if self.sw["KP"]:
                 with record_function("kernel pool"):
-                    kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic, self.kp_ceiling)
+                    hits = ~miss_mask(need(x, "normal", who)) if self.kp_skip_misses else None
+                    kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic, self.kp_ceiling,
+                                                      hits)
                 feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, smap]
                 out["kernel_map"] = kp["kernel_map"].float()
                 if not self.training:  # a picture of this frame's adjusted pool for the samples

@@ -196,11 +196,14 @@ def test_removed_kernel_pool_options_load_at_their_one_value_and_are_refused_oth
     from mcd.models.kernel_pool import REMOVED_OPTIONS, kp_options_of
 
     old = kp_options_of({**REMOVED_OPTIONS, "head_output": "tanh"})
-    assert old == {"head_output": "tanh", "highlight": None}
-    assert kp_options_of(None) == {"head_output": "rms_centred", "highlight": None}
-    assert kp_options_of({"highlight": 4}) == {"head_output": "rms_centred", "highlight": 4.0}
+    assert old == {"head_output": "tanh", "highlight": None, "skip_misses": False}
+    assert kp_options_of(None) == {"head_output": "rms_centred", "highlight": None, "skip_misses": False}
+    assert kp_options_of({"highlight": 4, "skip_misses": True}) == {"head_output": "rms_centred",
+                                                                    "highlight": 4.0, "skip_misses": True}
     with pytest.raises(ValueError, match="method.kp.highlight"):
         kp_options_of({"highlight": 0})
+    with pytest.raises(ValueError, match="method.kp.skip_misses"):
+        kp_options_of({"skip_misses": "yes"})
     with pytest.raises(ValueError, match="method.kp.denoiser_reads_adaptive"):
         kp_options_of({"denoiser_reads_adaptive": True})
     with pytest.raises(ValueError, match="method.kp.temperature"):
@@ -233,3 +236,32 @@ def test_the_pool_spreads_no_light_into_the_dark_around_it(ceiling):
         assert float(out[..., ring].max()) > 10 and float(out[..., 6:9, 6:9].max()) < 100
     else:
         assert float(out[..., ring].max()) < 1 and float(out[..., 6:9, 6:9].min()) > 4e4
+
+
+@pytest.mark.parametrize("skip", [False, True])
+def test_the_pool_neither_reads_nor_changes_pixels_that_saw_no_geometry(skip):
+    """A flat 0.3 wall inside a two-pixel black frame of escaped rays (G-buffer normal 0, as around the
+    Cornell box), noisy, blurred by the 5x5 box: with ``method.kp.skip_misses`` the frame stays exactly 0
+    and the wall beside it keeps the wall's level (a normalised convolution over the hit pixels); filtering
+    across it put light into the frame and darkened the wall's outer row by half (docs/method.md
+    "Dark regions")."""
+    from mcd.models.inputs import compress, expand
+    from mcd.models.kernel_pool import filter_below
+    from mcd.models.misses import miss_mask
+
+    gen = torch.Generator().manual_seed(0)
+    image = 0.3 * (1 + 0.2 * torch.randn(1, 3, 16, 16, generator=gen)).clamp_min(0)
+    normal = torch.zeros(1, 3, 16, 16)
+    normal[:, 2, 2:-2, 2:-2] = 1.0
+    image = torch.where(miss_mask(normal), torch.zeros(()), image)
+    kernels = torch.full((1, 25, 16, 16), 1 / 25)
+    hits = ~miss_mask(normal) if skip else None
+    out = expand(filter_below(compress(image), kernels, float(compress(torch.tensor(4.0))), hits))
+    frame = miss_mask(normal).expand_as(out)
+    edge_rows = out[..., 2, 2:-2]
+    if skip:
+        assert float(out[frame].abs().max()) == 0.0
+        assert float(edge_rows.mean()) == pytest.approx(0.3, rel=0.06)
+    else:
+        assert float(out[frame].max()) > 0.05
+        assert float(edge_rows.mean()) < 0.3 * 0.75
