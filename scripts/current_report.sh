@@ -6,14 +6,15 @@
 #
 #   scripts/current_report.sh [stage ...]   # stages: ablation baselines spp seeds transfer report (default: all)
 #
-# Budget: train=plateau with train.max_steps=BUDGET_STEPS (default 3000), its cosine schedule spanning them
-# (docs/training.md "Budgets"), for every trained job. Estimated cost at 3000 steps, from the step times that
-# reports/small_converged measured at capacity cpu (curves.csv: seconds over steps per method, AMD EPYC, two
-# jobs sharing 2 cores, one thread each; a shared machine, so rough): A-M 8.1 s per step of all 13 rows (I, K,
-# L, M taken as F's 0.82 s), the five trained baselines 3.4 s, spp 6.3 s (F, NTASAD, A at 4 budgets), seeds
-# 5.6 s (A, B, C, F at 4 seeds): about 20 CPU-hours of training steps, about 24 with validation and testing,
-# so about 12 hours of wall time on 2 cores with JOBS=2. A capacity profile that gives the baselines a larger
-# share of their paper-size MACs makes their steps slower than these.
+# Budget: train=plateau with train.max_steps=BUDGET_STEPS (default 1000), its cosine schedule spanning them
+# (docs/training.md "Budgets"), for every trained job. Estimated cost per step of all jobs, from the step times
+# that reports/small_converged measured at the earlier capacity cpu (curves.csv: seconds over steps per method,
+# AMD EPYC, two jobs sharing 2 cores, one thread each; a shared machine, so rough) scaled by each method's MACs
+# at the equal-share widths (python -m mcd.tools.complexity): A-M about 10 s (I, K, L, M taken as F's), the
+# five trained baselines about 9 s, spp about 11 s (F, NTASAD, A at 4 budgets), seeds about 7 s (A, B, C, F at
+# 4 seeds), transfer about 1 s: about 38 CPU-seconds per step, so at 1000 steps about 11 CPU-hours with
+# validation and testing, about 6 hours of wall time on 2 cores with JOBS=2, more than one session: the
+# stages resume (below). 3000 steps, the budget of the earlier converged reports, would take three times that.
 #
 # Resumable across sessions: a sweep skips its finished jobs and resumes unfinished ones from their last.ckpt
 # (ckpt_path=auto). The first stage records the commit in <MULTIRUN>/<DATA>_current.commit, and a later session
@@ -22,7 +23,7 @@
 # at a time with one thread each (docs/training.md "CPU threads"). Needs MCD_SCENES_DIR for the small profile's
 # scenes that are not vendored (docs/scenes.md).
 #
-# Variables: BUDGET_STEPS (3000), JOBS (2), DATA (small), MULTIRUN (./multirun: where the job directories go,
+# Variables: BUDGET_STEPS (1000), JOBS (2), DATA (small), MULTIRUN (./multirun: where the job directories go,
 # <MULTIRUN>/<sweep>/<DATA>_current), OUT (reports: the reports root), NAME (<DATA>_current), PY
 # (.venv/bin/python), REPORT_ARGS (more arguments for python -m mcd.report, e.g. --current NAME --readme PATH).
 # The report stage writes OUT/NAME, the index OUT/README.md, and, when NAME is the current report
@@ -35,7 +36,7 @@ ROOT=$(realpath -m "${MULTIRUN:-multirun}")
 TAG=_current
 NAME=${NAME:-$DATA$TAG}
 OUT=${OUT:-reports}
-STEPS=${BUDGET_STEPS:-3000}
+STEPS=${BUDGET_STEPS:-1000}
 CAPACITY=capacity=cpu  # the capacity profile of every job
 COMMON=(data="$DATA" train=plateau "train.max_steps=$STEPS" "$CAPACITY" trainer.enable_progress_bar=false)
 LAUNCH=(hydra/launcher=joblib "hydra.launcher.n_jobs=${JOBS:-2}")  # one sweep, its jobs JOBS at a time

@@ -48,7 +48,7 @@ def test_the_report_stage_writes_the_report_the_index_and_the_readme_results(tmp
     report = tmp_path / "reports" / "tiny_current"
     t1 = pd.read_csv(report / "table1.csv").set_index("experiment")
     assert t1.loc["F", "PSNR"] == 21.0 and t1.loc["ntasad", "PSNR"] == 20.0  # every sweep in one report
-    assert "train.max_steps=3000" in (report / "README.md").read_text()  # the stated budget
+    assert "train.max_steps=1000" in (report / "README.md").read_text()  # the stated budget (the default)
     assert "**tiny_current** (current)" in (tmp_path / "reports" / "README.md").read_text()
     assert "[`tiny_current`](reports/tiny_current/README.md)" in readme.read_text()
     assert "21.00 · 70.00 · 200.00 · 30.00" in readme.read_text()
