@@ -230,6 +230,10 @@ def fit(job: Job) -> Fitted:
                      job.cfg.method.name)
         return Fitted(checkpoint=None, best_val_psnr=None, stop_reason="not trained",
                       seconds=time.perf_counter() - t0, segments=[])
+    if trainer.strategy.root_device.type == "cpu":
+        from mcd.cpu_threads import fit_to_load
+
+        fit_to_load()  # fewer threads beside other CPU-bound jobs, unless OMP_NUM_THREADS chose
     with warnings.catch_warnings():
         # Two of Lightning's warnings that do not apply here: metrics are logged every log_every_n_steps
         # optimiser steps counted over epochs, so an epoch shorter than that interval still logs; and a run

@@ -13,9 +13,9 @@ MCD = Path(__file__).resolve().parents[1] / "mcd"
 #: Layer of each top-level part of ``mcd`` (a subpackage or a module), lowest first. A module may import
 #: its own layer and those below it, never one above.
 LAYERS: dict[str, int] = {
-    # plumbing: one home each for paths, provenance, registries, metrics, the machine, file locks
+    # plumbing: one home each for paths, provenance, registries, metrics, the machine, file locks, threads
     **dict.fromkeys(("__init__", "paths", "provenance", "registry", "metrics", "machine", "allocator",
-                     "file_lock"), 0),
+                     "file_lock", "cpu_threads"), 0),
     # rendering, the store, sampling maps, and the checks a run's config gets before anything renders
     **dict.fromkeys(("data", "sampling", "preflight"), 1),
     # networks and losses; the methods, and config composition (which registers rows A-M from them)
