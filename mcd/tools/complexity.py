@@ -46,9 +46,8 @@ def shares(capacity: str = "cpu", overrides: tuple[str, ...] = (), height: int =
     profile at ``height x width``, the share (their ratio) and the share's ratio to F's."""
     rows = []
     for name in trained_methods():
-        cfg = compose([f"+experiment={name}", f"capacity={capacity}", *overrides])
-        ours = complexity(cfg, height, width)[1]
-        paper = _paper_gmacs(name, height, width)
+        ours = _count(name, (f"capacity={capacity}", *overrides), height, width)[1]
+        paper = _count(name, ("capacity=paper",), height, width)[1]
         rows.append({"name": name, "gmacs_1080p": round(ours, 2),
                      "paper_profile_gmacs_1080p": round(paper, 2), "share": ours / paper})
     reference = next(r["share"] for r in rows if r["name"] == SHARE_REFERENCE)
@@ -58,9 +57,10 @@ def shares(capacity: str = "cpu", overrides: tuple[str, ...] = (), height: int =
 
 
 @functools.cache
-def _paper_gmacs(name: str, height: int, width: int) -> float:
-    """GMACs of ``name`` in the ``paper`` profile (counted once per process)."""
-    return complexity(compose([f"+experiment={name}", "capacity=paper"]), height, width)[1]
+def _count(name: str, overrides: tuple[str, ...], height: int, width: int) -> tuple[float, float]:
+    """``(params M, GMACs)`` of ``name`` composed with ``overrides`` at ``height x width``, counted once per
+    process: the table and the shares count the same models (the ``paper`` profile's, by default)."""
+    return complexity(compose([f"+experiment={name}", *overrides]), height, width)
 
 
 def outside_band(rows: list[dict]) -> list[str]:
@@ -80,7 +80,7 @@ def table(experiments: list[str], capacity: str, height: int, width: int,
     for name in experiments:
         cfg = compose([f"+experiment={name}", f"capacity={capacity}"])
         try:
-            params, gmacs = complexity(cfg, height, width)
+            params, gmacs = _count(name, (f"capacity={capacity}",), height, width)
         except ImportError as err:
             params, gmacs = math.nan, math.nan
             if unavailable is not None:
