@@ -60,10 +60,9 @@ def f_run(tmp_path_factory):
 
 @pytest.mark.slow
 def test_f_beats_its_noisy_input_on_rmse(f_run):
-    """rMSE, on every test frame. FLIP is not asserted: at this budget F's output is blotchy on the flat
-    walls, which FLIP weighs more than the input's fine noise (0.19 against 0.14 with the fixes, 0.20
-    before; the ring is not where FLIP's gap lies); the converged F of reports/small_converged beats the
-    input's FLIP on every scene (docs/method.md "Dark regions")."""
+    """rMSE, on every test frame. FLIP is not asserted: at this budget F's output is smoother than the
+    reference on the flat walls and the boxes' edges, which FLIP weighs more than the input's fine noise; the
+    README's full training is measured against the input's FLIP in docs/method.md "Dark regions"."""
     run, _ = f_run
     frames = pd.read_csv(run / "frames.csv")
     assert len(frames) == 3
