@@ -29,7 +29,8 @@ def compose_cfg(*overrides: str):
 
 
 def store32_overrides(data_dir: Path | str) -> list[str]:
-    """A 32x32 Cornell-box profile with 12 frames per sequence: 2 test, 1 validation clip, 1 training clip."""
+    """A 32x32 Cornell-box profile with 12 frames per sequence: 2 test, 1 validation clip, 1 training clip;
+    16-pixel training crops without augmentations (the paper's protocol): a crop is a window of its frame."""
     return [
         "data=tiny",
         "data.name=test32",
@@ -44,6 +45,8 @@ def store32_overrides(data_dir: Path | str) -> list[str]:
         "data.test_scenes=[cbox]",
         "data.train_crop=16",
         "data.val_crop=24",
+        "data.augment.flips=false",
+        "data.augment.transpose=false",
     ]
 
 
