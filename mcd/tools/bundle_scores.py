@@ -171,8 +171,8 @@ def provenance(argv: list[str], cfg: DictConfig, scenes: list[str], load: tuple[
     command = " ".join(["python -m mcd.tools.bundle_scores", *map(shlex.quote, argv)])
     q = d.ref_quality
     return (f"`{command}` at commit {short_commit()}, {device_name(torch.device('cpu'))}, load average "
-            f"{load[0]:.1f} at the start and {load[1]:.1f} at the end (the machine is shared: other jobs "
-            f"ran beside it). Data profile `{d.name}` ({d.width}x{d.height}, budget {cfg.budget} spp), "
+            f"{load[0]:.1f} at the start and {load[1]:.1f} at the end (the whole machine's, other processes "
+            f"included). Data profile `{d.name}` ({d.width}x{d.height}, budget {cfg.budget} spp), "
             f"transfer scenes {', '.join(scenes)}: each scene's test frames, references to {q.target_db} dB "
             f"at most {q.max_spp} spp.\n\n")
 
