@@ -1,6 +1,6 @@
 """Defects 2, 3 and 4 of issue 33: one owner per run directory (mcd/run_dir.py). Two runs started in the same
-second get two directories and both keep their results; a second process on one run directory (two
-``ckpt_path=auto`` resumes) is refused naming the owner's pid; an interrupted run resumed with other settings
+second get two directories and both keep their results; a ``ckpt_path=auto`` resume of a run directory
+another process holds is refused naming the owner's pid; an interrupted run resumed with other settings
 is refused naming the keys that differ."""
 
 from __future__ import annotations
@@ -68,23 +68,47 @@ def test_two_runs_started_in_the_same_second_get_two_directories_with_both_resul
         assert len(pd.read_csv(r / "curve.csv")) == 1  # one validation each, not interleaved
 
 
+#: A process that owns a run directory (``mcd.run_dir.hold``) until its stdin closes: the owner of
+#: :func:`test_an_auto_resume_of_a_directory_in_use_is_refused_naming_the_owner`. Two real ``mcd.run``
+#: resumes race (the first may finish before the second has imported torch, and the second then finds a
+#: complete run and skips it), so the owner holds the lock for as long as the test needs.
+OWNER = """
+import sys
+from pathlib import Path
+from mcd import run_dir
+with run_dir.hold(Path(sys.argv[1])):
+    print("held", flush=True)
+    sys.stdin.read()
+"""
+
+
 @pytest.mark.slow
-def test_two_auto_resumes_of_one_run_directory_one_is_refused_naming_the_owner(interrupted, tmp_path):
+def test_an_auto_resume_of_a_directory_in_use_is_refused_naming_the_owner(interrupted, tmp_path):
     source, overrides = interrupted
     run = tmp_path / "run"
     shutil.copytree(source, run)
+    last = run / "checkpoints" / "last.ckpt"
+    before = last.stat().st_mtime_ns
     args = [sys.executable, "-m", "mcd.run", *overrides, "train.epochs=3", "ckpt_path=auto",
             f"hydra.run.dir={run}"]
-    procs = [subprocess.Popen(args, cwd=REPO, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                              text=True) for _ in range(2)]
-    logs = [p.communicate(timeout=600)[0] for p in procs]
-    codes = [p.returncode for p in procs]
-    assert sorted(codes) == [0, 1], logs[0][-3000:] + logs[1][-3000:]
-    owner, refused = (0, 1) if codes[0] == 0 else (1, 0)
-    assert f"{run} is in use by another run (pid {procs[owner].pid} on " in logs[refused]
+    owner = subprocess.Popen([sys.executable, "-c", OWNER, str(run)], cwd=REPO, env=_env(),
+                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert owner.stdout.readline().strip() == "held"
+        refused = subprocess.run(args, cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    finally:
+        owner.communicate(input="", timeout=60)  # closing stdin lets the owner go
+    log = refused.stdout + refused.stderr
+    assert refused.returncode == 1, log[-3000:]
+    assert f"{run} is in use by another run (pid {owner.pid} on " in log
+    # the refused process touched nothing: no result, no error record, the interrupted checkpoint as it was
+    assert last.stat().st_mtime_ns == before
+    assert not (run / "metrics.json").exists() and not (run / "error.json").exists()
+    # once the owner is gone the same command resumes the run to its end
+    done = subprocess.run(args, cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
     assert json.loads((run / "metrics.json").read_text())["train_steps"] == 3
-    steps = pd.read_csv(run / "curve.csv")["step"]
-    assert steps.is_unique and not (run / "error.json").exists()
+    assert pd.read_csv(run / "curve.csv")["step"].is_unique
 
 
 @pytest.mark.slow
