@@ -48,7 +48,7 @@ def test_write_refuses_a_file_without_markers(tmp_path):
     doc = tmp_path / "doc.md"
     doc.write_text("no markers\n")
     with pytest.raises(SystemExit, match="bundle-scores"):
-        bundle_scores.write_section(doc, "table\n")
+        bundle_scores.write_section(doc, "table\n", bundle_scores.SECTION)
     assert doc.read_text() == "no markers\n"
 
 

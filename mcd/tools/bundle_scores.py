@@ -39,6 +39,7 @@ from mcd.lit.test_recorder import hwc
 from mcd.methods import display_name
 from mcd.metrics import frame_metrics
 from mcd.paths import CONF_DIR
+from mcd.tools.doc_section import check, write_section
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +47,7 @@ log = logging.getLogger(__name__)
 SCORES = ("psnr", "ssim", "rmse", "flip")
 #: The references scored beside the bundles (never trained on a scene).
 REFERENCES = (display_name("oidn"), display_name("noisy"))
-BEGIN, END = "<!-- bundle-scores -->", "<!-- /bundle-scores -->"
+SECTION = "bundle-scores"  # docs/denoise.md holds the table between <!-- bundle-scores --> lines
 
 
 def _methods(bundles: list[str], data_overrides: list[str]) -> list[tuple[str, nn.Module | None, DictConfig]]:
@@ -177,17 +178,6 @@ def provenance(argv: list[str], cfg: DictConfig, scenes: list[str], load: tuple[
             f"at most {q.max_spp} spp.\n\n")
 
 
-def write_section(path: Path, text: str) -> None:
-    """Replace what lies between :data:`BEGIN` and :data:`END` in ``path`` by ``text``."""
-    doc = path.read_text()
-    if doc.count(BEGIN) != 1 or doc.count(END) != 1 or doc.index(BEGIN) > doc.index(END):
-        raise SystemExit(f"{path}: needs one '{BEGIN}' line before one '{END}' line to write the table "
-                         "between")
-    head, rest = doc.split(BEGIN)
-    _, tail = rest.split(END)
-    path.write_text(f"{head}{BEGIN}\n{text}{END}{tail}")
-
-
 def main(argv: list[str] | None = None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
     p = argparse.ArgumentParser(prog="python -m mcd.tools.bundle_scores",
@@ -199,6 +189,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("overrides", nargs="*",
                    help="further Hydra overrides of the data (e.g. paths.data_dir=..)")
     args = p.parse_args(argv)
+    if args.write is not None:
+        check(args.write, SECTION)  # before any rendering or scoring
     from mcd.config import exit_on_renamed
 
     exit_on_renamed(args.overrides)
@@ -211,7 +203,7 @@ def main(argv: list[str] | None = None) -> None:
     text = provenance(argv, cfg, scenes, (load0, os.getloadavg()[0])) + body
     print(text)
     if args.write is not None:
-        write_section(args.write, text)
+        write_section(args.write, text, SECTION)
 
 
 if __name__ == "__main__":
