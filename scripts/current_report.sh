@@ -8,8 +8,9 @@
 #
 # Budget: train=plateau with train.max_steps=BUDGET_STEPS (default 1000), its cosine schedule spanning them
 # (docs/training.md "Budgets"), for every trained job. Estimated cost per step of all jobs, from the step times
-# that reports/small_converged measured at the earlier capacity cpu (curves.csv: seconds over steps per method,
-# AMD EPYC, two jobs sharing 2 cores, one thread each; a shared machine, so rough) scaled by each method's MACs
+# that the report small_converged measured at the earlier capacity cpu (git show
+# 98e0240:reports/small_converged/curves.csv: seconds over steps per method, AMD EPYC, two jobs sharing 2
+# cores, one thread each; a shared machine, so rough) scaled by each method's MACs
 # at the equal-share widths (python -m mcd.tools.complexity): A-M about 10 s (I, K, L, M taken as F's), the
 # five trained baselines about 9 s, spp about 11 s (F, NTASAD, A at 4 budgets), seeds about 7 s (A, B, C, F at
 # 4 seeds), transfer about 1 s: about 38 CPU-seconds per step, so at 1000 steps about 11 CPU-hours with
