@@ -25,6 +25,8 @@ import functools
 import math
 from pathlib import Path
 
+from omegaconf import DictConfig
+
 from mcd.config import compose, experiment_names
 from mcd.methods import CATALOGUE, paper_complexity
 from mcd.models.complexity import complexity
@@ -57,10 +59,16 @@ def shares(capacity: str = "cpu", overrides: tuple[str, ...] = (), height: int =
 
 
 @functools.cache
+def _composed(name: str, overrides: tuple[str, ...]) -> DictConfig:
+    """The config of experiment ``name`` with ``overrides``, composed once per process."""
+    return compose([f"+experiment={name}", *overrides])
+
+
+@functools.cache
 def _count(name: str, overrides: tuple[str, ...], height: int, width: int) -> tuple[float, float]:
     """``(params M, GMACs)`` of ``name`` composed with ``overrides`` at ``height x width``, counted once per
     process: the table and the shares count the same models (the ``paper`` profile's, by default)."""
-    return complexity(compose([f"+experiment={name}", *overrides]), height, width)
+    return complexity(_composed(name, overrides), height, width)
 
 
 def outside_band(rows: list[dict]) -> list[str]:
@@ -78,14 +86,15 @@ def table(experiments: list[str], capacity: str, height: int, width: int,
     """
     rows = []
     for name in experiments:
-        cfg = compose([f"+experiment={name}", f"capacity={capacity}"])
+        overrides = (f"capacity={capacity}",)
         try:
-            params, gmacs = _count(name, (f"capacity={capacity}",), height, width)
+            params, gmacs = _count(name, overrides, height, width)
         except ImportError as err:
             params, gmacs = math.nan, math.nan
             if unavailable is not None:
                 unavailable[name] = str(err)
-        paper = paper_complexity(name, cfg.method.name) or {"params_m": math.nan, "gmacs": math.nan}
+        paper = (paper_complexity(name, _composed(name, overrides).method.name)
+                 or {"params_m": math.nan, "gmacs": math.nan})
         rows.append({"name": name, "params_m": round(params, 4), "gmacs_1080p": round(gmacs, 2),
                      "paper_params_m": paper["params_m"], "paper_gmacs": paper["gmacs"]})
     return rows
