@@ -11,8 +11,9 @@ device (CPU; CUDA when present), resolution (1920x1080 and 256x256 by default) a
 - fp32, eager, contiguous; fp32 eager channels-last;
 - half precision through ``torch.autocast`` (fp16 and bf16 on CUDA; bf16 on a CPU with native bf16 support),
   channels-last;
-- the half paths again after ``torch.compile(mode="max-autotune-no-cudagraphs")`` on CUDA (on CPU only with
-  ``--cpu-compile``: inductor's C++ build takes minutes on a small machine).
+- the half paths again after ``torch.compile(mode="max-autotune-no-cudagraphs")`` on CUDA
+  (``--no-cuda-compile`` leaves them out: the autotuned builds take minutes per method and size; on CPU only
+  with ``--cpu-compile``: inductor's C++ build takes minutes on a small machine).
 
 Timing: one output frame per call (batch 1, under ``torch.inference_mode``) in steady state (temporal methods
 keep their state from frame to frame; ``reset()`` once before warm-up), ``--warmup`` calls first, then
@@ -146,14 +147,16 @@ class InferencePath:
         return "fp32" if self.dtype is None else {torch.float16: "fp16", torch.bfloat16: "bf16"}[self.dtype]
 
 
-def inference_paths(device: torch.device, cpu_compile: bool) -> list[InferencePath]:
-    """The paths measured on `device` (see the module docstring)."""
+def inference_paths(device: torch.device, cpu_compile: bool,
+                    cuda_compile: bool = True) -> list[InferencePath]:
+    """The paths measured on `device` (see the module docstring); ``cuda_compile=False`` leaves out the
+    compiled CUDA paths (``--no-cuda-compile``)."""
     paths = [InferencePath(None, False, False), InferencePath(None, True, False)]
     if device.type == "cuda":
         halves = [torch.float16] + ([torch.bfloat16] if torch.cuda.is_bf16_supported() else [])
-        paths += [InferencePath(h, True, False) for h in halves] + [
-            InferencePath(h, True, True) for h in halves
-        ]
+        paths += [InferencePath(h, True, False) for h in halves]
+        if cuda_compile:
+            paths += [InferencePath(h, True, True) for h in halves]
     else:
         if cpu_bf16_supported():
             paths.append(InferencePath(torch.bfloat16, True, False))
@@ -268,6 +271,7 @@ def run(
     cpu_1080p_reps: int,
     cpu_compile: bool,
     source: StoreFrame | None,
+    cuda_compile: bool = True,
 ) -> list[Row]:
     """Every (method, device, size, path) measurement (see the module docstring)."""
     from mcd.models import build
@@ -281,7 +285,7 @@ def run(
             log.warning("no CUDA device here: skipping the GPU rows")
             continue
         dname = device_name(device)
-        paths = inference_paths(device, cpu_compile)
+        paths = inference_paths(device, cpu_compile, cuda_compile)
         for size in sizes:
             h, w = parse_size(size)
             slow = device.type == "cpu" and h * w >= 1080 * 1920
@@ -526,6 +530,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--cpu-compile", action="store_true", help="also torch.compile on CPU (slow to build)"
     )
+    parser.add_argument(
+        "--no-cuda-compile", action="store_true",
+        help="leave out the compiled CUDA paths (max-autotune builds take minutes per method and size)",
+    )
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
@@ -559,6 +567,7 @@ def main(argv: list[str] | None = None) -> None:
         args.cpu_1080p_reps,
         args.cpu_compile,
         None if args.synthetic else store_frame(args.data, args.scene),
+        cuda_compile=not args.no_cuda_compile,
     )
     ceilings = matmul_ceilings([d for d in args.devices.split(",") if d])
     for name, rate in sorted(ceilings.items()):

@@ -146,6 +146,18 @@ def test_cpu_paths_respect_cpu_support():
     assert any(p.dtype == torch.bfloat16 for p in paths) == bench.cpu_bf16_supported()
 
 
+def test_cuda_paths_compile_unless_told_not_to():
+    """The CUDA path list is built from the config alone (no GPU needed): the compiled half paths are there by
+    default and gone with ``--no-cuda-compile``, the eager ones stay."""
+    cuda = torch.device("cuda")
+    default = bench.inference_paths(cuda, False)
+    eager = bench.inference_paths(cuda, False, cuda_compile=False)
+    assert [p for p in default if not p.compiled] == eager
+    assert not any(p.compiled for p in eager)
+    halves = {p.dtype for p in eager if p.dtype is not None}
+    assert {p.dtype for p in default if p.compiled} == halves != set()
+
+
 @pytest.mark.skipif(
     not torch.cuda.is_available(), reason="needs a CUDA GPU (fp16/bf16, channels-last, compile)"
 )
