@@ -129,7 +129,8 @@ def lines(p: dict[str, Any]) -> list[str]:
     out += [
         f"pilot render: {pi['scene']} at {pi['width']}x{pi['height']}, {pi['frames']} frame(s) x "
         f"{pi['spp']} spp in {pi['seconds']:.2f} s on {pi['variant']}: {pi['s_per_sample'] * 1e9:.1f} ns "
-        "per sample",
+        "per sample" + ("" if pi["frames"] < 2 else
+                        f" (frames: {', '.join(f'{t:.2f}' for t in pi['frame_seconds'])} s)"),
         f"render time here: {_range(*wk['samples'])} samples x {pi['s_per_sample'] * 1e9:.1f} ns = "
         f"{_range(*p['render_hours_here'], ' h')}",
         ("render on this GPU (measured): " if p["gpu_measured"] else
@@ -140,12 +141,15 @@ def lines(p: dict[str, Any]) -> list[str]:
         f"{wk['clip_len']} frames on {st['device']} ({st['how']}; one real forward+backward at "
         f"{' and '.join(f'{c}x{c}' for c in st['measured_crops'])}"
         + ("" if st["measured_crops"] == [st["crop"]] else ", extrapolated to the crop's pixels")
-        + f") x batch {wk['batch']} + {st['state_mb']:.0f} MB of weights, gradients and Adam's moments "
-        f"({st['params']} parameters x 16 bytes) = {p['step_memory_mb']:.0f} MB per step (activations taken "
-        "as linear in pixels and batch)",
-        f"training step time: {st['seconds']:.2f} s per crop on {st['device']} x batch {wk['batch']}"
-        + ("" if st["device"] == "cuda" else
-           f" / {p['ratio']:.0f} (this machine's render ratio to the H100, assumed for training too: rough)")
+        + (f") x batch {wk['batch']}" if st.get("batch_memory_mb") is None else
+           f"); measured at batch {wk['batch']}: {st['batch_memory_mb']:.0f} MB")
+        + f" + {st['state_mb']:.0f} MB of weights, gradients and Adam's moments "
+        f"({st['params']} parameters x 16 bytes) = {p['step_memory_mb']:.0f} MB per step"
+        + (" (activations taken as linear in pixels and batch)" if st.get("batch_memory_mb") is None else ""),
+        f"training step time: {st['seconds']:.3f} s per crop on {st['device']}"
+        + (f"; measured at batch {wk['batch']}" if st.get("batch_seconds") is not None else
+           f" x batch {wk['batch']}" + ("" if st["device"] == "cuda" else
+           f" / {p['ratio']:.0f} (this machine's render ratio to the H100, assumed for training too: rough)"))
         + f" = {p['gpu_step_s']:.3f} s per GPU step",
         f"loader: a GPU needs {wk['batch']} clips / {p['gpu_step_s']:.3f} s = {p['need_clips_per_s']:.1f} "
         f"clips/s; one worker reads {p['loader_clips_per_s']:.1f} clips/s warm, "

@@ -153,13 +153,15 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
         r = SceneRenderer(loaded.scene, w, h, loaded.fov)
         r.set_camera(np.asarray(cams[0], dtype=np.float64))
         r.color(spp, 0)  # warm-up: the JIT compiles the kernels
-        t0 = time.perf_counter()
+        each = []
         for k in range(frames):
             r.set_camera(np.asarray(cams[(k + 1) * len(cams) // (frames + 1)], dtype=np.float64))
+            t0 = time.perf_counter()
             r.color(spp, k + 1)
-        seconds = time.perf_counter() - t0
+            each.append(time.perf_counter() - t0)
+        seconds = sum(each)
         return {"scene": name, "variant": variant, "width": w, "height": h, "spp": spp, "frames": frames,
-                "seconds": seconds, "s_per_sample": seconds / (w * h * spp * frames)}
+                "seconds": seconds, "frame_seconds": each, "s_per_sample": seconds / (w * h * spp * frames)}
     raise FileNotFoundError(f"plan: no scene of profile {reader.profile} could be loaded for the pilot "
                             f"render: {'; '.join(tried)}. Set paths.scenes_dir (docs/scenes.md), or "
                             "plan.measure=false")
@@ -169,7 +171,12 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
     """One forward and backward of the configured method and loss, batch 1 (:mod:`mcd.plan`): seconds and
     memory in MB of one crop at ``data.train_crop``, and how they were measured.
 
-    On a GPU: measured at the crop (wall time, ``torch.cuda.max_memory_allocated``). On CPU: measured at
+    On a GPU: measured at the crop in the precision the run trains in (``trainer.precision``, ``auto``
+    resolved by :mod:`mcd.lit.precision`: bf16 autocast where the GPU has bf16), after a warm-up step at the
+    crop (cuDNN's algorithm choice, the allocator's first blocks): the median wall time of three steps and
+    the peak of ``torch.cuda.max_memory_allocated``; then the same at ``train.batch_size`` crops in one step
+    (``batch_seconds``, ``batch_memory_mb``; ``None`` where the batch does not fit the GPU's memory, and the
+    plan scales batch 1 linearly instead). On CPU: measured at
     `step_crop` / 2 and `step_crop` (at most the crop), after a warm-up step, on one thread, as CPU seconds
     over torch's threads (the step on an idle machine, ideal scaling; a shared machine stretches wall time,
     not this) and the
@@ -180,6 +187,8 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
 
     from mcd.data.synthetic import synthetic_frame
     from mcd.lit.module import DenoiseModule
+    from mcd.lit.precision import autocast_to
+    from mcd.lit.precision import resolve as resolve_precision
     from mcd.losses import build_loss
     from mcd.models import build
 
@@ -189,9 +198,14 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
     names = run_buffers(model.required_buffers(), cfg.budget)
     crop = min(int(cfg.data.train_crop), int(cfg.data.width), int(cfg.data.height))
 
-    def step(size: int) -> tuple[float, float]:
-        """(seconds, MB) of one step at `size`."""
-        batch = synthetic_frame(names, size, size, lead=(1, int(cfg.data.clip_len)), device=device)
+    half = None
+    if device == "cuda":
+        chosen = resolve_precision(str(cfg.trainer.get("precision", "auto")), str(cfg.trainer.accelerator))
+        half = {"bf16-mixed": torch.bfloat16, "16-mixed": torch.float16}.get(chosen)
+
+    def step(size: int, batch_size: int = 1) -> tuple[float, float]:
+        """(seconds, MB) of one step of `batch_size` crops at `size`."""
+        batch = synthetic_frame(names, size, size, lead=(batch_size, int(cfg.data.clip_len)), device=device)
         if device == "cuda":
             torch.cuda.synchronize()
             torch.cuda.reset_peak_memory_stats()
@@ -200,8 +214,10 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
             restart_peak_rss()  # VmHWM := VmRSS
             base = status_mb("VmRSS")
         t0, c0 = time.perf_counter(), time.process_time()
-        pred = module.run_clip(batch, with_ref=True)
-        module.loss_fn(pred, batch["ref"][:, -pred.shape[1]:])["loss"].backward()
+        with autocast_to(torch.device(device), half):
+            pred = module.run_clip(batch, with_ref=True)
+            loss = module.loss_fn(pred, batch["ref"][:, -pred.shape[1]:])["loss"]
+        loss.backward()
         model.zero_grad(set_to_none=False)
         if device == "cuda":
             torch.cuda.synchronize()
@@ -212,10 +228,21 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
     if device == "cpu":
         torch.set_num_threads(1)  # CPU time without the threads' spin-waiting; restored below
     step(8)  # warm-up: lazy initialisation, gradient buffers
+    extra: dict[str, Any] = {}
     if device == "cuda":
-        seconds, memory = step(crop)
+        step(crop)  # warm-up at the crop: cuDNN's algorithms, the allocator's blocks
+        runs = [step(crop) for _ in range(3)]
+        seconds, memory = float(np.median([r[0] for r in runs])), max(r[1] for r in runs)
         sizes = [crop]
-        how = "wall time; torch.cuda.max_memory_allocated"
+        how = (f"{'fp32' if half is None else str(half).removeprefix('torch.') + ' autocast'}, median wall "
+               "time of 3 steps after a warm-up; torch.cuda.max_memory_allocated")
+        extra = {"batch_seconds": None, "batch_memory_mb": None}
+        b = int(cfg.train.batch_size)
+        try:
+            step(crop, b)
+            extra["batch_seconds"], extra["batch_memory_mb"] = step(crop, b)
+        except torch.cuda.OutOfMemoryError:
+            torch.cuda.empty_cache()
     else:
         sizes = sorted({max(8, min(crop, step_crop) // 2), min(crop, step_crop)})
         (s1, m1), (s2, m2) = [step(c) for c in sizes] if len(sizes) == 2 else [step(sizes[0])] * 2
@@ -228,7 +255,7 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
         torch.set_num_threads(threads)
     params = sum(p.numel() for p in model.parameters())
     return {"device": device, "seconds": seconds, "memory_mb": memory, "how": how, "crop": crop,
-            "measured_crops": sizes, "params": params, "state_mb": params * 16 / 2**20}
+            "measured_crops": sizes, "params": params, "state_mb": params * 16 / 2**20, **extra}
 
 
 def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[str, Any]:
@@ -239,12 +266,15 @@ def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[
     ratio = here / float(np.mean(GPU_S_PER_SAMPLE))  # times faster the reference GPU renders
     cpu_step = step["seconds"] * wk["batch"]  # batch 1 measured; a step of `batch` crops
     gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
+    if step.get("batch_seconds") is not None:  # measured at the batch on the GPU
+        gpu_step = step["batch_seconds"]
     steps = wk["run_steps"]
     out = {
         "render_hours_here": tuple(s * here / HOUR for s in wk["samples"]),
         "render_gpu_hours": (wk["samples"][0] * gpu_sps[0] / HOUR, wk["samples"][1] * gpu_sps[1] / HOUR),
         "gpu_measured": gpu_measured, "ratio": ratio, "gpu_step_s": gpu_step,
-        "step_memory_mb": step["memory_mb"] * wk["batch"] + step["state_mb"],
+        "step_memory_mb": (step["memory_mb"] * wk["batch"] if step.get("batch_memory_mb") is None
+                           else step["batch_memory_mb"]) + step["state_mb"],
         "train_gpu_hours": None if steps is None else steps * gpu_step / HOUR,
         "need_clips_per_s": wk["batch"] / gpu_step,
     }

@@ -2,8 +2,9 @@
 # The paper-scale checks on a GPU machine (docs/scale.md "Measured on a GPU"), one prepared script under one
 # wall-clock budget, each step bounded by what is left of it and run even when an earlier one failed:
 #
-#   1. plan:    python -m mcd.plan data=paper capacity=paper train=paper, with a 1080p pilot render at
-#               PILOT_SPP spp on Mitsuba's CUDA variant and the training step measured on the GPU;
+#   1. plan:    python -m mcd.plan data=paper capacity=paper train=paper, with a 1080p pilot render of
+#               PILOT_FRAMES frames at PILOT_SPP spp on Mitsuba's CUDA variant and the training step measured
+#               on the GPU (bf16 autocast, at batch 1 and at train.batch_size);
 #   2. smoke:   the paper-shaped training of tests/scale/paper_smoke_run.py (capacity=paper row F, a synthetic
 #               1920x1080 store packed into the training store, 256x256 crops, 5-frame clips, two loader
 #               workers) on the GPU under trainer=ddp (NCCL, one rank) and bf16-mixed; per-step wall times;
@@ -11,7 +12,8 @@
 #   4. compile: the same for row F with the torch.compile paths (max-autotune builds: minutes).
 #
 #   scripts/device_check.sh            # env: OUT (default outputs/device_check), PY (default python3),
-#                                      # SECONDS_TOTAL (default 480), PILOT_SPP (default 32), ACCEL (default gpu),
+#                                      # SECONDS_TOTAL (default 480), PILOT_SPP (default 32),
+#                                      # PILOT_FRAMES (default 3), ACCEL (default gpu),
 #                                      # STEPS (default "plan smoke speed compile"), SMOKE_EXTRA (overrides
 #                                      # appended to the smoke run's, e.g. a smaller frame for a trial on CPU)
 #
@@ -55,7 +57,7 @@ step() {  # step NAME LIMIT_S CMD...: runs CMD under min(LIMIT_S, time left), it
 cat "$OUT/machine.txt" >>"$log"
 
 step plan 150 "$PY" -m mcd.plan data=paper capacity=paper train=paper plan.pilot_scale=1 \
-  "plan.pilot_spp=${PILOT_SPP:-32}" "paths.data_dir=$work/plan"
+  "plan.pilot_spp=${PILOT_SPP:-32}" "plan.pilot_frames=${PILOT_FRAMES:-3}" "paths.data_dir=$work/plan"
 
 smoke=(data.frames_per_segment=18 data.clip_len=5 train.epochs=6 "trainer.accelerator=$ACCEL"
        trainer.devices=1 ${SMOKE_EXTRA:-})

@@ -12,7 +12,7 @@ import pytest
 from mcd.data import StoreBuilder
 from mcd.data.pack import pack
 from mcd.plan import main
-from mcd.workload import announce, work
+from mcd.workload import announce, derive, work
 from tests.conftest import compose_cfg, store32_overrides
 
 
@@ -59,14 +59,31 @@ def test_the_training_store_bytes_are_what_the_pack_writes(cbox_store, tmp_path,
 
 def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):
     """The whole plan on a 32x32 Cornell box profile: a real pilot render, training step and loader rate."""
-    main(compose_cfg(*store32_overrides(tmp_path), "plan.pilot_scale=1"))
+    main(compose_cfg(*store32_overrides(tmp_path), "plan.pilot_scale=1", "plan.pilot_frames=2"))
     out = capsys.readouterr().out
+    pilot = next(line for line in out.splitlines() if line.startswith("pilot render"))
+    assert "2 frame(s)" in pilot and "(frames: " in pilot  # each frame's seconds: a recompile would show
     for start in ("plan for profile test32", "EXR store", "training store", "samples:", "training:",
                   "pilot render: cbox at 32x32", "render time here", "render on an H100",
                   "training step memory", "training step time", "loader: a GPU needs", "total: plan test32",
                   "(measured here"):
         assert any(line.startswith(start) for line in out.splitlines()), (start, out)
     assert not (tmp_path / "test32").exists()  # nothing rendered into the store
+
+
+def test_a_gpu_step_measured_at_the_batch_replaces_the_linear_scaling(tmp_path):
+    """On a GPU the step is measured at ``train.batch_size`` too; the plan uses that figure for the step time
+    and memory, and scales batch 1 linearly only where the batch did not fit."""
+    wk = work(compose_cfg("data=paper", "capacity=paper", "train=paper", f"paths.data_dir={tmp_path}"))
+    assert wk["batch"] == 8
+    pilot = {"s_per_sample": 3e-8, "variant": "cuda_ad_rgb"}
+    step = {"device": "cuda", "seconds": 0.2, "memory_mb": 1000.0, "state_mb": 20.0,
+            "batch_seconds": 0.9, "batch_memory_mb": 6000.0}
+    measured = derive(wk, pilot, step, None)
+    assert measured["gpu_step_s"] == 0.9 and measured["step_memory_mb"] == 6020.0
+    assert measured["train_gpu_hours"] == pytest.approx(wk["run_steps"] * 0.9 / 3600)
+    scaled = derive(wk, pilot, {**step, "batch_seconds": None, "batch_memory_mb": None}, None)
+    assert scaled["gpu_step_s"] == pytest.approx(1.6) and scaled["step_memory_mb"] == 8020.0
 
 
 def test_a_profile_too_short_to_train_on_is_planned_without_training(tmp_path, capsys):
