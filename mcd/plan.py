@@ -35,11 +35,11 @@ and it measures, on the machine it runs on, in this process (``plan.measure=fals
   synthetic store of the run's buffers at the crop size), against the rate a GPU needs (GPU steps/s x batch).
 
 GPU figures: where CUDA is present the pilot runs on the CUDA variant and the step on the GPU, and the figures
-are measured. Elsewhere they are derived: render time from the reference GPU's documented figure
-(:data:`mcd.workload.GPU_S_PER_FRAME`, seconds per 1080p frame at 256 spp, docs/scale.md) as seconds per
-sample; a training step as the local step time divided by the local render time's ratio to the reference
-GPU's (the same ratio assumed for both: a rough figure, said so in the output). GPU-hours = render samples x
-GPU seconds per sample + run steps x GPU seconds per step.
+are measured. Elsewhere they are derived: render time from the reference GPU's seconds per sample
+(:data:`mcd.workload.GPU_S_PER_SAMPLE`, measured by scripts/device_check.sh on the pilot scene: docs/scale.md
+"Measured on a GPU"); a training step as the local step time divided by the local render time's ratio to
+the reference GPU's (the same ratio assumed for both: a rough figure, said so in the output). GPU-hours =
+render samples x GPU seconds per sample + run steps x GPU seconds per step.
 
 ``mcd.run`` and ``mcd.render`` call :func:`announce` before their work: it prints the plan's one-line summary
 when the plan puts the work above an hour (a pilot runs only where the work's samples could take that long).
@@ -56,7 +56,6 @@ from omegaconf import DictConfig
 
 from mcd.config import hydra_main
 from mcd.workload import (
-    GPU_S_PER_FRAME,
     GPU_S_PER_SAMPLE,
     _gb,
     _range,
@@ -134,9 +133,10 @@ def lines(p: dict[str, Any]) -> list[str]:
         f"render time here: {_range(*wk['samples'])} samples x {pi['s_per_sample'] * 1e9:.1f} ns = "
         f"{_range(*p['render_hours_here'], ' h')}",
         ("render on this GPU (measured): " if p["gpu_measured"] else
-         f"render on an H100 (derived from the documented {GPU_S_PER_FRAME[0]}-{GPU_S_PER_FRAME[1]} s per "
-         f"1080p frame at 256 spp = {_range(*(s * 1e9 for s in GPU_S_PER_SAMPLE))} ns per sample; this "
-         f"machine renders {p['ratio']:.0f}x slower): ") + f"{_range(*p['render_gpu_hours'], ' GPU-h')}",
+         f"render on the reference GPU (derived from its {_range(*(s * 1e9 for s in GPU_S_PER_SAMPLE))} ns "
+         f"per sample on staircase2 at 1080p, docs/scale.md \"Measured on a GPU\"; this machine renders "
+         f"{p['ratio']:.0f}x slower per sample; scenes differ): ")
+        + f"{_range(*p['render_gpu_hours'], ' GPU-h')}",
         f"training step memory: {st['memory_mb']:.0f} MB for 1 crop of {st['crop']}x{st['crop']} x "
         f"{wk['clip_len']} frames on {st['device']} ({st['how']}; one real forward+backward at "
         f"{' and '.join(f'{c}x{c}' for c in st['measured_crops'])}"
@@ -149,7 +149,8 @@ def lines(p: dict[str, Any]) -> list[str]:
         f"training step time: {st['seconds']:.3f} s per crop on {st['device']}"
         + (f"; measured at batch {wk['batch']}" if st.get("batch_seconds") is not None else
            f" x batch {wk['batch']}" + ("" if st["device"] == "cuda" else
-           f" / {p['ratio']:.0f} (this machine's render ratio to the H100, assumed for training too: rough)"))
+           f" / {p['ratio']:.0f} (this machine's render ratio to the reference GPU, assumed for training "
+           "too: rough)"))
         + f" = {p['gpu_step_s']:.3f} s per GPU step",
         f"loader: a GPU needs {wk['batch']} clips / {p['gpu_step_s']:.3f} s = {p['need_clips_per_s']:.1f} "
         f"clips/s; one worker reads {p['loader_clips_per_s']:.1f} clips/s warm, "

@@ -22,10 +22,11 @@ from mcd.machine import restart_peak_rss, status_mb
 
 log = logging.getLogger("mcd.workload")
 
-#: seconds the reference GPU took per 1920x1080 frame at 256 spp (the range docs/scale.md measured, with its
-#: command and machine); the plan's render time where no GPU is present
-GPU_S_PER_FRAME = (1.2, 2.3)
-GPU_S_PER_SAMPLE = tuple(s / (1920 * 1080 * 256) for s in GPU_S_PER_FRAME)
+#: seconds per sample of this project's renderer on the reference GPU: the pilot scene of data=paper
+#: (staircase2, the first of its scenes that the repository vendors) at 1920x1080, the range of the two pilots
+#: of scripts/device_check.sh in reports/gpu_check (docs/scale.md "Measured on a GPU", with the command, the
+#: commit and the machine); the plan's render time where no GPU is present
+GPU_S_PER_SAMPLE = (29.2e-9, 30.3e-9)
 HOUR = 3600.0
 #: samples per second no CPU renders faster than, for the cheap test of whether a render could take an hour
 FAST_CPU_SAMPLES_PER_S = 1e8
@@ -263,7 +264,7 @@ def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[
     here = pilot["s_per_sample"]
     gpu_measured = pilot["variant"].startswith("cuda")
     gpu_sps = (here, here) if gpu_measured else GPU_S_PER_SAMPLE
-    ratio = here / float(np.mean(GPU_S_PER_SAMPLE))  # times faster the reference GPU renders
+    ratio = here / float(np.mean(GPU_S_PER_SAMPLE))  # times faster the reference GPU renders (per sample)
     cpu_step = step["seconds"] * wk["batch"]  # batch 1 measured; a step of `batch` crops
     gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
     if step.get("batch_seconds") is not None:  # measured at the batch on the GPU
@@ -304,7 +305,7 @@ def summary(p: dict[str, Any]) -> str:
         total = [r + (tr or 0.0) for r in p["render_gpu_hours"]]
         s += (f"; GPU-hours: render {_range(*p['render_gpu_hours'])} + training "
               f"{'?' if tr is None else f'{tr:.3g}'} = {_range(*total)}"
-              + ("" if p["gpu_measured"] else " (H100, derived)"))
+              + ("" if p["gpu_measured"] else " (derived from the reference GPU)"))
     return s
 
 

@@ -64,7 +64,7 @@ def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):
     pilot = next(line for line in out.splitlines() if line.startswith("pilot render"))
     assert "2 frame(s)" in pilot and "(frames: " in pilot  # each frame's seconds: a recompile would show
     for start in ("plan for profile test32", "EXR store", "training store", "samples:", "training:",
-                  "pilot render: cbox at 32x32", "render time here", "render on an H100",
+                  "pilot render: cbox at 32x32", "render time here", "render on the reference GPU",
                   "training step memory", "training step time", "loader: a GPU needs", "total: plan test32",
                   "(measured here"):
         assert any(line.startswith(start) for line in out.splitlines()), (start, out)
