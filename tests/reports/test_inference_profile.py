@@ -34,14 +34,3 @@ def test_fp16_on_the_cpu_is_refused(capsys):
     with pytest.raises(SystemExit):
         inference_profile.main(["--dtype", "fp16", "--synthetic"])
     assert "--dtype fp16 is for --device cuda" in capsys.readouterr().err
-
-
-def test_stage_times_that_cannot_be_right_are_named():
-    ms = {label: 0.0 for label, _ in inference_profile.LABELS}
-    ms.update({"F_s": 50.0, "adaptive render": 10.0, "kernel pool": 20.0, "kernel-map head": 30.0,
-               "F_d": 15.0})
-    found = inference_profile.inconsistencies(ms, total=100.0)
-    assert found == ["kernel-map head 30.0 ms > kernel pool 20.0 ms"]
-    ms["kernel-map head"] = 18.0
-    assert inference_profile.inconsistencies(ms, total=100.0) == []
-    assert inference_profile.inconsistencies(ms, total=80.0) == ["the stages' 95.0 ms > the call's 80.0 ms"]
