@@ -9,19 +9,16 @@
 #               1920x1080 store packed into the training store, 256x256 crops, 5-frame clips, two loader
 #               workers) on the GPU under trainer=ddp (NCCL, one rank) and bf16-mixed; per-step wall times;
 #   3. speed:   python -m mcd.bench speed on CUDA at 1080p and 256x256, capacity=paper, eager paths;
-#   4. profile: where row F's GPU time goes, stage by stage (python -m mcd.bench profile --device cuda), in bf16
-#               and fp32 at 1080p;
-#   5. compile: the speed bench for row F with the torch.compile paths (max-autotune builds: minutes).
+#   4. compile: the same for row F with the torch.compile paths (max-autotune builds: minutes).
 #
 #   scripts/device_check.sh            # env: OUT (default outputs/device_check), PY (default python3),
 #                                      # SECONDS_TOTAL (default 480), PILOT_SPP (default 32),
 #                                      # PILOT_FRAMES (default 3), ACCEL (default gpu),
-#                                      # STEPS (default "plan smoke speed profile compile"), SMOKE_EXTRA (overrides
+#                                      # STEPS (default "plan smoke speed compile"), SMOKE_EXTRA (overrides
 #                                      # appended to the smoke run's, e.g. a smaller frame for a trial on CPU)
 #
 # Writes OUT/check.log (every step's output), OUT/machine.txt, OUT/smoke_rank0.json, OUT/speed/bench.csv and
-# OUT/compile/bench.csv (each with the README that mcd.bench writes beside it), OUT/profile/F_bf16.md and
-# OUT/profile/F_fp32.md. Scenes: the vendored ones
+# OUT/compile/bench.csv (each with the README that mcd.bench writes beside it). Scenes: the vendored ones
 # (MCD_SCENES_DIR defaults to scenes/ here, so the plan's pilot renders staircase2, the first of data=paper's
 # scenes that is vendored).
 set -u
@@ -33,13 +30,13 @@ deadline=$(( $(date +%s) + ${SECONDS_TOTAL:-480} ))
 export PYTHONUNBUFFERED=1 HYDRA_FULL_ERROR=1 MCD_SCENES_DIR=${MCD_SCENES_DIR:-$PWD/scenes}
 export PYTHONPATH=$PWD${PYTHONPATH:+:$PYTHONPATH}
 work=$(mktemp -d)
-mkdir -p "$OUT/speed" "$OUT/compile" "$OUT/profile"
+mkdir -p "$OUT/speed" "$OUT/compile"
 log=$OUT/check.log
 
 step() {  # step NAME LIMIT_S CMD...: runs CMD under min(LIMIT_S, time left), its output into the log
   local name=$1 limit=$2 left
   shift 2
-  [[ " ${STEPS:-plan smoke speed profile compile} " == *" ${name%%-*} "* ]] || return 0
+  [[ " ${STEPS:-plan smoke speed compile} " == *" ${name%%-*} "* ]] || return 0
   left=$(( deadline - $(date +%s) ))
   (( left < limit )) && limit=$left
   if (( limit < 20 )); then echo "== $name: skipped, ${left} s left" | tee -a "$log"; return; fi
@@ -91,10 +88,6 @@ EOF
 
 step speed 150 "$PY" -m mcd.bench speed --devices cuda --synthetic --no-cuda-compile --sizes 1080p,256 \
   --out "$OUT/speed/bench.csv" capacity=paper
-for dtype in bf16 fp32; do
-  step "profile-$dtype" 60 "$PY" -m mcd.bench profile --device cuda --dtype "$dtype" --synthetic \
-    --out "$OUT/profile/F_$dtype.md" capacity=paper
-done
 step compile 150 "$PY" -m mcd.bench speed --devices cuda --synthetic --methods F --sizes 1080p \
   --out "$OUT/compile/bench.csv" capacity=paper
 rm -rf "$work"

@@ -14,11 +14,6 @@ application``, ``PP``, ``SA``); the table gives its time (inclusive of nested st
 its MACs (``FlopCounterMode`` per module on the meta device, as :mod:`mcd.models.complexity` counts them) and
 the achieved GMAC/s. ``other`` is the call minus the four top-level stages (input preparation, concatenations,
 the colour transform).
-
-``--device cuda``: the same on the GPU, with ``--dtype`` ``bf16`` (default) or ``fp16`` autocast or ``fp32``,
-channels-last; a stage's time is then the GPU time of the kernels launched inside its label (the profiler's
-device time), the frame's the wall time of the call closed by ``torch.cuda.synchronize()``, so ``other``
-also holds the GPU's idle gaps between kernels (launch overhead). Page faults are not read there.
 """
 
 from __future__ import annotations
@@ -49,7 +44,6 @@ from mcd.tools.bench import (
     store_frame,
 )
 
-CPU = torch.device("cpu")
 #: Every label, as ``(name, depth)`` in the printed order (depth 1: nested in the stage above it).
 LABELS = (
     ("F_s", 0),
@@ -116,28 +110,18 @@ def minor_faults() -> int:
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 
 
-def profile_call(call: Callable[[], object],
-                 device: torch.device = CPU) -> tuple[dict[str, float], float, int]:
+def profile_call(call: Callable[[], object]) -> tuple[dict[str, float], float, int]:
     """Milliseconds per label (inclusive, summed over its calls) and of the whole call, and the page faults
-    during it, one profiled call. On CUDA a label's time is the device time of its kernels (the larger of
-    the label's CPU-side and GPU-side annotation events, which the profiler may list apart)."""
-    cuda = device.type == "cuda"
-    activities = [ProfilerActivity.CPU, ProfilerActivity.CUDA] if cuda else [ProfilerActivity.CPU]
-    with profile(activities=activities) as prof:
+    during it, one profiled call."""
+    with profile(activities=[ProfilerActivity.CPU]) as prof:
         faults = minor_faults()
         t0 = time.perf_counter()
         call()
-        if cuda:
-            torch.cuda.synchronize()
         total = (time.perf_counter() - t0) * 1e3
         faults = minor_faults() - faults
     ms = {label: 0.0 for label, _ in LABELS}
     for event in prof.key_averages():
-        if event.key not in ms:
-            continue
-        if cuda:
-            ms[event.key] = max(ms[event.key], getattr(event, "device_time_total", 0.0) / 1e3)
-        else:
+        if event.key in ms:
             ms[event.key] += event.cpu_time_total / 1e3
     return ms, total, faults
 
@@ -164,9 +148,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("overrides", nargs="*", help="Hydra overrides (default: capacity=paper)")
     parser.add_argument("--method", default="F", help="experiment of a two-stage row (A-M, unet)")
     parser.add_argument("--size", default="1080p", help="1080p, 256 or <W>x<H>")
-    parser.add_argument("--device", choices=("cpu", "cuda"), default="cpu")
-    parser.add_argument("--dtype", choices=("bf16", "fp16", "fp32"),
-                        help="default: bf16 where the device has it (fp16: CUDA only)")
+    parser.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the CPU has it")
     parser.add_argument("--warmup", type=int, default=2,
                         help=f"profiled calls before the reported one, and up to {MORE_WARMUPS} more while "
                              f"the reported one makes {SETTLED} page faults or more (the kept heap settles)")
@@ -185,24 +167,18 @@ def main(argv: list[str] | None = None) -> None:
         h, w = parse_size(args.size)
     except ValueError as err:
         parser.error(str(err))
-    device = torch.device(args.device)
-    if device.type == "cuda" and not torch.cuda.is_available():
-        parser.error("--device cuda: no CUDA device here")
-    has_bf16 = torch.cuda.is_bf16_supported() if device.type == "cuda" else cpu_bf16_supported()
-    dtype = args.dtype or ("bf16" if has_bf16 else "fp32")
-    if dtype == "bf16" and not has_bf16:
-        parser.error(f"--dtype bf16: this {device.type.upper()} has no native bf16; use --dtype fp32")
-    if dtype == "fp16" and device.type != "cuda":
-        parser.error("--dtype fp16 is for --device cuda; on the CPU use bf16 or fp32")
-    half = {"bf16": torch.bfloat16, "fp16": torch.float16}.get(dtype)
-    path = InferencePath(half, channels_last=True, compiled=False)
+    dtype = args.dtype or ("bf16" if cpu_bf16_supported() else "fp32")
+    if dtype == "bf16" and not cpu_bf16_supported():
+        parser.error("--dtype bf16: this CPU has no native bf16 (avx512_bf16 / amx); use --dtype fp32")
+    path = InferencePath(torch.bfloat16 if dtype == "bf16" else None, channels_last=True, compiled=False)
     source = None if args.synthetic else store_frame(args.data, args.scene)
     cfg = compose([f"+experiment={args.method}", *overrides])
     gmacs = stage_macs(cfg, h, w)
 
     from mcd.models import build
 
-    model = build(cfg).eval().to(device, memory_format=torch.channels_last)
+    device = torch.device("cpu")
+    model = build(cfg).eval().to(memory_format=torch.channels_last)
     buffers, inputs = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, source)
     x = model_inputs(model, buffers, device, channels_last=True)
     model.reset()
@@ -212,15 +188,14 @@ def main(argv: list[str] | None = None) -> None:
             model(x)
 
     for _ in range(args.warmup):         # profiled too: the profiler's own allocations reshape the kept heap
-        profile_call(call, device)
+        profile_call(call)
     warmups = args.warmup
-    ms, total, faults = profile_call(call, device)
+    ms, total, faults = profile_call(call)
     while faults >= SETTLED and warmups < args.warmup + MORE_WARMUPS:       # it faulted: that was a warm-up
         warmups += 1
-        ms, total, faults = profile_call(call, device)
+        ms, total, faults = profile_call(call)
     lines = [
-        f"# Inference profile: {args.method} at {w}x{h} on the {'GPU' if device.type == 'cuda' else 'CPU'} "
-        "(python -m mcd.bench profile)",
+        f"# Inference profile: {args.method} at {w}x{h} on the CPU (python -m mcd.bench profile)",
         "",
         f"- Command: `python -m mcd.bench profile {' '.join(argv if argv is not None else [])}`".rstrip(),
         f"- Device: {device_name(device)}; torch {torch.__version__}; path {dtype} channels-last, "
