@@ -62,16 +62,8 @@ step plan 150 "$PY" -m mcd.plan data=paper capacity=paper train=paper plan.pilot
 smoke=(data.frames_per_segment=18 data.clip_len=5 train.epochs=6 "trainer.accelerator=$ACCEL"
        trainer.devices=1 ${SMOKE_EXTRA:-})
 [[ $ACCEL == gpu ]] && smoke+=(trainer.precision=bf16-mixed)
-step smoke-store 90 "$PY" - "$work/smoke" "${smoke[@]}" <<'EOF'
-import sys
-from mcd.config import compose
-from mcd.data.buffers import run_buffers
-from mcd.data.synthetic_store import write_synthetic_store
-from mcd.models import build
-from tests.scale.paper_smoke_run import overrides
-cfg = compose([*overrides(sys.argv[1]), *sys.argv[2:]])
-write_synthetic_store(sys.argv[1], cfg.data, sorted(run_buffers(build(cfg).required_buffers(), cfg.budget)))
-EOF
+step smoke-store 90 "$PY" -c "import sys; from tests.scale.paper_smoke_run import write_store; \
+write_store(*sys.argv[1:])" "$work/smoke" "${smoke[@]}"
 mkdir -p "$work/smoke_out"
 step smoke 180 "$PY" tests/scale/paper_smoke_run.py "$work/smoke" "$work/smoke_out" "${smoke[@]}"
 cp "$work/smoke_out/rank0.json" "$OUT/smoke_rank0.json" 2>/dev/null &&

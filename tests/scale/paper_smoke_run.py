@@ -28,6 +28,7 @@ from mcd.config import compose
 from mcd.data import MCDDataModule, StoreReader
 from mcd.data.buffers import run_buffers
 from mcd.data.pack import pack
+from mcd.data.synthetic_store import write_synthetic_store
 from mcd.lit import DenoiseModule, budget
 from mcd.losses import build_loss
 from mcd.models import build
@@ -48,6 +49,15 @@ def overrides(data_dir: str) -> list[str]:
             "trainer.accelerator=cpu", "trainer.precision=32-true", "trainer.enable_progress_bar=false",
             "train.batch_size=1", "train.epochs=2", "train.max_steps=null", "train.max_minutes=null",
             "train.val_every=1", "train.val_every_steps=null", "train.sample_frames=[]"]
+
+
+def write_store(data_dir: str, *extra: str) -> list[str]:
+    """Writes the synthetic 1920x1080 store of :func:`overrides` (plus ``extra``) into ``data_dir``; returns
+    the run's buffers (the store of the test and of ``scripts/device_check.sh``)."""
+    cfg = compose([*overrides(data_dir), *extra])
+    buffers = sorted(run_buffers(build(cfg).required_buffers(), cfg.budget))
+    write_synthetic_store(data_dir, cfg.data, buffers)
+    return buffers
 
 
 class Seen(L.Callback):

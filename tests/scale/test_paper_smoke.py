@@ -14,11 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcd.config import compose
-from mcd.data.buffers import CHANNELS, run_buffers
-from mcd.data.synthetic_store import write_synthetic_store
-from mcd.models import build
-from tests.scale.paper_smoke_run import overrides
+from mcd.data.buffers import CHANNELS
+from tests.scale.paper_smoke_run import write_store
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -27,9 +24,7 @@ REPO = Path(__file__).resolve().parents[2]
 def test_paper_model_trains_on_a_1080p_training_store_with_ddp_and_workers(tmp_path):
     data_dir, out = tmp_path / "data", tmp_path / "out"
     out.mkdir()
-    cfg = compose(overrides(str(data_dir)))
-    buffers = sorted(run_buffers(build(cfg).required_buffers(), cfg.budget))
-    write_synthetic_store(data_dir, cfg.data, buffers)
+    buffers = write_store(str(data_dir))
     env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1", "HYDRA_FULL_ERROR": "1"}
     script = REPO / "tests" / "scale" / "paper_smoke_run.py"
     proc = subprocess.run([sys.executable, str(script), str(data_dir), str(out)], cwd=REPO, env=env,
