@@ -16,7 +16,7 @@ import numpy as np
 from omegaconf import DictConfig, ListConfig
 
 from mcd.data.buffers import BUFFERS, CHANNELS, COLOUR_BUFFERS, GBUFFERS, buffer_spp, run_buffers
-from mcd.data.splits import split_frames, test_frame_count
+from mcd.data.splits import split_of, test_frame_count
 from mcd.data.store import StoreReader
 from mcd.machine import restart_peak_rss, status_mb
 
@@ -92,8 +92,7 @@ def work(cfg: DictConfig) -> dict[str, Any]:
         lo += n * int(d.gbuffer_spp)
         hi += n * int(d.gbuffer_spp)
     try:  # a profile too short to train on still renders and tests (e.g. a transfer run's held-out scenes)
-        split, train_error = split_frames(n, float(d.get("test_fraction", 0.2)), int(d.val_clips),
-                                          int(d.clip_len)), None
+        split, train_error = split_of(n, d), None
     except ValueError as err:
         split, train_error = {"train": [], "val": []}, str(err)
     packed_frames = sum(len(c) for c in split["train"] + split["val"]) * len(d.train_scenes)

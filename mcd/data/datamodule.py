@@ -3,7 +3,8 @@ protocol").
 
 Splits per scene sequence (docs/benchmark.md: first 20% test, the rest train, 5-frame non-overlapping clips):
 the first ``round(data.test_fraction * n)`` frames are the test sequence, the next ``data.val_clips`` clips of
-``data.clip_len`` frames validate, the remaining frames give non-overlapping training clips. Training and
+``data.clip_len`` frames validate, the remaining frames give training clips, non-overlapping unless
+``data.train_clip_stride`` is below ``clip_len`` (:func:`mcd.data.splits.split_of`). Training and
 validation use ``data.train_scenes``; testing runs ``data.test_scenes`` (held-out transfer scenes among them)
 on their whole test sequences.
 
@@ -48,7 +49,7 @@ from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, S
 from mcd.data.augment import Augment
 from mcd.data.buffers import BUFFERS, validate_buffers
 from mcd.data.clips import ExrClips
-from mcd.data.splits import split_frames
+from mcd.data.splits import split_of
 from mcd.data.store import StoreReader
 from mcd.data.train_store import TrainStore, TrainStoreSettings, pack_command
 from mcd.preflight import check_crops
@@ -162,9 +163,7 @@ class MCDDataModule(L.LightningDataModule):
         augment = Augment.from_cfg(d)
         train, val, test = [], [], []
         for scene in dict.fromkeys(self.train_scenes + self.test_scenes):
-            sp = split_frames(
-                self.store.frame_count(scene), float(d.test_fraction), int(d.val_clips), int(d.clip_len)
-            )
+            sp = split_of(self.store.frame_count(scene), d)
             if scene in self.train_scenes:
                 train += [(scene, c) for c in sp["train"]]
                 val += [(scene, c) for c in sp["val"]]

@@ -3,7 +3,7 @@ frames into the training store (:mod:`mcd.data.train_store`, docs/training_store
 
 Which buffers: ``render.buffers`` as for ``python -m mcd.render`` (default ``method``: those the configured
 method reads, plus ``ref`` and the uniform render at the budget). Which scenes: ``data.train_scenes`` (the
-frames of their training and validation clips, :func:`mcd.data.splits.split_frames`). Where, and in which
+frames of their training and validation clips, :func:`mcd.data.splits.split_of`). Where, and in which
 precision: ``data.train_store.dir`` and ``data.train_store.dtype``. ``python -m mcd.run`` packs by itself
 when ``data.train_store.format=array``; this command does it ahead (e.g. once, before a sweep).
 
@@ -32,7 +32,7 @@ from omegaconf import DictConfig
 
 from mcd import file_lock
 from mcd.data.buffers import BUFFERS
-from mcd.data.splits import split_frames
+from mcd.data.splits import split_of
 from mcd.data.store import StoreReader
 from mcd.data.store_builder import _write_json_atomic
 from mcd.data.train_store import (
@@ -55,8 +55,7 @@ log = logging.getLogger("mcd.pack")
 
 def frames_to_pack(reader: StoreReader, scene: str, data_cfg: DictConfig) -> list[int]:
     """The frames of the scene's training and validation clips (what the datamodule reads from this store)."""
-    sp = split_frames(reader.frame_count(scene), float(data_cfg.test_fraction), int(data_cfg.val_clips),
-                      int(data_cfg.clip_len))
+    sp = split_of(reader.frame_count(scene), data_cfg)
     return sorted({f for clip in sp["train"] + sp["val"] for f in clip})
 
 

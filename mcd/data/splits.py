@@ -1,10 +1,15 @@
 """How a scene's frame sequence splits into test, validation and training frames (docs/benchmark.md, "Data
 protocol"): the first ``round(data.test_fraction * n)`` frames are the test sequence (at least one), the next
-``data.val_clips`` clips of ``data.clip_len`` frames validate, the remaining whole clips train. One place for
-this rule: the datamodule reads it, and the store builder renders the test frames' references to
-``data.ref_quality`` (docs/data.md, "Reference quality")."""
+``data.val_clips`` clips of ``data.clip_len`` frames validate, the remaining frames train: whole clips that
+start every ``data.train_clip_stride`` frames (null: ``clip_len``, the paper's non-overlapping clips, Sec.
+5.1; 1: every clip of the training frames, for a profile with few frames: docs/training.md "Overlapping
+training clips"). One place for this rule: the datamodule, the training-store packer and the plan read it, and
+the store builder renders the test frames' references to ``data.ref_quality`` (docs/data.md, "Reference
+quality")."""
 
 from __future__ import annotations
+
+from typing import Any
 
 
 def test_frame_count(n: int, test_fraction: float) -> int:
@@ -12,8 +17,14 @@ def test_frame_count(n: int, test_fraction: float) -> int:
     return max(1, int(round(test_fraction * n)))
 
 
-def split_frames(n: int, test_fraction: float, val_clips: int, clip_len: int) -> dict[str, list[list[int]]]:
-    """Frame indices of a sequence: ``test`` (one whole sequence), ``val`` and ``train`` (clips)."""
+def split_frames(n: int, test_fraction: float, val_clips: int, clip_len: int,
+                 train_stride: int | None = None) -> dict[str, list[list[int]]]:
+    """Frame indices of a sequence: ``test`` (one whole sequence), ``val`` and ``train`` (clips; training
+    clips start every ``train_stride`` frames after the validation clips, None: ``clip_len``)."""
+    stride = clip_len if train_stride is None else int(train_stride)
+    if not 1 <= stride <= clip_len:
+        raise ValueError(f"data.train_clip_stride={train_stride}: give 1 to {clip_len} (data.clip_len), or "
+                         "null for non-overlapping clips")
     n_test = test_frame_count(n, test_fraction)
     rest = list(range(n_test, n))
     clips = [rest[i : i + clip_len] for i in range(0, len(rest) - clip_len + 1, clip_len)]
@@ -23,4 +34,12 @@ def split_frames(n: int, test_fraction: float, val_clips: int, clip_len: int) ->
             f"{val_clips} validation clip(s) and one training clip of {clip_len} frames; raise "
             "data.frames_per_segment or data.segments, or lower data.val_clips / data.clip_len"
         )
-    return {"test": [list(range(n_test))], "val": clips[:val_clips], "train": clips[val_clips:]}
+    train = rest[val_clips * clip_len :]
+    return {"test": [list(range(n_test))], "val": clips[:val_clips],
+            "train": [train[i : i + clip_len] for i in range(0, len(train) - clip_len + 1, stride)]}
+
+
+def split_of(n: int, data_cfg: Any) -> dict[str, list[list[int]]]:
+    """:func:`split_frames` of an ``n``-frame sequence with a data profile's settings (``data.*``)."""
+    return split_frames(n, float(data_cfg.get("test_fraction", 0.2)), int(data_cfg.val_clips),
+                        int(data_cfg.clip_len), data_cfg.get("train_clip_stride"))

@@ -21,6 +21,22 @@ def test_split_first_frames_test_then_val_then_train():
         split_frames(8, 0.2, 1, 5)
 
 
+def test_overlapping_training_clips_start_every_stride_frames():
+    """``data.train_clip_stride``: tiny's 32 frames give 17 training clips per scene at stride 1, 4 without;
+    validation clips never overlap, and no training clip reaches into the validation or test frames."""
+    plain = split_frames(32, 0.2, 1, 5)
+    assert split_frames(32, 0.2, 1, 5, 5) == plain and len(plain["train"]) == 4
+    every = split_frames(32, 0.2, 1, 5, 1)
+    assert every["test"] == plain["test"] and every["val"] == plain["val"] == [[6, 7, 8, 9, 10]]
+    assert len(every["train"]) == 17 and every["train"][0] == [11, 12, 13, 14, 15]
+    assert every["train"][-1] == [27, 28, 29, 30, 31] and all(c == list(range(c[0], c[0] + 5))
+                                                               for c in every["train"])
+    assert [c[0] for c in split_frames(32, 0.2, 1, 5, 2)["train"]] == list(range(11, 28, 2))
+    for bad in (0, 6):
+        with pytest.raises(ValueError, match="train_clip_stride"):
+            split_frames(32, 0.2, 1, 5, bad)
+
+
 def test_train_val_test_batches(cbox_store, caplog):
     cfg, store = cbox_store
     with caplog.at_level(logging.INFO, logger="mcd.data.datamodule"):
