@@ -1,7 +1,8 @@
 """Checks of a run's config that must fail before anything is rendered or trained (docs/reliability.md).
 
 :func:`check_run` refuses a budget that is not a number or has no stored uniform render, images smaller
-than the SSIM window, training crops the frames cannot hold and a malformed ``data.augment`` block; the
+than the SSIM window, training crops the frames cannot hold, a training-clip stride outside 1 to
+``data.clip_len`` and a malformed ``data.augment`` block; the
 store checks every scene file before its first render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`),
 and the model its own budget rule when it is built (row F's adaptive sampling needs ``1 < s``; a method
 without it reads ``c_s``).
@@ -12,6 +13,7 @@ from __future__ import annotations
 from omegaconf import DictConfig
 
 from mcd.data.buffers import UNIFORM_BUDGETS
+from mcd.data.splits import clip_stride
 from mcd.metrics import SSIM_WINDOW
 
 
@@ -57,6 +59,12 @@ def check_crops(cfg: DictConfig) -> None:
                          f"uniform crops; docs/training.md, 'Crops at frame edges')")
 
 
+def check_clip_stride(cfg: DictConfig) -> None:
+    """ValueError naming the key unless ``data.train_clip_stride`` is null or 1 to ``data.clip_len``
+    (:func:`mcd.data.splits.clip_stride`)."""
+    clip_stride(int(cfg.data.clip_len), cfg.data.get("train_clip_stride"))
+
+
 def check_augment(cfg: DictConfig) -> None:
     """ValueError naming the key unless ``data.augment`` holds known keys with valid values
     (:meth:`mcd.data.augment.Augment.from_cfg`)."""
@@ -70,4 +78,5 @@ def check_run(cfg: DictConfig) -> None:
     check_budget(cfg)
     check_image_size(cfg)
     check_crops(cfg)
+    check_clip_stride(cfg)
     check_augment(cfg)

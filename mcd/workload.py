@@ -16,7 +16,7 @@ import numpy as np
 from omegaconf import DictConfig, ListConfig
 
 from mcd.data.buffers import BUFFERS, CHANNELS, COLOUR_BUFFERS, GBUFFERS, buffer_spp, run_buffers
-from mcd.data.splits import split_of, test_frame_count
+from mcd.data.splits import clip_stride, split_of, test_frame_count
 from mcd.data.store import StoreReader
 from mcd.machine import restart_peak_rss, status_mb
 
@@ -91,6 +91,7 @@ def work(cfg: DictConfig) -> dict[str, Any]:
     if any(b in GBUFFERS for b in render):
         lo += n * int(d.gbuffer_spp)
         hi += n * int(d.gbuffer_spp)
+    clip_stride(int(d.clip_len), d.get("train_clip_stride"))  # a bad key is an error, not "too short"
     try:  # a profile too short to train on still renders and tests (e.g. a transfer run's held-out scenes)
         split, train_error = split_of(n, d), None
     except ValueError as err:

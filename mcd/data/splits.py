@@ -17,25 +17,37 @@ def test_frame_count(n: int, test_fraction: float) -> int:
     return max(1, int(round(test_fraction * n)))
 
 
+def clip_stride(clip_len: int, train_stride: Any) -> int:
+    """The training clips' stride: ``train_stride`` (``data.train_clip_stride``) as a whole number from 1 to
+    ``clip_len``, or ``clip_len`` for None; else ValueError naming the key and what to give."""
+    if train_stride is None:
+        return clip_len
+    try:
+        stride = int(train_stride)
+    except (TypeError, ValueError):
+        stride = 0
+    if str(stride) != str(train_stride).strip() or not 1 <= stride <= clip_len:
+        raise ValueError(f"data.train_clip_stride={train_stride}: give a whole number from 1 to {clip_len} "
+                         "(data.clip_len), or null for non-overlapping clips")
+    return stride
+
+
 def split_frames(n: int, test_fraction: float, val_clips: int, clip_len: int,
                  train_stride: int | None = None) -> dict[str, list[list[int]]]:
     """Frame indices of a sequence: ``test`` (one whole sequence), ``val`` and ``train`` (clips; training
     clips start every ``train_stride`` frames after the validation clips, None: ``clip_len``)."""
-    stride = clip_len if train_stride is None else int(train_stride)
-    if not 1 <= stride <= clip_len:
-        raise ValueError(f"data.train_clip_stride={train_stride}: give 1 to {clip_len} (data.clip_len), or "
-                         "null for non-overlapping clips")
+    stride = clip_stride(clip_len, train_stride)
     n_test = test_frame_count(n, test_fraction)
     rest = list(range(n_test, n))
-    clips = [rest[i : i + clip_len] for i in range(0, len(rest) - clip_len + 1, clip_len)]
-    if len(clips) < val_clips + 1:
+    train = rest[val_clips * clip_len :]
+    if len(train) < clip_len:
         raise ValueError(
             f"a {n}-frame sequence leaves {len(rest)} frames after the {n_test} test frames: not enough for "
             f"{val_clips} validation clip(s) and one training clip of {clip_len} frames; raise "
             "data.frames_per_segment or data.segments, or lower data.val_clips / data.clip_len"
         )
-    train = rest[val_clips * clip_len :]
-    return {"test": [list(range(n_test))], "val": clips[:val_clips],
+    return {"test": [list(range(n_test))],
+            "val": [rest[i * clip_len : (i + 1) * clip_len] for i in range(val_clips)],
             "train": [train[i : i + clip_len] for i in range(0, len(train) - clip_len + 1, stride)]}
 
 

@@ -42,6 +42,10 @@ def test_an_image_below_the_ssim_window_fails_before_rendering(tmp_path):
                            r"data\.train_crop <= 32"),
     ("data.train_crop_at_edge=-0.1", r"data\.train_crop_at_edge=-0\.1 is a probability: give a value in "
                                      r"\[0, 1\]"),
+    ("data.train_clip_stride=0", r"data\.train_clip_stride=0: give a whole number from 1 to 5 "
+                                 r"\(data\.clip_len\)"),
+    ("data.train_clip_stride=6", r"data\.train_clip_stride=6: give a whole number from 1 to 5"),
+    ("data.train_clip_stride=2.5", r"data\.train_clip_stride=2\.5: give a whole number from 1 to 5"),
 ])
 def test_a_bad_training_crop_fails_before_rendering(tmp_path, override, message):
     with pytest.raises(ValueError, match=message):
