@@ -12,10 +12,14 @@ rescale every other pixel when the network got the light wrong; a gain without t
 and bright regions uncorrected (both measured: docs/method.md). The band weights come from the output, which
 has little noise, so the render's means over them stay unbiased estimates of the reference's; the output is
 first brought to the render's scale by the ratio of the two frames' medians, so that its own scale moves no
-pixel between the bands. The gains are part of the model in training too (gradients flow through them), and
-they leave the output's scale free: a trained F's output was 2-3x too bright away from the light, and, with
-bands read off that output as it was, the pixels next to the light fell in the blend towards the light's gain
-and came out about twice too bright, a halo that rMSE weighs (docs/method.md "Output").
+pixel between the bands.
+
+``method.mean_match`` says when the step runs (:mod:`mcd.models.output_steps`): ``test`` (the default) in
+validation and test only, so that the training loss sees the network's own output and fixes its scale;
+``true`` in training too, with gradients through the gains, which leave the network's scale free: a trained
+F's raw output drifted 1.4-3x too bright, and its brightness along the frame's edges drifted apart from the
+interior's, which one gain per band cannot undo (on ``tiny``'s cbox a ring too bright by 0.03 in display
+values, which put its FLIP above the noisy input's; docs/method.md "Output", "Where F loses cbox's FLIP").
 
 Every method that sets ``method.mean_match`` gets it, matched to the render it denoised
 (:mod:`mcd.models.output_steps`), so every learned method of Table 1 ends in the same output step

@@ -32,18 +32,34 @@ def denoised_render(out: dict[str, Tensor], x: dict[str, Any], budget: float, pa
     return render if render is not None else current_frame(x[uniform_buffer(budget)], past)
 
 
+#: ``method.mean_match``: ``true`` (in training, validation and test: the network learns through the gain),
+#: ``test`` (in validation and test only: the network trains without it), ``false`` (never).
+MEAN_MATCH = (True, "test", False)
+
+
+def mean_match_mode(method: DictConfig) -> bool | str:
+    """``method.mean_match`` (default ``false``), checked: one of :data:`MEAN_MATCH`; ValueError naming the
+    key otherwise."""
+    value = method.get("mean_match", False)
+    if isinstance(value, bool) or value == "test":
+        return value
+    raise ValueError(f"method.mean_match={value!r}: use true (training and test), test (validation and test "
+                     "only) or false (docs/method.md \"Output\")")
+
+
 def attach_output_steps(module: nn.Module, method: DictConfig, budget: float) -> nn.Module:
     """``module`` (a method's model: ``forward(x) -> {"output", ...}``) with the output steps ``method``
-    sets, applied to its ``output`` by one forward hook; ``module`` as it is when it sets none."""
-    mean, misses = bool(method.get("mean_match", False)), bool(method.get("pass_misses", False))
+    sets, applied to its ``output`` by one forward hook; ``module`` as it is when it sets none. With
+    ``method.mean_match=test`` the hook skips the mean match while ``module`` is in training mode."""
+    mean, misses = mean_match_mode(method), bool(method.get("pass_misses", False))
     if not (mean or misses):
         return module
     past = int(getattr(module, "window", (0, 0))[0])
 
-    def hook(_: nn.Module, args: tuple[Any, ...], out: dict[str, Tensor]) -> dict[str, Tensor]:
+    def hook(model: nn.Module, args: tuple[Any, ...], out: dict[str, Tensor]) -> dict[str, Tensor]:
         x = args[0]
         render = denoised_render(out, x, budget, past)
-        if mean:
+        if mean is True or (mean == "test" and not model.training):
             out["output"] = match_frame_mean(out["output"], render)
         if misses:
             out["output"] = pass_misses(out["output"], render, current_frame(x["normal"], past))

@@ -90,6 +90,35 @@ def test_two_stage_output_takes_the_frame_mean_of_what_f_d_denoised():
         assert not torch.allclose(base.mean((-2, -1)), want.mean((-2, -1)), rtol=1e-2)
 
 
+def test_mean_match_test_applies_in_eval_mode_only():
+    """``method.mean_match=test``: the model in training mode returns F_d's output as it is (the loss sees the
+    network's own scale), in eval mode (validation, test) the matched one, the same as ``true`` gives; an
+    unknown value is named before anything runs."""
+    import pytest
+
+    from mcd.models import build
+    from tests.models.helpers import frame, row_cfg
+
+    x = frame(h=24, w=40, scale=3.0)
+    cfg = row_cfg("F")
+    outputs = {}
+    for mode in (False, True, "test"):
+        cfg.method.mean_match = mode
+        torch.manual_seed(0)
+        model = build(cfg)
+        last = [m for m in model.denoiser.modules() if isinstance(m, torch.nn.Conv2d)][-1]
+        with torch.no_grad():
+            last.bias += torch.tensor([0.6, 1.0, 0.8])  # an output far from the render's mean
+            outputs[mode] = (model.train()(x)["output"], model.eval()(x)["output"])
+    plain, matched, test = outputs[False], outputs[True], outputs["test"]
+    torch.testing.assert_close(test[0], plain[0])    # training: no gain
+    torch.testing.assert_close(test[1], matched[1])  # validation and test: the gain
+    assert not torch.allclose(plain[1], matched[1], rtol=1e-2)
+    cfg.method.mean_match = "train"
+    with pytest.raises(ValueError, match="method.mean_match='train'"):
+        build(cfg)
+
+
 def test_residual_denoiser_output_starts_from_its_colour_input():
     """With F_d's last convolution zeroed, ``residual`` returns F_d's colour input (row F: i_bar; row A: c_4)
     and ``direct`` returns black; an unknown value is named."""
