@@ -32,14 +32,10 @@ def denoised_render(out: dict[str, Tensor], x: dict[str, Any], budget: float, pa
     return render if render is not None else current_frame(x[uniform_buffer(budget)], past)
 
 
-#: ``method.mean_match``: ``true`` (in training, validation and test: the network learns through the gain),
-#: ``test`` (in validation and test only: the network trains without it), ``false`` (never).
-MEAN_MATCH = (True, "test", False)
-
-
 def mean_match_mode(method: DictConfig) -> bool | str:
-    """``method.mean_match`` (default ``false``), checked: one of :data:`MEAN_MATCH`; ValueError naming the
-    key otherwise."""
+    """``method.mean_match`` (default ``false``), checked: ``true`` (in training, validation and test: the
+    network learns through the gain), ``test`` (in validation and test only: the network trains without it) or
+    ``false`` (never); ValueError naming the key otherwise."""
     value = method.get("mean_match", False)
     if isinstance(value, bool) or value == "test":
         return value
