@@ -56,13 +56,17 @@ Frames = dict[int, dict[str, dict[str, float]]]  # frame -> stage -> ring_stats
 
 def measure(run_dir: Path, scene: str, width: int, all_frames: bool) -> Frames:
     """Per frame and stage, :func:`ring_stats` of ``scene``'s frames as the run's tested weights denoise them
-    (module docstring)."""
+    (module docstring), stepped by :meth:`mcd.lit.module.DenoiseModule.test_step` under the run's precision
+    (bf16 autocast for a run tested in ``bf16-mixed``, as :func:`mcd.tools.edge_effect.measure` does: the
+    sampling map rounds from the logits, so the precision changes the samples drawn)."""
     import torch
     from omegaconf import OmegaConf, open_dict
 
     from mcd.data import MCDDataModule, StoreBuilder
-    from mcd.data.buffers import run_buffers, uniform_buffer
+    from mcd.data.buffers import run_buffers
     from mcd.lit import checkpoint
+    from mcd.lit.module import DenoiseModule
+    from mcd.lit.test_recorder import hwc
     from mcd.models import build
     from mcd.models.mean_match import match_frame_mean
 
@@ -79,26 +83,19 @@ def measure(run_dir: Path, scene: str, width: int, all_frames: bool) -> Frames:
     weights = checkpoint.model_weights(checkpoint.safe_load(metrics["checkpoint"], "checkpoint"))
     checkpoint.check_fits(model, weights, "checkpoint", metrics["checkpoint"])
     model.load_state_dict(weights)
-    model.eval()
-    store = StoreBuilder.from_cfg(cfg)
+    store = StoreBuilder.from_cfg(cfg, overrides=[])
     data = MCDDataModule(cfg, store, run_buffers(model.required_buffers(), cfg.budget), model.window)
-
-    def hwc(t: torch.Tensor) -> np.ndarray:
-        return t.reshape(t.shape[-3:]).permute(1, 2, 0).float().numpy()
-
+    module = DenoiseModule(cfg, model, None).eval()
+    bf16 = str(metrics.get("precision", "32-true")).startswith("bf16")
     out: Frames = {}
-    with torch.inference_mode():
-        for batch in data.test_dataloader():
-            if bool(batch["reset"][0]):
-                model.reset()
-            x = {k: v[:, 0] for k, v in batch.items() if torch.is_tensor(v) and v.dim() == 5}
-            x["ref"] = None
-            y = model(x)
-            ref = hwc(batch["ref"][0, 0])
-            stages = (batch[uniform_buffer(cfg.budget)][0, 0], y["initial"], y["output"],
-                      match_frame_mean(y["output"], y["adaptive"]))
-            out[int(batch["frame"][0, 0])] = {name: ring_stats(hwc(s), ref, width)
-                                             for name, s in zip(STAGES, stages, strict=True)}
+    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+        for i, batch in enumerate(data.test_dataloader()):
+            step = module.test_step(batch, i)
+            y, ref = step["outputs"], hwc(step["ref"])
+            stages = (step["noisy"], y["initial"][0], y["output"][0],
+                      match_frame_mean(y["output"], y["adaptive"])[0])
+            out[step["frame"]] = {name: ring_stats(hwc(s), ref, width)
+                                  for name, s in zip(STAGES, stages, strict=True)}
     return out
 
 
