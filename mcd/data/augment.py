@@ -19,6 +19,11 @@ on so that a model trained on a few scenes holds up on a user's. Each one is swi
   follows: a horizontal flip negates its ``x``, a vertical flip its ``y``, a transpose swaps them, so it
   still warps frame ``t-1`` onto frame ``t``. Normals are world-space (Mitsuba's ``sh_normal``) and do not
   change under a flip of the image.
+- ``reverse``: the clip's frames played backwards with probability 1/2, so the loss, which reads the clip's
+  last frames (Sec. 4.2), also reads the first frames of a training range that a forward clip only warms up
+  on (docs/training.md "Augmentations"). BasicSR's video training draws the same ``flip_sequence``. Backward
+  motion cannot be turned into the reversed clip's (that is the forward motion, which the store does not
+  hold), so a clip with a ``motion`` buffer is refused (:meth:`Augment.check_buffers`).
 
 OIDN's ``training/dataset.py`` draws the flips, the transpose and the colour permutation the same way, and
 pads 10% of its tiles with up to 15 zero rows and columns; it also permutes normal channels, which this module
@@ -29,6 +34,7 @@ module's own: OIDN normalises exposure at preprocessing instead.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,7 +48,7 @@ from mcd.data.buffers import COLOUR_BUFFERS
 EXPOSURE_LIMIT = 1e30
 #: The keys of ``data.augment`` and their values when the block or a key is absent (all off).
 DEFAULTS: dict[str, Any] = {"flips": False, "transpose": False, "channels": False, "zero_pad": 0.0,
-                            "zero_pad_max": 16, "exposure_stops": 0.0}
+                            "zero_pad_max": 16, "exposure_stops": 0.0, "reverse": False}
 #: Channel-permuted with the radiance buffers.
 PERMUTED = (*COLOUR_BUFFERS, "albedo")
 
@@ -51,7 +57,7 @@ PERMUTED = (*COLOUR_BUFFERS, "albedo")
 class Draw:
     """One clip's random choices: ``perm`` (channel order or None), ``scale`` (radiance factor), ``pad``
     (zero rows, zero columns at the crop's bottom and right, before flips), ``flip_y``, ``flip_x``,
-    ``transpose``."""
+    ``transpose``, ``reverse`` (frame order)."""
 
     perm: tuple[int, int, int] | None = None
     scale: float = 1.0
@@ -59,6 +65,7 @@ class Draw:
     flip_y: bool = False
     flip_x: bool = False
     transpose: bool = False
+    reverse: bool = False
 
 
 @dataclass(frozen=True)
@@ -71,6 +78,7 @@ class Augment:
     zero_pad: float = 0.0
     zero_pad_max: int = 16
     exposure_stops: float = 0.0
+    reverse: bool = False
 
     @classmethod
     def from_cfg(cls, data_cfg: DictConfig, crop: int | None = None) -> Augment | None:
@@ -88,7 +96,7 @@ class Augment:
             raise ValueError(f"data.augment: unknown key(s) {unknown}; the keys are {sorted(DEFAULTS)} "
                              "(docs/training.md, 'Augmentations')")
         v = {**DEFAULTS, **raw}
-        for key in ("flips", "transpose", "channels"):
+        for key in ("flips", "transpose", "channels", "reverse"):
             if not isinstance(v[key], bool):
                 raise ValueError(f"data.augment.{key}={v[key]!r}: give true or false")
         p, stops, m = float(v["zero_pad"]), float(v["exposure_stops"]), v["zero_pad_max"]
@@ -101,17 +109,26 @@ class Augment:
         if not isinstance(m, int) or not 1 <= m <= limit:
             raise ValueError(f"data.augment.zero_pad_max={m!r}: give an integer in 1 .. data.train_crop "
                              f"({limit})")
-        aug = cls(v["flips"], v["transpose"], v["channels"], p, m, stops)
+        aug = cls(v["flips"], v["transpose"], v["channels"], p, m, stops, v["reverse"])
         return aug if aug.active else None
 
     @property
     def active(self) -> bool:
         """Whether any augmentation is on."""
-        return self.flips or self.transpose or self.channels or self.zero_pad > 0 or self.exposure_stops > 0
+        return (self.flips or self.transpose or self.channels or self.zero_pad > 0 or self.exposure_stops > 0
+                or self.reverse)
+
+    def check_buffers(self, buffers: Iterable[str]) -> None:
+        """ValueError naming ``data.augment.reverse`` if it is on and the run loads ``motion``: backward
+        motion does not reverse (module docstring)."""
+        if self.reverse and "motion" in buffers:
+            raise ValueError("data.augment.reverse=true: this method reads the motion buffer, and backward "
+                             "motion cannot be reversed with the clip; set data.augment.reverse=false "
+                             "(docs/training.md, 'Augmentations')")
 
     def describe(self) -> str:
         """One line for the log: what is on."""
-        parts = [name for name in ("flips", "transpose", "channels") if getattr(self, name)]
+        parts = [name for name in ("flips", "transpose", "channels", "reverse") if getattr(self, name)]
         if self.zero_pad > 0:
             parts.append(f"zero_pad {self.zero_pad:g} (up to {self.zero_pad_max - 1} px)")
         if self.exposure_stops > 0:
@@ -135,7 +152,7 @@ class Augment:
         pad = (draw_int(self.zero_pad_max), draw_int(self.zero_pad_max)) if coin(self.zero_pad) else (0, 0)
         return Draw(perm=perm, scale=scale, pad=pad,  # type: ignore[arg-type]
                     flip_y=self.flips and coin(0.5), flip_x=self.flips and coin(0.5),
-                    transpose=self.transpose and coin(0.5))
+                    transpose=self.transpose and coin(0.5), reverse=self.reverse and coin(0.5))
 
     def __call__(self, clip: dict[str, Any], generator: torch.Generator | None = None) -> dict[str, Any]:
         """``clip`` (``{buffer: [T, C, h, w], ...}``) augmented by one :meth:`sample`."""
@@ -144,7 +161,8 @@ class Augment:
 
 def apply(clip: dict[str, Any], draw: Draw) -> dict[str, Any]:
     """A copy of ``clip`` with ``draw`` applied to its image buffers (its ``[T, C, h, w]`` tensors; other
-    entries pass through). The input tensors are not modified (they may be the datamodule's cache)."""
+    entries pass through, but for ``frame``, which ``reverse`` reverses with them). The input tensors are not
+    modified (they may be the datamodule's cache)."""
     images = {k: v for k, v in clip.items() if isinstance(v, torch.Tensor) and v.ndim == 4}
     out = dict(clip)
     scale = draw.scale
@@ -173,7 +191,11 @@ def apply(clip: dict[str, Any], draw: Draw) -> dict[str, Any]:
             t = t.transpose(-2, -1)
         if name == "motion":
             t = _motion(t, draw)
+        if draw.reverse:
+            t = t.flip(0)
         out[name] = t.contiguous()
+    if draw.reverse and isinstance(clip.get("frame"), torch.Tensor):
+        out["frame"] = clip["frame"].flip(0)
     return out
 
 

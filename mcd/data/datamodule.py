@@ -161,6 +161,8 @@ class MCDDataModule(L.LightningDataModule):
         check_crops(self.cfg)
         crop, at_edge = int(d.train_crop), float(d.get("train_crop_at_edge", 0.0))
         augment = Augment.from_cfg(d)
+        if augment is not None:
+            augment.check_buffers(self.buffers)
         train, val, test = [], [], []
         for scene in dict.fromkeys(self.train_scenes + self.test_scenes):
             sp = split_of(self.store.frame_count(scene), d)

@@ -116,6 +116,29 @@ def test_zero_pad_zeros_the_crop_edge_of_every_buffer(clip):
     assert (out["ref"][..., :3, :] == 0).all() and out["ref"][..., 3:, :].abs().sum() > 0
 
 
+def test_reverse_plays_every_buffer_and_the_frame_numbers_backwards(clip):
+    before = _copy(clip)
+    out = apply(clip, Draw(reverse=True))
+    for b, t in clip.items():
+        if isinstance(t, torch.Tensor) and t.ndim == 4:
+            assert torch.equal(out[b], t.flip(0)), b
+    assert out["frame"].tolist() == [9, 8, 7, 6, 5] and out["scene"] == clip["scene"]
+    for k, v in before.items():  # the input (the datamodule's cache) is untouched
+        assert not isinstance(v, torch.Tensor) or torch.equal(v, clip[k])
+    both = apply(clip, Draw(reverse=True, flip_x=True, transpose=True))
+    assert torch.equal(both["ref"], clip["ref"].flip(-1).transpose(-2, -1).flip(0))
+
+
+def test_reverse_is_refused_where_the_method_reads_motion(tmp_path, cbox_store):
+    Augment(reverse=True).check_buffers({"c4", "albedo"})
+    with pytest.raises(ValueError, match="data.augment.reverse=true"):
+        Augment(reverse=True).check_buffers({"c4", "motion"})
+    _, store = cbox_store
+    cfg = compose_cfg(*store32_overrides(store.root.parent), "data.augment.reverse=true")
+    with pytest.raises(ValueError, match="data.augment.reverse=true"):
+        MCDDataModule(cfg, store, {"c4", "motion"}).setup("fit")
+
+
 def test_draws_follow_their_switches():
     g = torch.Generator().manual_seed(1)
     aug = Augment(**ALL_ON)
@@ -128,6 +151,13 @@ def test_draws_follow_their_switches():
     assert len({d.perm for d in draws}) == 6
     none = Augment(flips=True).sample(g)
     assert none.perm is None and none.scale == 1.0 and none.pad == (0, 0) and not none.transpose
+    assert not any(d.reverse for d in draws)
+    rev = [Augment(reverse=True).sample(g).reverse for _ in range(400)]
+    assert 0.4 < sum(rev) / len(rev) < 0.6
+    # drawn last: a run that turns reverse on draws the other augmentations of its first clip as before
+    first = Augment(**ALL_ON).sample(torch.Generator().manual_seed(5))
+    again = Augment(**ALL_ON, reverse=True).sample(torch.Generator().manual_seed(5))
+    assert Draw(**{**again.__dict__, "reverse": False}) == first
 
 
 def _data(**augment):
@@ -141,7 +171,8 @@ def test_config_errors_name_the_key():
     for bad, key in [({"flip": True}, "unknown key"), ({"zero_pad": 1.5}, "data.augment.zero_pad="),
                      ({"exposure_stops": -1.0}, "data.augment.exposure_stops"),
                      ({"zero_pad_max": 40}, "data.augment.zero_pad_max"),
-                     ({"channels": "yes"}, "data.augment.channels")]:
+                     ({"channels": "yes"}, "data.augment.channels"),
+                     ({"reverse": 1}, "data.augment.reverse")]:
         with pytest.raises(ValueError, match=key):
             Augment.from_cfg(_data(**bad))
     with pytest.raises(ValueError, match="data.augment.exposure_stops"):  # mcd.run preflight, before renders
