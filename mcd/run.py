@@ -129,6 +129,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from lightning.pytorch.callbacks import ModelCheckpoint
 
     from mcd.data import MCDDataModule, StoreBuilder
+    from mcd.data.augment import Augment
     from mcd.data.buffers import run_buffers
     from mcd.data.pack import pack
     from mcd.data.train_store import TrainStoreSettings
@@ -159,6 +160,9 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
     buffers = run_buffers(model.required_buffers(), cfg.budget)
+    augment = Augment.from_cfg(cfg.data)
+    if augment is not None:  # data.augment.reverse with a motion buffer, before anything is rendered
+        augment.check_buffers(buffers)
     announce(cfg, "mcd.run", train=bool(cfg.method.get("trainable", True)))  # the plan's line if over 1 h
     store = StoreBuilder.from_cfg(cfg)
     t0 = time.perf_counter()

@@ -53,6 +53,12 @@ def test_a_bad_training_crop_fails_before_rendering(tmp_path, override, message)
     assert not (tmp_path / "data").exists()
 
 
+def test_reversed_clips_for_a_method_that_reads_motion_fail_before_rendering(tmp_path):
+    with pytest.raises(ValueError, match=r"data\.augment\.reverse=true: this method reads the motion buffer"):
+        _run(tmp_path, "+experiment=ntasad", "data.augment.reverse=true")
+    assert not (tmp_path / "data").exists()
+
+
 def test_a_missing_scene_file_fails_before_the_first_scene_renders(tmp_path):
     (tmp_path / "empty").mkdir()
     cfg = compose_cfg(*store32_overrides(tmp_path / "data"), "+scene@data.scenes.bathroom=bathroom",
