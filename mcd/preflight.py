@@ -2,7 +2,7 @@
 
 :func:`check_run` refuses a budget that is not a number or has no stored uniform render, images smaller
 than the SSIM window, training crops the frames cannot hold, a training-clip stride outside 1 to
-``data.clip_len`` and a malformed ``data.augment`` block; the
+``data.clip_len``, a malformed ``data.augment`` block and a warm-up that is not a step count; the
 store checks every scene file before its first render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`),
 and the model its own budget rule when it is built (row F's adaptive sampling needs ``1 < s``; a method
 without it reads ``c_s``).
@@ -73,6 +73,16 @@ def check_augment(cfg: DictConfig) -> None:
     Augment.from_cfg(cfg.data)
 
 
+def check_warmup(cfg: DictConfig) -> int:
+    """``train.warmup_steps`` as an int (absent: 0), or ValueError naming the key unless it is a whole
+    number >= 0 (:func:`mcd.lit.module.warmup_factor`)."""
+    raw = cfg.train.get("warmup_steps", 0)
+    if isinstance(raw, bool) or not isinstance(raw, int) or raw < 0:
+        raise ValueError(f"train.warmup_steps={raw!r}: give a whole number of optimiser steps >= 0 "
+                         "(0: no warm-up; docs/training.md 'Budgets')")
+    return raw
+
+
 def check_run(cfg: DictConfig) -> None:
     """Every check of this module, in the order a user would fix them."""
     check_budget(cfg)
@@ -80,3 +90,4 @@ def check_run(cfg: DictConfig) -> None:
     check_crops(cfg)
     check_clip_stride(cfg)
     check_augment(cfg)
+    check_warmup(cfg)

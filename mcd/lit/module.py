@@ -18,7 +18,9 @@
   one all-reduce of the detached terms per step), so ``logs/metrics.csv`` and ``curve.csv`` show the loss of
   the whole effective batch, not rank 0's share.
 - The learning rate follows a cosine from ``train.lr`` to ``train.lr_min`` over the training budget
-  (:func:`cosine_factor`; the budget's progress is ``DenoiseModule.progress``).
+  (:func:`cosine_factor`; the budget's progress is ``DenoiseModule.progress``), after a linear warm-up over
+  the first ``train.warmup_steps`` optimiser steps (:func:`warmup_factor`; 0: none, the paper's schedule;
+  docs/training.md "Budgets").
 - Test: whole frames, one current frame per batch, in sequence order; ``reset()`` where ``batch["reset"]``
   is set, so state is carried across a whole test sequence. ``test_step`` returns the frame's outputs, its
   reference and the noisy uniform input at the same budget (``c{budget}``); the test recorder
@@ -41,6 +43,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import uniform_buffer
 from mcd.lit.test_recorder import hwc
 from mcd.metrics import frame_metrics
+from mcd.preflight import check_warmup
 
 
 def clip_buffers(batch: dict[str, object]) -> dict[str, Tensor]:
@@ -71,6 +74,12 @@ def cosine_factor(progress: float, lr: float, lr_min: float) -> float:
     p = min(max(progress, 0.0), 1.0)
     floor = lr_min / lr if lr > 0 else 0.0
     return floor + (1.0 - floor) * 0.5 * (1.0 + math.cos(math.pi * p))
+
+
+def warmup_factor(step: int, warmup_steps: int) -> float:
+    """Multiplier of the learning rate at optimiser step ``step`` (0-based): ``(step + 1) / warmup_steps``
+    during the first ``warmup_steps`` steps, then 1 (and always 1 for ``warmup_steps`` 0)."""
+    return 1.0 if step >= warmup_steps else (step + 1) / warmup_steps
 
 
 class DenoiseModule(L.LightningModule):
@@ -194,8 +203,9 @@ class DenoiseModule(L.LightningModule):
         lr, lr_min = float(train.lr), float(train.lr_min)
         opt = torch.optim.Adam(self.model.parameters(), lr=lr, weight_decay=float(train.weight_decay))
         self._total_steps = float(self.trainer.estimated_stepping_batches)
+        warmup = check_warmup(self.cfg)
         sched = torch.optim.lr_scheduler.LambdaLR(
-            opt, lambda step: cosine_factor(self.progress(step), lr, lr_min))
+            opt, lambda step: warmup_factor(step, warmup) * cosine_factor(self.progress(step), lr, lr_min))
         return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
 
     def test_step(self, batch: dict[str, object], batch_idx: int) -> dict[str, object]:

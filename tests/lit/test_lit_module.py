@@ -131,3 +131,35 @@ def test_kernel_map_identity_share():
     h[:, 1, :2] = 1.0
     assert kernel_map_identity_share(h) == pytest.approx(0.5)
 
+
+
+def test_learning_rate_warms_up_linearly_then_follows_the_cosine(tiny_store, tmp_path):
+    """``train.warmup_steps`` (mcd/lit/module.py, docs/training.md "Budgets"): the logged learning rate of a
+    real 8-step run rises linearly over the first 4 steps, then follows the cosine of the budget."""
+    import time
+
+    from mcd.lit.module import cosine_factor, warmup_factor
+    from mcd.run import train_and_test
+
+    lr, lr_min, steps, warmup = 1e-3, 1e-5, 8, 4
+    cfg = compose_cfg(tiny_store, "+experiment=A", f"train.max_steps={steps}",
+                      "train.max_minutes=null", f"train.lr={lr}", f"train.lr_min={lr_min}",
+                      f"train.warmup_steps={warmup}", "train.val_every_steps=1", "train.sample_frames=[]",
+                      "trainer.enable_progress_bar=false")
+    train_and_test(cfg, tmp_path, {}, time.perf_counter())
+    logged = pd.read_csv(tmp_path / "curve.csv").set_index("step")["lr"]
+    expected = {k: lr * warmup_factor(k, warmup) * cosine_factor(k / steps, lr, lr_min) for k in range(steps)}
+    # the curve's lr at step n is the rate the optimiser holds after n steps: that of step n (0-based)
+    for n in range(1, steps):
+        assert logged[n] == pytest.approx(expected[n], rel=1e-6), n
+    assert logged[1] < logged[2] < logged[3]
+    assert logged[3] == pytest.approx(lr * cosine_factor(3 / steps, lr, lr_min))  # warm from step 3 on
+    assert warmup_factor(0, 0) == 1.0 and warmup_factor(99, 100) == 1.0 and warmup_factor(0, 100) == 0.01
+
+
+def test_a_bad_warmup_is_named_before_anything_runs(tiny_store):
+    from mcd.preflight import check_run
+
+    for bad in ("-1", "2.5", "true"):
+        with pytest.raises(ValueError, match=r"train\.warmup_steps="):
+            check_run(compose_cfg(tiny_store, f"train.warmup_steps={bad}"))
