@@ -47,6 +47,7 @@ def store32_overrides(data_dir: Path | str) -> list[str]:
         "data.val_crop=24",
         "data.augment.flips=false",
         "data.augment.transpose=false",
+        "data.augment.reverse=false",
     ]
 
 
