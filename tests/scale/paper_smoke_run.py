@@ -45,7 +45,8 @@ def overrides(data_dir: str) -> list[str]:
             "data.test_fraction=0.143", "data.val_clips=1", "data.clip_len=2", "data.train_crop=256",
             "data.val_crop=256", "data.num_workers=2", "data.cache_in_memory=false",
             "+data.scenes.synth={kind: procedural, seed: 0}", "data.train_scenes=[synth]",
-            "data.test_scenes=[synth]", "data.train_store.format=array", "trainer=ddp", "trainer.devices=2",
+            "data.test_scenes=[synth]", "data.augment.reverse=false", "data.train_store.format=array",
+            "trainer=ddp", "trainer.devices=2",
             "trainer.accelerator=cpu", "trainer.precision=32-true", "trainer.enable_progress_bar=false",
             "train.batch_size=1", "train.epochs=2", "train.max_steps=null", "train.max_minutes=null",
             "train.val_every=1", "train.val_every_steps=null", "train.sample_frames=[]"]
