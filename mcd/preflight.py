@@ -10,6 +10,8 @@ without it reads ``c_s``).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from omegaconf import DictConfig
 
 from mcd.data.buffers import UNIFORM_BUDGETS
@@ -65,12 +67,12 @@ def check_clip_stride(cfg: DictConfig) -> None:
     clip_stride(int(cfg.data.clip_len), cfg.data.get("train_clip_stride"))
 
 
-def check_augment(cfg: DictConfig) -> None:
-    """ValueError naming the key unless ``data.augment`` holds known keys with valid values
-    (:meth:`mcd.data.augment.Augment.from_cfg`)."""
+def check_augment(cfg: DictConfig, buffers: Iterable[str] | None = None) -> None:
+    """ValueError naming the key unless ``data.augment`` holds known keys with valid values, and values the
+    run's ``buffers`` (where given) can take (:meth:`mcd.data.augment.Augment.from_cfg`)."""
     from mcd.data.augment import Augment
 
-    Augment.from_cfg(cfg.data)
+    Augment.from_cfg(cfg.data, buffers=buffers)
 
 
 def check_warmup(cfg: DictConfig) -> int:

@@ -38,7 +38,7 @@ from mcd import allocator, run_dir
 from mcd.config import hydra_main
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
-from mcd.preflight import check_run
+from mcd.preflight import check_augment, check_run
 from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
 from mcd.run_summary import summary
@@ -129,7 +129,6 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from lightning.pytorch.callbacks import ModelCheckpoint
 
     from mcd.data import MCDDataModule, StoreBuilder
-    from mcd.data.augment import Augment
     from mcd.data.buffers import run_buffers
     from mcd.data.pack import pack
     from mcd.data.train_store import TrainStoreSettings
@@ -160,9 +159,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
     buffers = run_buffers(model.required_buffers(), cfg.budget)
-    augment = Augment.from_cfg(cfg.data)
-    if augment is not None:  # data.augment.reverse with a motion buffer, before anything is rendered
-        augment.check_buffers(buffers)
+    check_augment(cfg, buffers)  # data.augment.reverse with a motion buffer, before anything is rendered
     announce(cfg, "mcd.run", train=bool(cfg.method.get("trainable", True)))  # the plan's line if over 1 h
     store = StoreBuilder.from_cfg(cfg)
     t0 = time.perf_counter()

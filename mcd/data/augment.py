@@ -81,11 +81,13 @@ class Augment:
     reverse: bool = False
 
     @classmethod
-    def from_cfg(cls, data_cfg: DictConfig, crop: int | None = None) -> Augment | None:
+    def from_cfg(cls, data_cfg: DictConfig, crop: int | None = None,
+                 buffers: Iterable[str] | None = None) -> Augment | None:
         """The augmentations ``data_cfg.augment`` switches on, or None if none is (or the block is absent).
 
-        ValueError naming the key for an unknown key, a probability outside [0, 1], negative stops, or a
-        ``zero_pad_max`` outside ``1 .. crop`` (``crop``: the training crop, ``data.train_crop``).
+        ValueError naming the key for an unknown key, a probability outside [0, 1], negative stops, a
+        ``zero_pad_max`` outside ``1 .. crop`` (``crop``: the training crop, ``data.train_crop``), or, where
+        the run's ``buffers`` are given, an augmentation they cannot take (:meth:`check_buffers`).
         """
         block = data_cfg.get("augment")
         if block is None:
@@ -110,6 +112,8 @@ class Augment:
             raise ValueError(f"data.augment.zero_pad_max={m!r}: give an integer in 1 .. data.train_crop "
                              f"({limit})")
         aug = cls(v["flips"], v["transpose"], v["channels"], p, m, stops, v["reverse"])
+        if buffers is not None:
+            aug.check_buffers(buffers)
         return aug if aug.active else None
 
     @property

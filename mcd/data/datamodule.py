@@ -160,9 +160,7 @@ class MCDDataModule(L.LightningDataModule):
         h, w = int(d.height), int(d.width)
         check_crops(self.cfg)
         crop, at_edge = int(d.train_crop), float(d.get("train_crop_at_edge", 0.0))
-        augment = Augment.from_cfg(d)
-        if augment is not None:
-            augment.check_buffers(self.buffers)
+        augment = Augment.from_cfg(d, buffers=self.buffers)
         train, val, test = [], [], []
         for scene in dict.fromkeys(self.train_scenes + self.test_scenes):
             sp = split_of(self.store.frame_count(scene), d)
