@@ -16,7 +16,9 @@
   that under DDP every rank picks the same best checkpoint: the one with the highest ``val/psnr``. The
   training loss and its terms are logged as their mean over the processes too (:func:`mean_over_processes`,
   one all-reduce of the detached terms per step), so ``logs/metrics.csv`` and ``curve.csv`` show the loss of
-  the whole effective batch, not rank 0's share.
+  the whole effective batch, not rank 0's share. ``train/grad_norm`` is the gradients' total L2 norm before
+  any clipping (``train.grad_clip``), logged each step beside the loss: where a loss jumps, it shows whether a
+  large update came first (docs/training.md "Budgets").
 - The learning rate follows a cosine from ``train.lr`` to ``train.lr_min`` over the training budget
   (:func:`cosine_factor`; the budget's progress is ``DenoiseModule.progress``), after a linear warm-up over
   the first ``train.warmup_steps`` optimiser steps (:func:`warmup_factor`; 0: none, the paper's schedule;
@@ -188,6 +190,13 @@ class DenoiseModule(L.LightningModule):
                                      f"{batch.get('scene')}, frames {batch.get('frame')}); lower train.lr "
                                      "or use trainer.precision=32-true")
         return loss
+
+    def on_before_optimizer_step(self, optimizer: torch.optim.Optimizer) -> None:
+        """Log the gradients' total norm (Lightning calls this after unscaling and before clipping)."""
+        grads = [p.grad for p in self.model.parameters() if p.grad is not None]
+        if grads:
+            norm = torch.nn.utils.get_total_norm(grads).float()
+            self.log("train/grad_norm", mean_over_processes(norm[None])[0], on_step=True, on_epoch=False)
 
     def validation_step(self, batch: dict[str, object], batch_idx: int) -> Tensor:
         loss, pred = self._loss(batch, "val", with_ref=False)
