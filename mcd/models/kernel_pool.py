@@ -13,7 +13,11 @@ pool").
   kernel index's (channel 0's) mean over the image removed, then divided by its root mean square over the
   image, per channel: ``tanh`` then cannot saturate everywhere, so the pool keeps receiving gradient, and the
   index spreads across the pool instead of settling on one kernel everywhere (docs/kernel_pool.md tells how
-  the map saturated without it).
+  the map saturated without it). ``rms_soft`` = the same kernel index, and the identity channel divided by
+  ``sqrt(mean(z^2) + 1)`` instead of its RMS: ``rms_centred`` maps a near-constant identity channel to +-1 by
+  its sign alone, so one step that moved its mean across zero flipped every pixel between 12% and 88%
+  identity (the early loss jump of docs/method.md "The early loss jump"); with the floor of 1 under the RMS
+  the channel is continuous in ``z`` and still cannot saturate (``|z| >> 1`` is scaled to an RMS of 1).
 - Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
   over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
   between that kernel and the identity.
@@ -155,7 +159,7 @@ class KernelPool(nn.Module):
 
 
 #: What enters the kernel-map head's final ``tanh`` (``method.kp.head_output``; see the module docstring).
-HEAD_OUTPUTS = ("tanh", "rms_centred")
+HEAD_OUTPUTS = ("tanh", "rms_centred", "rms_soft")
 #: Options that earlier configs (run checkpoints, bundled checkpoints) still carry, each with the one value
 #: that remains: the behaviour they chose otherwise is gone (docs/kernel_pool.md has its measurements).
 REMOVED_OPTIONS = {"denoiser_reads_adaptive": False, "temperature": 1.0, "pool_init_scale": 1.0}
@@ -211,12 +215,16 @@ class KernelMapHead(nn.Module):
 
     def scale(self, z: Tensor) -> Tensor:
         """What enters ``tanh`` for the head's raw output ``z`` (``output``: as is, or RMS-normalised with the
-        kernel index's mean over the image removed first)."""
+        kernel index's mean over the image removed first; ``rms_soft``: the identity channel's RMS
+        floored)."""
         if self.output == "tanh":
             return z
         index = z[:, :1]
         z = torch.cat([index - index.mean((-2, -1), keepdim=True), z[:, 1:]], dim=1)
-        return z * torch.rsqrt(z.float().square().mean((-2, -1), keepdim=True) + 1e-6).to(z.dtype)
+        square = z.float().square().mean((-2, -1), keepdim=True)
+        if self.output == "rms_soft":  # the identity channel over sqrt(mean square + 1): continuous in z
+            square = torch.cat([square[:, :1], square[:, 1:] + 1.0], dim=1)
+        return z * torch.rsqrt(square + 1e-6).to(z.dtype)
 
     def forward(self, parts: list[Tensor], constant: Tensor) -> Tensor:
         """``h`` from the channel concatenation of ``parts`` (finest features, g, i) and of ``constant``
