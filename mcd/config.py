@@ -14,6 +14,7 @@ line, :func:`exit_on_renamed`), and a config saved under an old name reads as to
 from __future__ import annotations
 
 import functools
+import re
 import sys
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
@@ -118,7 +119,54 @@ def hydra_main(task: Callable[[DictConfig], Any]) -> Callable[[], Any]:
 
     @functools.wraps(main)
     def checked(*args: Any, **kwargs: Any) -> Any:
-        exit_on_renamed(a for a in sys.argv[1:] if not a.startswith("-"))
+        overrides = [a for a in sys.argv[1:] if not a.startswith("-")]
+        exit_on_renamed(overrides)
+        if HELP_FLAGS & set(sys.argv[1:]):
+            from hydra.errors import HydraException
+            from omegaconf.errors import OmegaConfBaseException
+
+            try:
+                print(app_help(overrides, sys.modules[task.__module__].__doc__))
+            except (HydraException, OmegaConfBaseException) as err:
+                print(f"error: {err}", file=sys.stderr)
+                raise SystemExit(2) from None
+            return None
         return main(*args, **kwargs)
 
     return checked
+
+
+#: The flags that print a Hydra command's help (:func:`app_help`); ``--hydra-help`` stays Hydra's own.
+HELP_FLAGS = frozenset({"--help", "-h"})
+
+
+def config_groups() -> dict[str, list[str]]:
+    """Every config group a command line can pick from (``group=option``) and its options, sorted: the folders
+    of ``conf/`` (nested ones as ``a/b``) with their ``*.yaml`` files, and the experiment rows registered in
+    the ConfigStore (:func:`register_experiments`). Hydra's own groups (``hydra/...``) and private files
+    (``_name.yaml``, included by other configs) are left out. Read from the file system, so it costs
+    milliseconds where Hydra's ``--help`` builds a config repository for every group (docs/architecture.md,
+    "Start-up")."""
+    groups: dict[str, set[str]] = {}
+    for yaml in CONF_DIR.rglob("*.yaml"):
+        group = yaml.parent.relative_to(CONF_DIR).as_posix()
+        if group != "." and group.split("/")[0] != "hydra" and not yaml.stem.startswith("_"):
+            groups.setdefault(group, set()).add(yaml.stem)
+    groups.setdefault("experiment", set()).update(COMPONENTS)
+    return {group: sorted(groups[group]) for group in sorted(groups)}
+
+
+def app_help(overrides: Iterable[str], doc: str | None) -> str:
+    """The ``--help`` of a Hydra command (:func:`hydra_main`): the command's module docstring, its config
+    groups (:func:`config_groups`) and the config the given overrides compose (:func:`compose`, unresolved),
+    in the layout of Hydra's own help; ``--hydra-help`` lists Hydra's flags."""
+    command = getattr(sys.modules["__main__"].__spec__, "name", None) or sys.argv[0]
+    groups = "\n".join(f"{group}: {', '.join(options)}" for group, options in config_groups().items())
+    config = OmegaConf.to_yaml(compose(overrides), resolve=False)
+    about = re.sub(r":\w+:`([^`]*)`", r"\1", (doc or "").strip()).replace("``", "")
+    return "\n\n".join([
+        f"usage: python -m {command} [group=option ...] [key=value ...] [-m] [--cfg job] [--hydra-help]",
+        about,
+        "== Configuration groups ==\nCompose your configuration from those groups (group=option)", groups,
+        "== Config ==\nOverride anything in the config (foo.bar=value)",
+        f"{config}Hydra's own flags (-m, --cfg, --resolve, --info, ...): python -m {command} --hydra-help"])

@@ -2,15 +2,14 @@
 libraries, and ``mcd-denoise`` imports only what its input needs (Mitsuba only for ``--scene``, Lightning
 never). Each check runs the command in a fresh interpreter, as a user does.
 
-The import checks are deterministic; the time check measures the child's CPU time (not wall time, which the
-machine's load inflates) and fails only well above the goal of 1 s.
+The checks are deterministic: how long ``--help`` takes is measured by ``python -m mcd.bench startup``, not
+by a test (a shared machine's load would fail it at random).
 """
 
 from __future__ import annotations
 
 import json
 import os
-import resource
 import subprocess
 import sys
 from pathlib import Path
@@ -22,7 +21,6 @@ REPO = Path(__file__).resolve().parents[1]
 HEAVY = ("torch", "lightning", "mitsuba", "drjit", "pandas", "matplotlib", "skimage", "scipy")
 #: The commands whose ``--help`` must be fast (``mcd-denoise`` is ``python -m mcd.denoise``).
 COMMANDS = ("mcd.run", "mcd.render", "mcd.report", "mcd.bench", "mcd.denoise")
-CPU_LIMIT_S = 3.0
 
 #: Runs module ``argv[1]`` as ``python -m`` does with the rest of argv, then prints the top-level packages
 #: imported (after a marker line, since the command writes to stdout too).
@@ -56,15 +54,44 @@ def test_help_imports_no_heavy_library(module):
     assert not modules & set(HEAVY), f"python -m {module} --help imports {sorted(modules & set(HEAVY))}"
 
 
-@pytest.mark.parametrize("module", COMMANDS)
-def test_help_takes_well_under_the_limit(module):
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run([sys.executable, "-m", module, "--help"], cwd=REPO, capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": str(REPO)}, timeout=600)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    assert cpu < CPU_LIMIT_S, f"python -m {module} --help took {cpu:.2f} s of CPU (goal 1 s)"
+def test_a_hydra_commands_help_lists_what_hydras_own_help_lists():
+    """The fast ``--help`` of the Hydra commands (mcd.config.app_help) reads the groups from the file system;
+    they must be the ones Hydra itself finds, less Hydra's own groups and the private ``_name`` files."""
+    from hydra._internal.config_loader_impl import ConfigLoaderImpl
+    from hydra._internal.utils import create_config_search_path
+    from hydra.core.object_type import ObjectType
+
+    from mcd.config import CONF_DIR, config_groups, register_experiments
+
+    register_experiments()
+    loader = ConfigLoaderImpl(config_search_path=create_config_search_path(str(CONF_DIR)))
+
+    def walk(parent: str = "") -> dict[str, list[str]]:
+        found = {}
+        for group in loader.list_groups(parent):
+            name = f"{parent}/{group}" if parent else group
+            options = loader.get_group_options(name, ObjectType.CONFIG)
+            if options and not name.startswith("hydra"):
+                found[name] = sorted(o for o in options if not o.startswith("_"))
+            found.update(walk(name))
+        return found
+
+    assert config_groups() == dict(sorted(walk().items()))
+
+
+def test_help_shows_the_config_its_overrides_compose():
+    code, _, out = probe("mcd.run", "+experiment=C", "train.max_steps=7", "--help")
+    assert code == 0 and out.startswith("usage: python -m mcd.run"), out[-2000:]
+    groups = out.split("== Configuration groups ==", 1)[1].split("== Config ==", 1)[0]
+    assert "experiment: A, B, C, D," in groups and "_sweep_dirs" not in groups
+    config = out.split("== Config ==", 1)[1]
+    assert "  PP: false\n" in config and "  max_steps: 7\n" in config  # row C and the override
+    assert "--hydra-help" in out.splitlines()[-1]
+
+
+def test_help_with_a_bad_override_names_it_and_exits_2():
+    code, _, out = probe("mcd.run", "data=nope", "--help")
+    assert code == 2
 
 
 def test_denoising_frames_imports_neither_mitsuba_nor_lightning(tmp_path):

@@ -18,6 +18,7 @@ MODES: dict[str, tuple[str, str]] = {
     "train": ("mcd.tools.train_bench", "training steps/s of each method and training path"),
     "profile": ("mcd.tools.inference_profile", "where a two-stage row's inference time goes, stage by stage"),
     "loader": ("mcd.tools.loader_bench", "training clips/s of one loader worker, EXR vs the training store"),
+    "startup": ("mcd.tools.startup_bench", "CPU and wall seconds of each command's --help"),
 }
 DEFAULT = "speed"
 
