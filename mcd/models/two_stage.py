@@ -15,13 +15,16 @@ Colour is compressed inside (``method.colour``, default ``log1p``); inputs and o
 predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output"); the output steps after it
 (``method.mean_match``, ``method.pass_misses``) are every method's (mcd.models.output_steps), against the
 render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
-The stages run under ``torch.profiler.record_function`` labels (:data:`STAGES`), which
-``python -m mcd.bench --profile`` reads (docs/inference.md).
+``method.denoiser_margin`` reflects ``F_d``'s input by that many pixels on every side outside training and
+crops its output back (docs/method.md "Frame edges"). The stages run under
+``torch.profiler.record_function`` labels (:data:`STAGES`), which ``python -m mcd.bench --profile`` reads
+(docs/inference.md).
 """
 
 from __future__ import annotations
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 from torch.profiler import record_function
 
@@ -50,8 +53,12 @@ class TwoStage(nn.Module):
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
-                 sampler_padding: str = "zeros") -> None:
+                 sampler_padding: str = "zeros", denoiser_margin: int = 0) -> None:
         super().__init__()
+        if denoiser_margin < 0:
+            raise ValueError(f"method.denoiser_margin={denoiser_margin}: give 0 (off) or a number of pixels")
+        #: ``method.denoiser_margin``: pixels of reflection around ``F_d``'s input outside training
+        self.denoiser_margin = int(denoiser_margin)
         self.sw = dict(switches)
         self.budget, self.levels, self.colour = float(budget), levels, colour
         if denoiser_output not in DENOISER_OUTPUTS:
@@ -113,6 +120,16 @@ class TwoStage(nn.Module):
         return cat_channels([compress(c1, self.colour), gbuffers(x, who), compress(grey(c1), self.colour),
                              grey(albedo)])
 
+    def denoise(self, z: Tensor) -> Tensor:
+        """``F_d`` on its input ``z`` ``[B, C, H, W]``; outside training on ``z`` reflected by
+        ``denoiser_margin`` pixels (at most ``H - 1`` and ``W - 1``) on every side, the output cropped back,
+        so no pixel of the frame lies on the network's zero-padded edge (docs/method.md "Frame edges")."""
+        margin = 0 if self.training else min(self.denoiser_margin, z.shape[-2] - 1, z.shape[-1] - 1)
+        if margin == 0:
+            return self.denoiser(z)
+        y = self.denoiser(F.pad(z, (margin, margin, margin, margin), mode="reflect"))
+        return y[..., margin:-margin, margin:-margin]
+
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         who = "two_stage"
         g = gbuffers(x, who)
@@ -142,7 +159,7 @@ class TwoStage(nn.Module):
         else:
             feats = [compress(need(x, uniform_buffer(self.budget), who), self.colour), g]
         with record_function("F_d"):
-            y = self.denoiser(cat_channels([f.float() for f in feats]))
+            y = self.denoise(cat_channels([f.float() for f in feats]))
             if self.residual:
                 y = y + feats[0].float()
         out["output"] = expand(y, self.colour)
@@ -154,17 +171,20 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
                     denoiser: dict, sampler: dict, kernel_pool: dict, ghost: dict, pooling: dict,
                     attention: dict,
                     sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
-                    denoiser_output: str = "direct", sampler_padding: str = "zeros") -> TwoStage:
+                    denoiser_output: str = "direct", sampler_padding: str = "zeros",
+                    denoiser_margin: int = 0) -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
     ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions: ``replicate`` in the config, ``zeros``
-    for a config from before the key); and its widths (``capacity.two_stage``, conf/capacity/): ``denoiser``
-    (F_d's level widths and convs per level), ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast
-    GhostConv's large kernel, groups, mid ratio), ``pooling``, ``attention`` (docs/method.md). The output
-    steps are :func:`mcd.models.registry.build`'s."""
+    for a config from before the key), ``denoiser_margin`` (``F_d``'s reflected margin outside training: 16
+    in the config, 0 for a config from before the key); and its widths (``capacity.two_stage``,
+    conf/capacity/): ``denoiser`` (F_d's level widths and convs per level), ``sampler`` (F_s's),
+    ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio), ``pooling``,
+    ``attention`` (docs/method.md). The output steps are :func:`mcd.models.registry.build`'s."""
     switches = check_switches({"UN": UN, "AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}, complete=True)
     sizes = {"denoiser": denoiser, "sampler": sampler, "kernel_pool": kernel_pool, "ghost": ghost,
              "pooling": pooling, "attention": attention}
     return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
-                    kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding))
+                    kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding),
+                    denoiser_margin=int(denoiser_margin))

@@ -73,3 +73,43 @@ def test_row_f_pads_its_sampler_by_replication_and_old_configs_keep_zeros():
     assert _padding_modes(model) == {"zeros"}
     with torch.no_grad():
         assert torch.isfinite(model.eval()(frame(24, 24))["output"]).all()
+
+
+def test_the_denoiser_reads_the_frame_reflected_by_its_margin_outside_training_only():
+    """``method.denoiser_margin`` (docs/method.md "Frame edges"): in evaluation ``F_d`` runs on its input
+    reflected by 16 pixels and the output is cropped back; in training it runs on the crop as it is."""
+    import torch.nn.functional as F
+
+    torch.manual_seed(0)
+    model = build(row_cfg("F"))
+    assert model.denoiser_margin == 16
+    cin = next(m for m in model.denoiser.unet.encoder.modules() if isinstance(m, torch.nn.Conv2d)).in_channels
+    z = torch.rand(1, cin, 20, 28)
+    def fresh(run, x):   # each call a first frame (semantic alignment keeps the last frame's features)
+        model.reset()
+        return run(x)
+
+    with torch.no_grad():
+        plain = fresh(model.denoiser.eval(), z)
+        reflected = fresh(model.denoiser, F.pad(z, (16, 16, 16, 16), mode="reflect"))[..., 16:-16, 16:-16]
+        torch.testing.assert_close(fresh(model.eval().denoise, z), reflected)
+        torch.testing.assert_close(fresh(model.train().denoise, z), fresh(model.denoiser.train(), z))
+    edge = (reflected - plain)[..., 0, :].abs().max()
+    assert float(edge) > 1e-4   # the margin changes what the edge pixels see
+
+
+@pytest.mark.parametrize("size", [(9, 13), (24, 24)])
+def test_a_frame_smaller_than_the_margin_is_reflected_as_far_as_it_goes(size):
+    model = build(row_cfg("F")).eval()
+    with torch.no_grad():
+        out = model(frame(*size))["output"]
+    assert out.shape[-2:] == size and torch.isfinite(out).all()
+
+
+def test_configs_from_before_the_margin_keep_none_and_a_negative_one_is_refused():
+    cfg = row_cfg("F")
+    del cfg.method["denoiser_margin"]   # a config written before the option (the bundled F's)
+    assert build(cfg).denoiser_margin == 0
+    cfg.method.denoiser_margin = -1
+    with pytest.raises(ValueError, match="method.denoiser_margin=-1"):
+        build(cfg)

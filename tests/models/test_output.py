@@ -109,7 +109,9 @@ def test_mean_match_test_applies_in_eval_mode_only():
         last = [m for m in model.denoiser.modules() if isinstance(m, torch.nn.Conv2d)][-1]
         with torch.no_grad():
             last.bias += torch.tensor([0.6, 1.0, 0.8])  # an output far from the render's mean
-            outputs[mode] = (model.train()(x)["output"], model.eval()(x)["output"])
+            trained = model.train()(x)["output"]
+            model.reset()   # a new sequence: F_d reads a wider frame in eval mode (method.denoiser_margin)
+            outputs[mode] = (trained, model.eval()(x)["output"])
     plain, matched, test = outputs[False], outputs[True], outputs["test"]
     torch.testing.assert_close(test[0], plain[0])    # training: no gain
     torch.testing.assert_close(test[1], matched[1])  # validation and test: the gain
