@@ -67,14 +67,21 @@ def test_two_process_ddp_tests_every_frame_once_on_one_best_checkpoint(cbox_stor
     run_test(job, metrics["checkpoint"])
     single = pd.DataFrame(job.recorder.rows, columns=["scene", "frame", *FRAME_METRICS])
     # within 1e-6, relative or absolute: colour_shift, |ratio - 1|, turns float rounding of a ~1.05 ratio into
-    # a relative difference of ~2e-6 of its small value
-    pd.testing.assert_frame_equal(frames, single, check_exact=False, rtol=1e-6, atol=1e-6)
+    # a relative difference of ~2e-6 of its small value; border_gap, a difference of two PSNRs near 30 dB, to
+    # 1e-5 dB (F_d's reflected margin runs a larger frame, whose sums round differently: 2.6e-6 dB measured)
+    gaps = ["border_gap", "input_border_gap"]
+    pd.testing.assert_frame_equal(frames.drop(columns=gaps), single.drop(columns=gaps), check_exact=False,
+                                  rtol=1e-6, atol=1e-6)
+    pd.testing.assert_frame_equal(frames[gaps], single[gaps], check_exact=False, rtol=0, atol=1e-5)
     expected = RunRecord.scores_of(job.recorder.averages)  # kp_* are None: row A has no kernel map
     assert {k for k, v in expected.items() if v is None} == {k for k in expected if metrics[k] is None}
     known = {k: v for k, v in expected.items() if v is not None}
-    assert {k: metrics[k] for k in known} == pytest.approx(known, rel=1e-6)
-    assert metrics["per_scene"]["cbox"] == pytest.approx(job.recorder.averages["per_scene"]["cbox"],
-                                                         rel=1e-6)
+    scene = job.recorder.averages["per_scene"]["cbox"]
+    for got, want in ((metrics, known), (metrics["per_scene"]["cbox"], scene)):
+        assert {k: got[k] for k in want if k not in gaps} == pytest.approx(
+            {k: v for k, v in want.items() if k not in gaps}, rel=1e-6)
+        assert {k: got[k] for k in want if k in gaps} == pytest.approx(
+            {k: v for k, v in want.items() if k in gaps}, abs=1e-5)
 
 
 def _rank_mean(rank: int, world: int, store: str, out: str) -> None:
