@@ -85,6 +85,7 @@ def test_the_denoiser_reads_the_frame_reflected_by_its_margin_outside_training_o
     assert model.denoiser_margin == 16
     cin = next(m for m in model.denoiser.unet.encoder.modules() if isinstance(m, torch.nn.Conv2d)).in_channels
     z = torch.rand(1, cin, 20, 28)
+
     def fresh(run, x):   # each call a first frame (semantic alignment keeps the last frame's features)
         model.reset()
         return run(x)
