@@ -59,6 +59,7 @@ CATALOGUE: tuple[Method, ...] = (
            paper={"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578}),
     Method("F", "Ours (F)", "two_stage", True, table1=True, bench=True, train_bench=True,
            paper={"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}),
+    Method("F_paper", "Ours (F, paper's text)", "two_stage", True, variant_of="F"),
     Method("oidn", "OIDN", "oidn", False, table1=True, bench=True),
     Method("noisy", "Noisy input", "noisy", False, table1=True, bench=True),
     Method("A", "A", "two_stage", True, train_bench=True),

@@ -53,8 +53,10 @@ class TwoStage(nn.Module):
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
-                 sampler_padding: str = "zeros", denoiser_margin: int = 0) -> None:
+                 sampler_padding: str = "zeros", denoiser_margin: int = 0, reads_map: bool = True) -> None:
         super().__init__()
+        #: ``method.denoiser_reads_map``: ``F_d`` reads the normalised sampling map ``m / (s - 1)`` (with AS)
+        self.reads_map = bool(reads_map)
         if denoiser_margin < 0:
             raise ValueError(f"method.denoiser_margin={denoiser_margin}: give 0 (off) or a number of pixels")
         #: ``method.denoiser_margin``: pixels of reflection around ``F_d``'s input outside training
@@ -85,7 +87,7 @@ class TwoStage(nn.Module):
                                else float(compress(torch.tensor(highlight, device="cpu"), colour)))
             #: ``method.kp.skip_misses``: the kernel pool reads and changes only pixels that saw geometry
             self.kp_skip_misses = options["skip_misses"]
-            cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
+            cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + int(self.reads_map)
         else:
             self.sampler = None
             uniform = uniform_buffer(self.budget)
@@ -142,14 +144,14 @@ class TwoStage(nn.Module):
                 stack = stack_buffers(x, self.levels)
                 image, m = adaptive_render(s["logits"], c1, stack, x.get("ref"), self.budget)
             ic = compress(image, self.colour)
-            smap = m / (self.budget - 1)
-            feats = [ic, g, smap]
+            smap = [m / (self.budget - 1)] if self.reads_map else []
+            feats = [ic, g, *smap]
             if self.sw["KP"]:
                 with record_function("kernel pool"):
                     hits = ~miss_mask(need(x, "normal", who)) if self.kp_skip_misses else None
                     kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic, self.kp_ceiling,
                                                       hits)
-                feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, smap]
+                feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, *smap]
                 out["kernel_map"] = kp["kernel_map"].float()
                 if not self.training:  # a picture of this frame's adjusted pool for the samples
                     out["kernel_pool"] = pool_picture(kp["pool"], self.sampler.pool.size)
@@ -172,19 +174,20 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
                     attention: dict,
                     sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
                     denoiser_output: str = "direct", sampler_padding: str = "zeros",
-                    denoiser_margin: int = 0) -> TwoStage:
+                    denoiser_margin: int = 0, denoiser_reads_map: bool = True) -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
     ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions: ``replicate`` in the config, ``zeros``
     for a config from before the key), ``denoiser_margin`` (``F_d``'s reflected margin outside training: 16
-    in the config, 0 for a config from before the key); and its widths (``capacity.two_stage``,
-    conf/capacity/): ``denoiser`` (F_d's level widths and convs per level), ``sampler`` (F_s's),
-    ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio), ``pooling``,
-    ``attention`` (docs/method.md). The output steps are :func:`mcd.models.registry.build`'s."""
+    in the config, 0 for a config from before the key), ``denoiser_reads_map`` (``F_d`` reads the normalised
+    sampling map with AS: this project's default; false: the paper's list of ``F_d``'s inputs); and its
+    widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
+    ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio),
+    ``pooling``, ``attention`` (docs/method.md). The output steps are :func:`mcd.models.registry.build`'s."""
     switches = check_switches({"UN": UN, "AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}, complete=True)
     sizes = {"denoiser": denoiser, "sampler": sampler, "kernel_pool": kernel_pool, "ghost": ghost,
              "pooling": pooling, "attention": attention}
     return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
                     kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding),
-                    denoiser_margin=int(denoiser_margin))
+                    denoiser_margin=int(denoiser_margin), reads_map=bool(denoiser_reads_map))
