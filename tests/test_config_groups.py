@@ -22,7 +22,8 @@ EXPERIMENTS = experiment_names()
 #: The baselines' own losses (docs/baselines.md); every other experiment trains with the paper's.
 #: ``method.name`` of rows A-M (a variant of a row, such as F_paper, is one too).
 COMPONENT_METHOD = "two_stage"
-OWN_LOSS = {"rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad"}
+OWN_LOSS = {"rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad", "ntasad_no_warp": "ntasad",
+            "ntasad_no_previous": "ntasad"}
 
 
 def group_file(group: str, name: str) -> dict:
