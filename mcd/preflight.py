@@ -92,8 +92,8 @@ def check_warmup(cfg: DictConfig) -> int:
 #: Diagnostic switches (docs/method.md "Diagnostics", docs/baselines.md "NTASAD's diagnostics"): key of
 #: ``method`` -> (the ``method.name``\ s that have the input it changes, what that input is).
 DIAGNOSTICS = {
-    "warp": (("ntasad",), "NTASAD's previous output, warped by the motion vectors"),
-    "previous_output": (("ntasad",), "NTASAD's previous output fed back"),
+    "warp": (("ntasad",), "the previous output fed back, warped by the motion vectors"),
+    "previous_output": (("ntasad",), "the previous output fed back"),
     "warp_previous": (("two_stage", "unet"), "F_d's previous output warped by the motion vectors (rows A-M)"),
 }
 
