@@ -2,7 +2,9 @@
 
 :func:`check_run` refuses a budget that is not a number or has no stored uniform render, images smaller
 than the SSIM window, training crops the frames cannot hold, a training-clip stride outside 1 to
-``data.clip_len``, a malformed ``data.augment`` block and a warm-up that is not a step count; the
+``data.clip_len``, a malformed ``data.augment`` block, a warm-up that is not a step count and a diagnostic
+switch on a method without that input (:func:`check_diagnostics`); :func:`check_motion` refuses a run that
+reads the motion buffer where the training data cannot hold it (docs/reliability.md); the
 store checks every scene file before its first render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`),
 and the model its own budget rule when it is built (row F's adaptive sampling needs ``1 < s``; a method
 without it reads ``c_s``).
@@ -10,12 +12,14 @@ without it reads ``c_s``).
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterable
 
 from omegaconf import DictConfig
 
 from mcd.data.buffers import UNIFORM_BUDGETS
 from mcd.data.splits import clip_stride
+from mcd.data.train_store import TrainStoreSettings
 from mcd.metrics import SSIM_WINDOW
 
 
@@ -85,8 +89,52 @@ def check_warmup(cfg: DictConfig) -> int:
     return raw
 
 
+#: Diagnostic switches (docs/method.md "Diagnostics", docs/baselines.md "NTASAD's diagnostics"): key of
+#: ``method`` -> (the ``method.name``\ s that have the input it changes, what that input is).
+DIAGNOSTICS = {
+    "warp": (("ntasad",), "the previous output fed back, warped by the motion vectors"),
+    "previous_output": (("ntasad",), "the previous output fed back"),
+    "warp_previous": (("two_stage", "unet"), "F_d's previous output warped by the motion vectors (rows A-M)"),
+}
+
+
+def check_diagnostics(cfg: DictConfig) -> None:
+    """ValueError naming the key unless each diagnostic switch of :data:`DIAGNOSTICS` present in ``method``
+    belongs to the configured method and is a boolean."""
+    name = str(cfg.method.name)
+    for key, (owners, what) in DIAGNOSTICS.items():
+        if key not in cfg.method:
+            continue
+        if name not in owners:
+            raise ValueError(f"method.{key}: method {name} has no such input; the switch changes {what}, "
+                             f"so it applies to method.name={' or '.join(owners)} only. Remove method.{key}.")
+        if not isinstance(cfg.method[key], bool):
+            raise ValueError(f"method.{key}={cfg.method[key]!r}: give true or false")
+
+
+def check_motion(cfg: DictConfig, buffers: Iterable[str]) -> None:
+    """ValueError (before anything is rendered) when the run reads the ``motion`` buffer, as
+    ``method.warp_previous`` and NTASAD do, and its packed training store (``data.train_store.format=array``)
+    was packed without it; names the file and what to do. (Time-reversed clips with motion are
+    :func:`check_augment`'s.)"""
+    if "motion" not in set(buffers):
+        return
+    settings = TrainStoreSettings.from_cfg(cfg)
+    meta = settings.dir / "store.json"
+    if settings.format != "array" or not meta.is_file():
+        return
+    packed = list(json.loads(meta.read_text()).get("channels", {}))
+    if "motion" not in packed:
+        why = ("method.warp_previous=true reads" if cfg.method.get("warp_previous") else
+               f"method {cfg.method.name} reads")
+        raise ValueError(f"{why} the motion buffer, and the training store {settings.dir} holds {packed} "
+                         f"only ({meta}): give another data.train_store.dir, or delete {settings.dir} "
+                         "and let mcd.run pack it again with the motion buffer")
+
+
 def check_run(cfg: DictConfig) -> None:
     """Every check of this module, in the order a user would fix them."""
+    check_diagnostics(cfg)
     check_budget(cfg)
     check_image_size(cfg)
     check_crops(cfg)

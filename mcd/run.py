@@ -38,7 +38,7 @@ from mcd import allocator, run_dir
 from mcd.config import hydra_main
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
-from mcd.preflight import check_augment, check_run
+from mcd.preflight import check_augment, check_motion, check_run
 from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
 from mcd.run_summary import summary
@@ -159,6 +159,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
     buffers = run_buffers(model.required_buffers(), cfg.budget)
+    check_motion(cfg, buffers)  # the motion buffer where the training clips cannot hold it, before rendering
     check_augment(cfg, buffers)  # data.augment.reverse with a motion buffer, before anything is rendered
     announce(cfg, "mcd.run", train=bool(cfg.method.get("trainable", True)))  # the plan's line if over 1 h
     store = StoreBuilder.from_cfg(cfg)

@@ -20,7 +20,10 @@ from tests.conftest import compose_cfg
 CONF = Path(__file__).resolve().parents[1] / "conf"
 EXPERIMENTS = experiment_names()
 #: The baselines' own losses (docs/baselines.md); every other experiment trains with the paper's.
-OWN_LOSS = {"rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad"}
+#: ``method.name`` of rows A-M (a variant of a row, such as F_paper, is one too).
+COMPONENT_METHOD = "two_stage"
+OWN_LOSS = {"rae": "rae", "fastdvdnet": "mse", "dasr": "dasr", "ntasad": "ntasad", "ntasad_no_warp": "ntasad",
+            "ntasad_no_previous": "ntasad"}
 
 
 def group_file(group: str, name: str) -> dict:
@@ -36,9 +39,12 @@ def test_experiment_composes_to_its_method_and_loss_files(experiment: str) -> No
     assert cfg.experiment == experiment
     if experiment in COMPONENTS:  # rows A-M: the two-stage file with the row's switches
         expected = {**group_file("method", "two_stage"), **COMPONENTS[experiment]["switches"]}
-    else:
-        expected = group_file("method", TABLE1_VARIANTS.get(experiment, experiment))
-        assert expected["name"] == TABLE1_VARIANTS.get(experiment, experiment)
+    else:  # its method's file, with the settings the experiment's own file changes (F_paper's)
+        of = TABLE1_VARIANTS.get(experiment, experiment)
+        expected = group_file("method", COMPONENT_METHOD if of in COMPONENTS else of)
+        assert expected["name"] == (COMPONENT_METHOD if of in COMPONENTS else of)
+        own = OmegaConf.load(CONF / "experiment" / f"{experiment}.yaml").get("method", {})
+        expected = OmegaConf.to_container(OmegaConf.merge(expected, own))
     assert method == expected
     assert cfg.loss.name == OWN_LOSS.get(experiment, "paper")
     assert OmegaConf.to_container(cfg.loss) == group_file("loss", cfg.loss.name)

@@ -16,7 +16,9 @@ predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output"); the o
 (``method.mean_match``, ``method.pass_misses``) are every method's (mcd.models.output_steps), against the
 render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 ``method.denoiser_margin`` reflects ``F_d``'s input by that many pixels on every side outside training and
-crops its output back (docs/method.md "Frame edges"). The stages run under
+crops its output back (docs/method.md "Frame edges"). ``method.warp_previous`` (not the paper's; a diagnostic,
+docs/method.md "Diagnostics") also feeds ``F_d`` its previous output, warped to this frame by the motion
+vectors as NTASAD's is (on a sequence's first frame, its own colour input). The stages run under
 ``torch.profiler.record_function`` labels (:data:`STAGES`), which ``python -m mcd.bench --profile`` reads
 (docs/inference.md).
 """
@@ -36,6 +38,7 @@ from mcd.models.misses import miss_mask
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
 from mcd.models.switches import check_switches
+from mcd.models.warp import warp
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
 
 #: ``method.denoiser_output``: ``direct`` (the paper: ``F_d`` predicts the image) or ``residual`` (``F_d``
@@ -53,8 +56,14 @@ class TwoStage(nn.Module):
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
-                 sampler_padding: str = "zeros", denoiser_margin: int = 0) -> None:
+                 sampler_padding: str = "zeros", denoiser_margin: int = 0, reads_map: bool = True,
+                 warp_previous: bool = False) -> None:
         super().__init__()
+        #: ``method.warp_previous``: ``F_d`` also reads its previous output warped by the motion vectors
+        self.warp_previous = bool(warp_previous)
+        self.prev: Tensor | None = None
+        #: ``method.denoiser_reads_map``: ``F_d`` reads the normalised sampling map ``m / (s - 1)`` (with AS)
+        self.reads_map = bool(reads_map)
         if denoiser_margin < 0:
             raise ValueError(f"method.denoiser_margin={denoiser_margin}: give 0 (off) or a number of pixels")
         #: ``method.denoiser_margin``: pixels of reflection around ``F_d``'s input outside training
@@ -85,7 +94,7 @@ class TwoStage(nn.Module):
                                else float(compress(torch.tensor(highlight, device="cpu"), colour)))
             #: ``method.kp.skip_misses``: the kernel pool reads and changes only pixels that saw geometry
             self.kp_skip_misses = options["skip_misses"]
-            cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + 1
+            cin = (3 if self.sw["KP"] else 0) + (3 if self.reads_adaptive else 0) + 7 + int(self.reads_map)
         else:
             self.sampler = None
             uniform = uniform_buffer(self.budget)
@@ -93,6 +102,7 @@ class TwoStage(nn.Module):
                 raise ValueError(f"budget={budget}: without AS the denoiser reads the uniform render c_s, "
                                  f"which exists for s in {stack_names(levels)} only")
             cin = 3 + 7
+        cin += 3 if self.warp_previous else 0
         pp = widths.get("pooling", {})
         att = widths.get("attention", {})
         self.denoiser = Denoiser(cin, list(den["widths"]), den["convs"], position_pooling=self.sw["PP"],
@@ -101,17 +111,30 @@ class TwoStage(nn.Module):
 
     @property
     def temporal_state(self) -> bool:
-        """Only semantic alignment carries state from frame to frame (mcd.lit.module skips the clip frames the
-        loss does not read for rows without it)."""
-        return self.sw["SA"]
+        """Semantic alignment and the warped previous output carry state from frame to frame
+        (mcd.lit.module skips the clip frames the loss does not read for rows without either)."""
+        return self.sw["SA"] or self.warp_previous
 
     def required_buffers(self) -> set[str]:
+        motion = {"motion"} if self.warp_previous else set()
         if self.sw["AS"]:
-            return {"c1_in", *stack_names(self.levels), *GBUFFERS}
-        return {uniform_buffer(self.budget), *GBUFFERS}
+            return {"c1_in", *stack_names(self.levels), *GBUFFERS, *motion}
+        return {uniform_buffer(self.budget), *GBUFFERS, *motion}
 
     def reset(self) -> None:
         self.denoiser.reset()
+        self.prev = None
+
+    def previous(self, x: dict[str, Tensor | None], colour: Tensor) -> Tensor:
+        """``F_d``'s previous output (network range) warped to this frame by the motion vectors, or
+        ``colour`` (its colour input) on a sequence's first frame (``method.warp_previous``)."""
+        if self.prev is None:
+            return colour
+        motion = need(x, "motion", "two_stage")
+        if self.prev.shape[0] != motion.shape[0] or self.prev.shape[-2:] != motion.shape[-2:]:
+            raise RuntimeError(f"F_d's previous output has shape {tuple(self.prev.shape)} but this frame "
+                               f"is {tuple(motion.shape)}: call reset() at each sequence/clip start")
+        return warp(self.prev, motion.float())
 
     def sampler_input(self, x: dict[str, Tensor | None]) -> Tensor:
         """``F_s``'s input (docs/method.md "Inputs"): ``c_1``, ``g``, grey ``c_1`` and grey albedo."""
@@ -142,14 +165,14 @@ class TwoStage(nn.Module):
                 stack = stack_buffers(x, self.levels)
                 image, m = adaptive_render(s["logits"], c1, stack, x.get("ref"), self.budget)
             ic = compress(image, self.colour)
-            smap = m / (self.budget - 1)
-            feats = [ic, g, smap]
+            smap = [m / (self.budget - 1)] if self.reads_map else []
+            feats = [ic, g, *smap]
             if self.sw["KP"]:
                 with record_function("kernel pool"):
                     hits = ~miss_mask(need(x, "normal", who)) if self.kp_skip_misses else None
                     kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic, self.kp_ceiling,
                                                       hits)
-                feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, smap]
+                feats = [kp["initial"], *([ic] if self.reads_adaptive else []), g, *smap]
                 out["kernel_map"] = kp["kernel_map"].float()
                 if not self.training:  # a picture of this frame's adjusted pool for the samples
                     out["kernel_pool"] = pool_picture(kp["pool"], self.sampler.pool.size)
@@ -158,10 +181,14 @@ class TwoStage(nn.Module):
             out["adaptive"] = image
         else:
             feats = [compress(need(x, uniform_buffer(self.budget), who), self.colour), g]
+        if self.warp_previous:
+            feats = [*feats, self.previous(x, feats[0].float())]
         with record_function("F_d"):
             y = self.denoise(cat_channels([f.float() for f in feats]))
             if self.residual:
                 y = y + feats[0].float()
+        if self.warp_previous:
+            self.prev = y
         out["output"] = expand(y, self.colour)
         return out
 
@@ -172,19 +199,23 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
                     attention: dict,
                     sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
                     denoiser_output: str = "direct", sampler_padding: str = "zeros",
-                    denoiser_margin: int = 0) -> TwoStage:
+                    denoiser_margin: int = 0, denoiser_reads_map: bool = True,
+                    warp_previous: bool = False) -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
     ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions: ``replicate`` in the config, ``zeros``
     for a config from before the key), ``denoiser_margin`` (``F_d``'s reflected margin outside training: 16
-    in the config, 0 for a config from before the key); and its widths (``capacity.two_stage``,
-    conf/capacity/): ``denoiser`` (F_d's level widths and convs per level), ``sampler`` (F_s's),
-    ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio), ``pooling``,
-    ``attention`` (docs/method.md). The output steps are :func:`mcd.models.registry.build`'s."""
+    in the config, 0 for a config from before the key), ``denoiser_reads_map`` (``F_d`` reads the normalised
+    sampling map with AS: this project's default; false: the paper's list of ``F_d``'s inputs),
+    ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output); and its
+    widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
+    ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio),
+    ``pooling``, ``attention`` (docs/method.md). The output steps are :func:`mcd.models.registry.build`'s."""
     switches = check_switches({"UN": UN, "AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}, complete=True)
     sizes = {"denoiser": denoiser, "sampler": sampler, "kernel_pool": kernel_pool, "ghost": ghost,
              "pooling": pooling, "attention": attention}
     return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
                     kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding),
-                    denoiser_margin=int(denoiser_margin))
+                    denoiser_margin=int(denoiser_margin), reads_map=bool(denoiser_reads_map),
+                    warp_previous=bool(warp_previous))

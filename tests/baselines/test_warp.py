@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from mcd.models.baselines.warp import warp
+from mcd.models.warp import warp
 
 
 def test_zero_motion_is_identity() -> None:

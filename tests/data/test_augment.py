@@ -13,7 +13,7 @@ from mcd.data import MCDDataModule
 from mcd.data.augment import EXPOSURE_LIMIT, Augment, Draw, apply
 from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS
 from mcd.data.clips import ExrClips
-from mcd.models.baselines.warp import warp
+from mcd.models.warp import warp
 from mcd.preflight import check_run
 from tests.conftest import compose_cfg, store32_overrides
 

@@ -7,7 +7,7 @@ concatenated skip + two convs of width ``dec`` at 1/16..1/2; the full-resolution
 the raw input instead of a skip and has two convs of width ``full``; 3x3 heads read the decoder levels.
 
 Temporal feedback: only the final output is fed back, warped to the current frame by the motion vectors
-(:func:`~mcd.models.baselines.warp.warp`), to both networks; the first frame's "previous output" is the
+(:func:`~mcd.models.warp.warp`), to both networks; the first frame's "previous output" is the
 uniform render at the budget. Sampler inputs: G-buffers, motion vectors, grey albedo and the grey warped
 previous output (``log1p``); its logits drive the project's adaptive render
 (:func:`mcd.sampling.adaptive_render`: map normalisation to the exact budget, simulated render from the 2^k
@@ -18,7 +18,12 @@ Hierarchical kernel prediction: per-pixel 5x5 kernels (softmax over taps) filter
 and 1/2 (average-pooled) and at full resolution, where a spatial 5x5 on the image and a temporal 5x5 on the
 warped previous output share one softmax over their 50 taps. Levels combine coarse to fine as ``o = i_f - a
 Up(Down(i_f)) + a Up(i_c)`` with a per-pixel blend weight ``a = sigmoid(.)`` predicted at 1/2 and full
-resolution (the coarsest level has nothing coarser to blend, so its head has only the 25 taps)."""
+resolution (the coarsest level has nothing coarser to blend, so its head has only the 25 taps).
+
+Two diagnostic switches, not NTASAD's design (docs/baselines.md "NTASAD's diagnostics"): ``method.warp=false``
+gives it zero motion vectors (the previous output is fed back unwarped, the sampler reads zero motion, and
+the motion buffer is not loaded); ``method.previous_output=false`` feeds zeros in place of the previous output
+on every frame (no temporal input, the first frame's included)."""
 
 from __future__ import annotations
 
@@ -28,10 +33,10 @@ from torch import Tensor, nn
 
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
-from mcd.models.baselines.warp import warp
 from mcd.models.inputs import compress, crop, gbuffers, grey, need, pad_to_multiple
 from mcd.models.kernel_pool import apply_pixel_kernels
 from mcd.models.registry import register
+from mcd.models.warp import warp
 from mcd.sampling import adaptive_render, stack_buffers, stack_names
 
 #: Per-pixel kernel size at every level.
@@ -103,9 +108,14 @@ class NTASAD(nn.Module):
     window = (0, 0)
     temporal_state = True  # the previous output, warped
 
-    def __init__(self, budget: int, enc: int, dec: int, full: int, levels: int = 5) -> None:
+    def __init__(self, budget: int, enc: int, dec: int, full: int, levels: int = 5, warp: bool = True,
+                 previous_output: bool = True) -> None:
         super().__init__()
         self.budget, self.levels = int(budget), int(levels)
+        #: ``method.warp``: the previous output is warped by the motion vectors (false: zero motion)
+        self.warp = bool(warp)
+        #: ``method.previous_output``: the previous output is fed back (false: zeros on every frame)
+        self.previous_output = bool(previous_output)
         self.first_key = uniform_key(self.budget, "ntasad")
         taps = K * K
         self.sampler = NTASADUNet(11, enc, dec, full, {1: 1})
@@ -113,15 +123,21 @@ class NTASAD(nn.Module):
         self.prev: Tensor | None = None
 
     def required_buffers(self) -> set[str]:
-        return {"c1_in", *stack_names(self.levels), self.first_key, *GBUFFERS, "motion"}
+        return {"c1_in", *stack_names(self.levels), self.first_key, *GBUFFERS,
+                *(["motion"] if self.warp else [])}
 
     def reset(self) -> None:
         self.prev = None
 
     def previous(self, x: dict[str, Tensor | None]) -> Tensor:
-        """The previous output warped to this frame, or the uniform render at the budget on a first frame."""
+        """The previous output warped to this frame, or the uniform render at the budget on a first frame;
+        unwarped with ``warp`` off, zeros with ``previous_output`` off."""
+        if not self.previous_output:
+            return torch.zeros_like(need(x, "c1_in", "ntasad"))
         if self.prev is None:
             return need(x, self.first_key, "ntasad")
+        if not self.warp:
+            return self.prev
         motion = need(x, "motion", "ntasad")
         if self.prev.shape[0] != motion.shape[0] or self.prev.shape[-2:] != motion.shape[-2:]:
             raise RuntimeError(f"NTASAD's previous output has shape {tuple(self.prev.shape)} but this frame "
@@ -133,7 +149,8 @@ class NTASAD(nn.Module):
         h, w = c1.shape[-2:]
         prev = self.previous(x)
         g = gbuffers(x, "ntasad")
-        motion = need(x, "motion", "ntasad") / MOTION_SCALE
+        motion = (need(x, "motion", "ntasad") / MOTION_SCALE if self.warp
+                  else c1.new_zeros((c1.shape[0], 2, h, w)))
         s_in = torch.cat([g, motion, grey(need(x, "albedo", "ntasad")), grey(compress(prev))], 1)
         logits = crop(self.sampler(pad_to_multiple(s_in, self.sampler.stride))[1], (h, w))
         i, m = adaptive_render(logits, c1, stack_buffers(x, self.levels), x.get("ref"), float(self.budget))
@@ -154,8 +171,11 @@ class NTASAD(nn.Module):
 
 
 @register("ntasad")
-def build_ntasad(*, budget: float, enc: int, dec: int, full: int, sampling: dict | None = None) -> NTASAD:
+def build_ntasad(*, budget: float, enc: int, dec: int, full: int, sampling: dict | None = None,
+                 warp: bool = True, previous_output: bool = True) -> NTASAD:
     """NTASAD at ``budget`` with its widths (``capacity.ntasad``): ``enc`` (encoder, every level), ``dec``
-    (decoder, 1/16 .. 1/2), ``full`` (full-resolution decoder); ``sampling.levels`` (5) of
-    conf/method/ntasad.yaml (docs/baselines.md)."""
-    return NTASAD(budget, int(enc), int(dec), int(full), int((sampling or {}).get("levels", 5)))
+    (decoder, 1/16 .. 1/2), ``full`` (full-resolution decoder); ``sampling.levels`` (5), and the diagnostic
+    switches ``warp`` and ``previous_output`` (module docstring) of conf/method/ntasad.yaml
+    (docs/baselines.md)."""
+    return NTASAD(budget, int(enc), int(dec), int(full), int((sampling or {}).get("levels", 5)),
+                  warp=bool(warp), previous_output=bool(previous_output))

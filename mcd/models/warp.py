@@ -1,4 +1,5 @@
-"""Backward warping by motion vectors (NTASAD's output feedback; docs/baselines.md "NTASAD").
+"""Backward warping by motion vectors (NTASAD's output feedback, docs/baselines.md "NTASAD"; the
+two-stage model's `method.warp_previous`, docs/method.md "Diagnostics").
 
 The store's ``motion`` buffer (architecture.md) is backward motion in pixels: pixel ``(x, y)`` of frame
 ``t`` was at ``(x + mx, y + my)`` in frame ``t - 1``. Warping frame ``t - 1`` to frame ``t`` therefore

@@ -1,0 +1,95 @@
+"""``+experiment=F_paper``: row F with every addition of this project off (docs/method.md "F against the
+paper"). The table's last column is the one list of those settings: each holds in ``F_paper``'s composed
+config, F differs where its default is not already the paper's, and ``F_paper`` trains and tests on a real
+32x32 Cornell-box store."""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import torch
+import yaml
+from omegaconf import OmegaConf
+
+from mcd.config import compose
+from mcd.methods import BY_EXPERIMENT, TABLE1_VARIANTS
+from tests.conftest import compose_cfg, store32_overrides
+
+REPO = Path(__file__).resolve().parents[1]
+SECTION = "## F against the paper"
+
+
+def deviation_rows() -> list[tuple[str, str, list[tuple[str, str]]]]:
+    """``(what, F's column, [(key, value), ...])`` for each row of docs/method.md's table."""
+    text = (REPO / "docs" / "method.md").read_text()
+    body = text[text.index(SECTION):]
+    body = body[:body.index("\n## ", 1)]
+    rows = []
+    for line in body.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) != 5 or cells[0] in ("what", "---"):
+            continue
+        pairs = re.findall(r"`([a-z_.]+)=([^`]+)`", cells[4])
+        assert pairs, f"docs/method.md, {SECTION!r}: row {cells[0]!r} names no `key=value` switch"
+        rows.append((cells[0], cells[2], pairs))
+    return rows
+
+
+def value(text: str):
+    """A switch's value as the config holds it (``null`` -> None, ``0.0`` -> 0.0, ``tanh`` -> "tanh")."""
+    return yaml.safe_load(text)
+
+
+def test_every_listed_deviation_is_off_in_f_paper():
+    rows = deviation_rows()
+    assert len(rows) >= 12
+    paper, ours = compose(["+experiment=F_paper"]), compose(["+experiment=F"])
+    assert paper.experiment == "F_paper" and paper.method.name == "two_stage"
+    assert [paper.method[s] for s in ("UN", "AS", "KP", "PP", "FG", "SA")] == [True] * 6
+    differs = 0
+    for what, f_column, pairs in rows:
+        for key, text in pairs:
+            want = value(text)
+            assert OmegaConf.select(paper, key, throw_on_missing=True) == want, f"{what}: {key}"
+            if "(default)" not in f_column and not f_column.startswith("off"):
+                assert OmegaConf.select(ours, key) != want, f"{what}: F has {key}={want} already"
+                differs += 1
+    assert differs >= 10
+    # everything else is F's: the same recipe (train, loss, capacity) and colour compression
+    for key in ("train", "loss", "capacity", "budget"):
+        assert paper[key] == ours[key], key
+    assert paper.method.colour == ours.method.colour
+
+
+def test_f_paper_sits_beside_f_in_table1():
+    entry = BY_EXPERIMENT["F_paper"]
+    assert entry.variant_of == "F" and entry.trainable and not entry.table1
+    assert TABLE1_VARIANTS["F_paper"] == "F"
+
+
+@pytest.mark.slow
+def test_f_paper_trains_and_tests_on_real_renders(cbox_store, tmp_path):
+    """A few real optimiser steps of F_paper, then the test: its F_d reads ``i_bar`` and ``g`` only (10
+    channels), predicts the image, and the record says F_paper."""
+    from mcd.models import build
+    from mcd.run import train_and_test
+
+    cfg = compose_cfg(*store32_overrides(cbox_store[1].data_dir), "data.train_crop=32", "data.val_crop=32",
+                      "train.batch_size=1", "+experiment=F_paper", "train.max_steps=3",
+                      "train.max_minutes=null", "train.val_every_steps=3", "train.sample_frames=[]",
+                      "trainer.enable_progress_bar=false")
+    model = build(cfg)
+    first = next(m for m in model.denoiser.unet.encoder.modules() if isinstance(m, torch.nn.Conv2d))
+    assert first.in_channels == 3 + 7 and not model.residual and not model.reads_map
+    assert model.denoiser_margin == 0 and not model._forward_hooks  # no mean match, no passed misses
+    train_and_test(cfg, tmp_path, {}, time.perf_counter())
+    m = json.loads((tmp_path / "metrics.json").read_text())
+    assert m["experiment"] == "F_paper" and m["train_steps"] == 3 and m["trained"] is True
+    assert m["method"]["denoiser_output"] == "direct" and m["method"]["kp"]["head_output"] == "tanh"
+    frames = pd.read_csv(tmp_path / "frames.csv")
+    assert len(frames) == 2 and frames["psnr"].notna().all()
