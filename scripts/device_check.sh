@@ -8,17 +8,26 @@
 #   2. smoke:   the paper-shaped training of tests/scale/paper_smoke_run.py (capacity=paper row F, a synthetic
 #               1920x1080 store packed into the training store, 256x256 crops, 5-frame clips, two loader
 #               workers) on the GPU under trainer=ddp (NCCL, one rank) and bf16-mixed; per-step wall times;
-#   3. speed:   python -m mcd.bench speed on CUDA at 1080p and 256x256, capacity=paper, eager paths;
-#   4. compile: the same for row F with the torch.compile paths (max-autotune builds: minutes).
+#   3. profile: python -m mcd.bench profile of row F (capacity=paper) on the GPU at PROFILE_SIZE (1080p),
+#               bf16 (before the speed step) and fp32 (after it): each stage's exclusive time from CUDA
+#               events, refused (exit 3, no file) unless the stages add up to the frame within 10%
+#               (docs/inference.md "Stage profile");
+#   4. speed:   python -m mcd.bench speed on CUDA for SPEED_METHODS (F,unet,fastdvdnet) at SPEED_SIZES
+#               (1080p), capacity=paper, eager paths (each method's own forward, so its fast paths);
+#   5. compile: the same for row F with the torch.compile paths (max-autotune builds: minutes).
 #
 #   scripts/device_check.sh            # env: OUT (default outputs/device_check), PY (default python3),
 #                                      # SECONDS_TOTAL (default 480), PILOT_SPP (default 32),
-#                                      # PILOT_FRAMES (default 3), ACCEL (default gpu),
-#                                      # STEPS (default "plan smoke speed compile"), SMOKE_EXTRA (overrides
-#                                      # appended to the smoke run's, e.g. a smaller frame for a trial on CPU)
+#                                      # PILOT_FRAMES (default 3), ACCEL (default gpu; cpu: a trial of
+#                                      # the profile and speed steps on the CPU, e.g. with PROFILE_SIZE=128x96
+#                                      # SPEED_SIZES=128x96), STEPS (default "plan smoke profile speed
+#                                      # compile"), SMOKE_EXTRA (overrides appended to the smoke run's, e.g. a
+#                                      # smaller frame for a trial on CPU)
+#   SECONDS_TOTAL=200 STEPS="profile speed" scripts/device_check.sh      # the profile and speed steps only
 #
-# Writes OUT/check.log (every step's output), OUT/machine.txt, OUT/smoke_rank0.json, OUT/speed/bench.csv and
-# OUT/compile/bench.csv (each with the README that mcd.bench writes beside it). Scenes: the vendored ones
+# Writes OUT/check.log (every step's output), OUT/machine.txt, OUT/smoke_rank0.json, OUT/profile/F_bf16.md and
+# OUT/profile/F_fp32.md, OUT/speed/bench.csv and OUT/compile/bench.csv (each with the README that mcd.bench
+# writes beside it); a step that does not run writes nothing. Scenes: the vendored ones
 # (MCD_SCENES_DIR defaults to scenes/ here, so the plan's pilot renders staircase2, the first of data=paper's
 # scenes that is vendored).
 set -u
@@ -26,17 +35,20 @@ cd "$(dirname "$0")/.."
 OUT=$(realpath -m "${OUT:-outputs/device_check}")
 PY=${PY:-python3}
 ACCEL=${ACCEL:-gpu}
+DEV=cuda
+[[ $ACCEL == gpu ]] || DEV=cpu
+STEPS=${STEPS:-plan smoke profile speed compile}
 deadline=$(( $(date +%s) + ${SECONDS_TOTAL:-480} ))
 export PYTHONUNBUFFERED=1 HYDRA_FULL_ERROR=1 MCD_SCENES_DIR=${MCD_SCENES_DIR:-$PWD/scenes}
 export PYTHONPATH=$PWD${PYTHONPATH:+:$PYTHONPATH}
 work=$(mktemp -d)
-mkdir -p "$OUT/speed" "$OUT/compile"
+mkdir -p "$OUT"
 log=$OUT/check.log
 
 step() {  # step NAME LIMIT_S CMD...: runs CMD under min(LIMIT_S, time left), its output into the log
   local name=$1 limit=$2 left
   shift 2
-  [[ " ${STEPS:-plan smoke speed compile} " == *" ${name%%-*} "* ]] || return 0
+  [[ " $STEPS " == *" ${name%%-*} "* ]] || return 0
   left=$(( deadline - $(date +%s) ))
   (( left < limit )) && limit=$left
   if (( limit < 20 )); then echo "== $name: skipped, ${left} s left" | tee -a "$log"; return; fi
@@ -78,9 +90,15 @@ print(f"smoke: seconds between steps after epoch 0: median {statistics.median(ga
       f"min {min(gaps):.3f}, max {max(gaps):.3f} (validation of each epoch falls between epochs)")
 EOF
 
-step speed 150 "$PY" -m mcd.bench speed --devices cuda --synthetic --no-cuda-compile --sizes 1080p,256 \
+# row F's stage profile on $DEV at PROFILE_SIZE; each dtype's table into OUT/profile/F_<dtype>.md
+profile=("$PY" -m mcd.bench profile --device "$DEV" --size "${PROFILE_SIZE:-1080p}" --synthetic --warmup 2
+         --repeat 5)
+step profile-bf16 45 "${profile[@]}" --dtype bf16 --out "$OUT/profile/F_bf16.md" capacity=paper
+step speed 100 "$PY" -m mcd.bench speed --devices "$DEV" --synthetic --no-cuda-compile \
+  --methods "${SPEED_METHODS:-F,unet,fastdvdnet}" --sizes "${SPEED_SIZES:-1080p}" \
   --out "$OUT/speed/bench.csv" capacity=paper
-step compile 150 "$PY" -m mcd.bench speed --devices cuda --synthetic --methods F --sizes 1080p \
+step profile-fp32 45 "${profile[@]}" --dtype fp32 --out "$OUT/profile/F_fp32.md" capacity=paper
+step compile 150 "$PY" -m mcd.bench speed --devices "$DEV" --synthetic --methods F --sizes 1080p \
   --out "$OUT/compile/bench.csv" capacity=paper
 rm -rf "$work"
 echo "== done: $(date -u)" | tee -a "$log"

@@ -27,7 +27,7 @@ class Denoiser(nn.Module):
         super().__init__()
         pool = partial(PositionAwarePool, hidden=pp_hidden) if position_pooling else max_pool
         self.align = SemanticAlignment(widths[-1], heads, ffn_mult) if semantic_alignment else None
-        self.unet = UNet(cin, 3, widths, convs, pool=pool, deepest=self.align)
+        self.unet = UNet(cin, 3, widths, convs, pool=pool, deepest=self.align, level_labels=True)
 
     def reset(self) -> None:
         """Drop the semantic-alignment state."""

@@ -30,6 +30,7 @@ from mcd.models.cpu_fast.ghost_conv import (
     primary_and_ghost,
 )
 from mcd.models.inputs import with_constant
+from mcd.models.stages import stage
 
 
 class FastGhostConv(nn.Module):
@@ -61,6 +62,10 @@ class FastGhostConv(nn.Module):
         concatenates parts only where a group straddles them and convolves no constant channel
         (docs/inference.md; a U-Net decoder block is handed its upsampled features and skip, the kernel-map
         head the kernel descriptor)."""
+        with stage("Ghost conv"):
+            return self._forward_parts(parts, constant)
+
+    def _forward_parts(self, parts: Sequence[Tensor], constant: Tensor | None) -> Tensor:
         if fast_path_applies(self.group, parts):
             if self.ghost.padding_mode == "zeros" and fused_conv.applies(self.ghost.weight, parts):
                 return primary_and_ghost(self.group, self.point, self.ghost, parts, constant)

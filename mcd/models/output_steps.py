@@ -16,6 +16,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import uniform_buffer
 from mcd.models.mean_match import match_frame_mean
 from mcd.models.misses import pass_misses
+from mcd.models.stages import stage
 
 
 def current_frame(buffer: Tensor, past: int) -> Tensor:
@@ -53,12 +54,13 @@ def attach_output_steps(module: nn.Module, method: DictConfig, budget: float) ->
     past = int(getattr(module, "window", (0, 0))[0])
 
     def hook(model: nn.Module, args: tuple[Any, ...], out: dict[str, Tensor]) -> dict[str, Tensor]:
-        x = args[0]
-        render = denoised_render(out, x, budget, past)
-        if mean is True or (mean == "test" and not model.training):
-            out["output"] = match_frame_mean(out["output"], render)
-        if misses:
-            out["output"] = pass_misses(out["output"], render, current_frame(x["normal"], past))
+        with stage("output steps"):
+            x = args[0]
+            render = denoised_render(out, x, budget, past)
+            if mean is True or (mean == "test" and not model.training):
+                out["output"] = match_frame_mean(out["output"], render)
+            if misses:
+                out["output"] = pass_misses(out["output"], render, current_frame(x["normal"], past))
         return out
 
     module.register_forward_hook(hook)

@@ -16,7 +16,8 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
-from torch.profiler import record_function
+
+from mcd.models.stages import stage
 
 
 def position_features(h: int, w: int, like: Tensor) -> Tensor:
@@ -50,7 +51,7 @@ class PositionAwarePool(nn.Module):
         y = F.conv2d(x, first.weight[:, :c], first.bias) + F.conv2d(pos, first.weight[:, c:].to(pos.dtype))
         return self.score[1:](y) if isinstance(self.score, nn.Sequential) else y
 
-    @record_function("PP")
+    @stage("PP")
     def forward(self, x: Tensor) -> Tensor:
         h, w = x.shape[-2:]
         if h % 2 or w % 2:

@@ -11,7 +11,6 @@ from __future__ import annotations
 from functools import partial
 
 from torch import Tensor, nn
-from torch.profiler import record_function
 
 from mcd.models.blocks import BlockFactory, ConvReLU
 from mcd.models.ghost_conv import FastGhostConv
@@ -22,6 +21,7 @@ from mcd.models.kernel_pool import (
     interpolate_kernels,
     kp_options_of,
 )
+from mcd.models.stages import stage
 from mcd.models.unet import UNet
 
 #: Channels the sampling network reads: c_1 (3) + G-buffers (7) + grey c_1 + grey albedo.
@@ -69,10 +69,10 @@ class SamplingNetwork(nn.Module):
             raise RuntimeError("initial_denoise needs the kernel pool (method.KP=true)")
         adjusted = self.pool.adjust(coarsest)
         desc = self.pool.descriptor(adjusted)
-        with record_function("kernel-map head"):
+        with stage("kernel-map head"):
             kmap = self.head([finest, g.to(finest.dtype), image.to(finest.dtype)], desc)
         normalised = self.pool.normalised(adjusted)
-        with record_function("kernel application"):
+        with stage("kernel application"):
             kernels = interpolate_kernels(normalised, kmap.float())
             initial = filter_below(image.float(), kernels, ceiling, hits)
         return {"kernel_map": kmap, "initial": initial, "pool": normalised}

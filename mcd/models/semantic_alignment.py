@@ -16,7 +16,8 @@ from contextlib import nullcontext
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
-from torch.profiler import record_function
+
+from mcd.models.stages import stage
 
 
 def sine_cosine_encoding(channels: int, h: int, w: int, device: torch.device) -> Tensor:
@@ -52,7 +53,7 @@ class SemanticAlignment(nn.Module):
         """Forget the previous frame (start of a clip or sequence)."""
         self.prev = None
 
-    @record_function("SA")
+    @stage("SA")
     def forward(self, x: Tensor) -> Tensor:
         b, c, h, w = x.shape
         memory = x if self.prev is None else self.prev

@@ -19,8 +19,8 @@ render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 crops its output back (docs/method.md "Frame edges"). ``method.warp_previous`` (not the paper's; a diagnostic,
 docs/method.md "Diagnostics") also feeds ``F_d`` its previous output, warped to this frame by the motion
 vectors as NTASAD's is (on a sequence's first frame, its own colour input). The stages run under
-``torch.profiler.record_function`` labels (:data:`STAGES`), which ``python -m mcd.bench --profile`` reads
-(docs/inference.md).
+:func:`mcd.models.stages.stage` labels (:data:`STAGES`, ``F_d``'s levels ``L0``..., ``PP``, ``SA``,
+``Ghost conv``), which ``python -m mcd.bench profile`` reads (docs/inference.md "Stage profile").
 """
 
 from __future__ import annotations
@@ -28,7 +28,6 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
-from torch.profiler import record_function
 
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
@@ -37,6 +36,7 @@ from mcd.models.kernel_pool import kp_options_of, pool_picture
 from mcd.models.misses import miss_mask
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
+from mcd.models.stages import stage
 from mcd.models.switches import check_switches
 from mcd.models.warp import warp
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names
@@ -44,9 +44,10 @@ from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_n
 #: ``method.denoiser_output``: ``direct`` (the paper: ``F_d`` predicts the image) or ``residual`` (``F_d``
 #: predicts a correction added to its colour input, ``i_bar``, ``i`` or ``c_s``, in the compressed range).
 DENOISER_OUTPUTS = ("direct", "residual")
-#: Profiler labels of the stages of :meth:`TwoStage.forward` (nested ones: ``map normalisation`` in
-#: ``adaptive render``; ``PP`` and ``SA`` in ``F_d``).
-STAGES = ("F_s", "adaptive render", "kernel pool", "F_d")
+#: Labels of the top-level stages of :meth:`TwoStage.forward` (nested ones: ``kernel-map head`` and ``kernel
+#: application`` in ``kernel pool``; ``F_d``'s levels, ``PP`` and ``SA`` in ``F_d``; ``Ghost conv`` in ``F_s``
+#: and the kernel-map head).
+STAGES = ("input packing", "F_s", "adaptive render", "kernel pool", "F_d", "output steps")
 
 
 class TwoStage(nn.Module):
@@ -155,20 +156,22 @@ class TwoStage(nn.Module):
 
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         who = "two_stage"
-        g = gbuffers(x, who)
+        with stage("input packing"):
+            g = gbuffers(x, who)
+            sampler_in = self.sampler_input(x) if self.sampler is not None else None
         out: dict[str, Tensor] = {}
         if self.sampler is not None:
             c1 = need(x, "c1_in", who)
-            with record_function("F_s"):
-                s = self.sampler(self.sampler_input(x))
-            with record_function("adaptive render"):
+            with stage("F_s"):
+                s = self.sampler(sampler_in)
+            with stage("adaptive render"):
                 stack = stack_buffers(x, self.levels)
                 image, m = adaptive_render(s["logits"], c1, stack, x.get("ref"), self.budget)
             ic = compress(image, self.colour)
             smap = [m / (self.budget - 1)] if self.reads_map else []
             feats = [ic, g, *smap]
             if self.sw["KP"]:
-                with record_function("kernel pool"):
+                with stage("kernel pool"):
                     hits = ~miss_mask(need(x, "normal", who)) if self.kp_skip_misses else None
                     kp = self.sampler.initial_denoise(s["finest"], s["coarsest"], g, ic, self.kp_ceiling,
                                                       hits)
@@ -183,13 +186,16 @@ class TwoStage(nn.Module):
             feats = [compress(need(x, uniform_buffer(self.budget), who), self.colour), g]
         if self.warp_previous:
             feats = [*feats, self.previous(x, feats[0].float())]
-        with record_function("F_d"):
-            y = self.denoise(cat_channels([f.float() for f in feats]))
+        with stage("input packing"):
+            z = cat_channels([f.float() for f in feats])
+        with stage("F_d"):
+            y = self.denoise(z)
             if self.residual:
                 y = y + feats[0].float()
         if self.warp_previous:
             self.prev = y
-        out["output"] = expand(y, self.colour)
+        with stage("output steps"):
+            out["output"] = expand(y, self.colour)
         return out
 
 

@@ -12,12 +12,14 @@ inputs smaller than the stride work.
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 
 import torch.nn.functional as F
 from torch import Tensor, nn
 
 from mcd.models.blocks import BlockFactory, ConvReLU, on_parts
 from mcd.models.inputs import crop, pad_to_multiple
+from mcd.models.stages import stage
 
 PoolFactory = Callable[[int], nn.Module]
 
@@ -31,8 +33,12 @@ class UNet(nn.Module):
     """U-Net returning ``{"out", "finest", "coarsest"}`` (output, last decoder features, deepest features)."""
 
     def __init__(self, cin: int, cout: int, widths: list[int], convs: int = 2, block: BlockFactory = ConvReLU,
-                 pool: PoolFactory = max_pool, deepest: nn.Module | None = None) -> None:
+                 pool: PoolFactory = max_pool, deepest: nn.Module | None = None,
+                 level_labels: bool = False) -> None:
         super().__init__()
+        #: each level's blocks (and the pool after an encoder level) under a stage label ``L<j>``
+        #: (:func:`mcd.models.stages.stage`; the output convolution is level 0's)
+        self.level_labels = level_labels
         if len(widths) < 1 or convs < 1:
             raise ValueError(f"a U-Net needs at least one level and one conv per level; "
                              f"got {widths}, {convs}")
@@ -64,12 +70,19 @@ class UNet(nn.Module):
         x = pad_to_multiple(x, self.stride)
         skips = []
         for j, level in enumerate(self.encoder):
-            x = level(x)
-            if j < len(self.pools):
-                skips.append(x)
-                x = self.pools[j](x)
+            with self._label(j):
+                x = level(x)
+                if j < len(self.pools):
+                    skips.append(x)
+                    x = self.pools[j](x)
         coarsest = x
-        for level, skip in zip(self.decoder, reversed(skips), strict=True):
-            x = F.interpolate(x, size=skip.shape[-2:], mode="bilinear", align_corners=False)
-            x = level[1:](on_parts(level[0], [x, skip]))
-        return {"out": crop(self.head(x), size), "finest": crop(x, size), "coarsest": coarsest}
+        for j, (level, skip) in enumerate(zip(self.decoder, reversed(skips), strict=True)):
+            with self._label(len(self.decoder) - 1 - j):
+                x = F.interpolate(x, size=skip.shape[-2:], mode="bilinear", align_corners=False)
+                x = level[1:](on_parts(level[0], [x, skip]))
+        with self._label(0):
+            out = self.head(x)
+        return {"out": crop(out, size), "finest": crop(x, size), "coarsest": coarsest}
+
+    def _label(self, level: int) -> AbstractContextManager:
+        return stage(f"L{level}") if self.level_labels else nullcontext()

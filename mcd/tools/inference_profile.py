@@ -1,104 +1,69 @@
-"""``python -m mcd.bench profile``: where a two-stage method's inference time goes, stage by stage
-(docs/inference.md).
+"""``python -m mcd.bench profile``: where a two-stage method's inference time goes, stage by stage, on the CPU
+or on CUDA (docs/inference.md "Stage profile").
 
 The method (``--method``, default row F; ``capacity=paper`` unless an override says otherwise) reads one
-frame of the store (as ``python -m mcd.bench`` does: a store read, tiled to ``--size``), runs ``--warmup``
-calls and then the reported call (the next, while a call faults pages in), each under ``torch.profiler``
-(whose own allocations reshape the heap that ``mcd/allocator.py`` keeps, so the warm-ups must include them;
-the page faults of the reported call are printed, 0 once the heap has settled) on the CPU, under
-``torch.inference_mode``, along the path
-``--dtype`` (default ``bf16`` with channels-last where the CPU computes bf16 natively, else ``fp32``
-channels-last). Each stage is a ``torch.profiler.record_function`` label in the model
-(:data:`mcd.models.two_stage.STAGES` and the nested ``map normalisation``, ``kernel-map head``, ``kernel
-application``, ``PP``, ``SA``); the table gives its time (inclusive of nested stages), its share of the call,
-its MACs (``FlopCounterMode`` per module on the meta device, as :mod:`mcd.models.complexity` counts them) and
-the achieved GMAC/s. ``other`` is the call minus the four top-level stages (input preparation, concatenations,
-the colour transform).
+frame of the store (as ``python -m mcd.bench`` does: a store read, tiled to ``--size``; ``--synthetic``:
+seeded synthetic buffers) on ``--device``, along the path ``--dtype`` (``bf16`` autocast where the device
+computes bf16 natively, else ``fp32``; channels-last, ``torch.inference_mode``). ``--warmup`` calls, then
+``--repeat`` calls read by a :class:`mcd.models.stages.StageClock` interleaved with ``--repeat`` plain calls.
+
+Each stage is a :func:`mcd.models.stages.stage` label of the model: ``input packing``, ``F_s`` (with its
+``Ghost conv`` blocks), ``adaptive render``, ``kernel pool`` (``kernel-map head``, ``kernel application``),
+``F_d`` (its levels ``L0``..., with ``PP`` and ``SA`` inside), ``output steps``. A stage's time is
+*exclusive*: the clock's boundaries are every label's entry and exit (``perf_counter`` on the CPU; CUDA events
+on the GPU's stream, read after one synchronize, so launches are not stalled), and the time between two
+boundaries goes to the innermost open label; ``other`` is the time inside the call outside every label. The
+rows therefore add up to the clock's span, and the table is **refused** (printed under REFUSED and not
+written to ``--out``; exit status 3) unless that sum is within ``--tolerance`` (10%) of the frame's wall time
+(the call closed by a synchronize on CUDA) and the clocked frame is within the same tolerance of the plain
+frame (the clock did not change what it measures). Medians over the repeats. The second table sums each label
+with what is nested in it (these overlap: ``Ghost conv`` lies in ``F_s`` and in the kernel-map head).
+
+MACs per row are counted the same way (a :class:`mcd.models.stages.FlopClock` over ``FlopCounterMode`` on the
+meta device, as :mod:`mcd.models.complexity` counts them), so GMAC/s is each row's own.
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
+import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import torch
 from torch import nn
-from torch.profiler import ProfilerActivity, profile
 
 from mcd import allocator
 from mcd.config import compose, exit_on_renamed
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
 from mcd.models.complexity import dummy_batch, flop_counter_mode
-from mcd.models.latency import model_inputs
-from mcd.models.position_pooling import PositionAwarePool
-from mcd.models.semantic_alignment import SemanticAlignment
-from mcd.models.two_stage import STAGES, TwoStage
+from mcd.models.latency import model_inputs, sync
+from mcd.models.stages import FlopClock, StageClock
+from mcd.models.two_stage import TwoStage
 from mcd.provenance import short_commit
-from mcd.tools.bench import (
-    InferencePath,
-    frame_buffers,
-    parse_size,
-    store_frame,
-)
+from mcd.tools.bench import frame_buffers, parse_size, store_frame
 
-#: Every label, as ``(name, depth)`` in the printed order (depth 1: nested in the stage above it).
-LABELS = (
-    ("F_s", 0),
-    ("adaptive render", 0),
-    ("map normalisation", 1),
-    ("kernel pool", 0),
-    ("kernel-map head", 1),
-    ("kernel application", 1),
-    ("F_d", 0),
-    ("PP", 1),
-    ("SA", 1),
-)
-
-
-def stage_modules(model: TwoStage) -> dict[str, list[nn.Module]]:
-    """The modules whose MACs each label runs (labels without modules hold no counted MACs)."""
-    sampler = model.sampler
-    return {
-        "F_s": [sampler.unet] if sampler is not None else [],
-        "kernel pool": [m for m in (sampler.head, sampler.pool) if m is not None] if sampler else [],
-        "kernel-map head": [sampler.head] if sampler is not None and sampler.head is not None else [],
-        "F_d": [model.denoiser],
-        "PP": [m for m in model.denoiser.modules() if isinstance(m, PositionAwarePool)],
-        "SA": [m for m in model.denoiser.modules() if isinstance(m, SemanticAlignment)],
-    }
+#: The name of the time inside the call outside every label.
+OTHER = "other"
+#: Exit status of a refused table.
+REFUSED = 3
 
 
 def stage_macs(cfg, height: int, width: int) -> dict[str, float]:
-    """GMACs per label at ``height x width``, counted on the meta device."""
+    """Exclusive GMACs per label path at ``height x width``, counted on the meta device."""
     from mcd.models import build
 
     with torch.device("meta"):
         model = build(cfg).eval()
     if not isinstance(model, TwoStage):
-        raise ValueError(f"--profile reads the stage labels of the two-stage model (rows A-M, unet); "
+        raise ValueError(f"the profile reads the stage labels of the two-stage model (rows A-M, unet); "
                          f"{type(model).__name__} has none")
     x = dummy_batch(model, height, width, "meta")
-    with torch.no_grad(), flop_counter_mode() as counter:
+    with torch.no_grad(), flop_counter_mode() as counter, FlopClock(counter) as clock:
         model(x)
-    flops = {name: sum(counts.values()) for name, counts in counter.get_flop_counts().items()}
-    names: dict[int, list[str]] = {}
-    for name, module in model.named_modules(remove_duplicate=False):
-        names.setdefault(id(module), []).append(f"{type(model).__name__}.{name}" if name else "Global")
-    out = {}
-    for label, modules in stage_modules(model).items():
-        out[label] = sum(max((flops.get(n, 0) for n in names[id(m)]), default=0) for m in modules) / 2e9
-    out["total"] = flops.get("Global", 0) / 2e9
-    return out
-
-
-#: A call that makes fewer page faults than this found the kept heap settled; a reported call that makes more
-#: becomes a warm-up and the next is reported, up to :data:`MORE_WARMUPS` times (the heap does not settle
-#: for good: row F at 1080p under the profiler ran a call without faults after four, then faulted again).
-SETTLED = 1000
-MORE_WARMUPS = 4
+    return {path: flops / 2e9 for path, flops in clock.totals().items()}
 
 
 def minor_faults() -> int:
@@ -110,55 +75,105 @@ def minor_faults() -> int:
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 
 
-def profile_call(call: Callable[[], object]) -> tuple[dict[str, float], float, int]:
-    """Milliseconds per label (inclusive, summed over its calls) and of the whole call, and the page faults
-    during it, one profiled call."""
-    with profile(activities=[ProfilerActivity.CPU]) as prof:
-        faults = minor_faults()
-        t0 = time.perf_counter()
-        call()
-        total = (time.perf_counter() - t0) * 1e3
-        faults = minor_faults() - faults
-    ms = {label: 0.0 for label, _ in LABELS}
-    for event in prof.key_averages():
-        if event.key in ms:
-            ms[event.key] += event.cpu_time_total / 1e3
-    return ms, total, faults
+def timed_call(model: nn.Module, x: dict, device: torch.device, dtype: torch.dtype | None,
+               clocked: bool) -> tuple[float, dict[str, float]]:
+    """Wall ms of one call (closed by a synchronize on CUDA) and, if ``clocked``, its exclusive ms per label
+    path (``""``: outside every label)."""
+    sync(device)
+    t0 = time.perf_counter()
+    with torch.inference_mode(), autocast_to(device, dtype):
+        if clocked:
+            with StageClock(device) as clock:
+                model(x)
+        else:
+            model(x)
+    sync(device)
+    wall = (time.perf_counter() - t0) * 1e3
+    return wall, (clock.totals() if clocked else {})
 
 
-def table(ms: dict[str, float], total: float, gmacs: dict[str, float]) -> list[str]:
-    """Markdown table: each label's ms, share of the call, GMACs and GMAC/s; then ``other`` and the call."""
-    lines = ["| stage | ms | share | GMACs | GMAC/s |", "|---|---|---|---|---|"]
+def median_totals(runs: list[dict[str, float]]) -> dict[str, float]:
+    """Per path, the median over the clocked calls (the paths in the first call's order)."""
+    return {p: statistics.median(r.get(p, 0.0) for r in runs) for p in runs[0]}
+
+
+def table(ms: dict[str, float], frame: float, gmacs: dict[str, float]) -> list[str]:
+    """Markdown: each label path's exclusive ms (nested ones indented), share of the frame, GMACs, GMAC/s;
+    then ``other``, their sum and the frame."""
+    lines = ["| stage (exclusive) | ms | share | GMACs | GMAC/s |", "|---|---|---|---|---|"]
 
     def row(name: str, t: float, g: float | None) -> str:
         rate = f"{g / t * 1e3:.3g}" if g and t > 0 else "—"
-        return f"| {name} | {t:.1f} | {100 * t / total:.1f}% | {f'{g:.3g}' if g else '—'} | {rate} |"
+        return f"| {name} | {t:.2f} | {100 * t / frame:.1f}% | {f'{g:.3g}' if g else '—'} | {rate} |"
 
-    for label, depth in LABELS:
-        if ms[label] > 0:
-            lines.append(row(("&nbsp;&nbsp;" * depth) + label, ms[label], gmacs.get(label)))
-    lines.append(row("other", total - sum(ms[s] for s in STAGES), None))
-    lines.append(row("**frame**", total, gmacs["total"]))
+    for path, t in ms.items():
+        if path:
+            depth = path.count("/")
+            lines.append(row("&nbsp;&nbsp;" * depth + path.rsplit("/", 1)[-1], t, gmacs.get(path)))
+    lines.append(row(OTHER, ms.get("", 0.0), gmacs.get("")))
+    lines.append(row("**sum of stages**", sum(ms.values()), sum(gmacs.values())))
+    lines.append(row("**frame**", frame, sum(gmacs.values())))
     return lines
 
 
+def inclusive(ms: dict[str, float], gmacs: dict[str, float]) -> list[str]:
+    """Markdown: each label name with everything nested in it (rows overlap), ms and GMAC/s."""
+    names: list[str] = []
+    for path in ms:
+        names += [n for n in path.split("/") if n and n not in names]
+    lines = ["| label, nested labels included | ms | GMACs | GMAC/s |", "|---|---|---|---|"]
+    for name in names:
+        t = sum(v for p, v in ms.items() if name in p.split("/"))
+        g = sum(v for p, v in gmacs.items() if name in p.split("/"))
+        rate = f"{g / t * 1e3:.3g}" if g and t > 0 else "—"
+        lines.append(f"| {name} | {t:.2f} | {f'{g:.3g}' if g else '—'} | {rate} |")
+    return lines
+
+
+def refusal(ms: dict[str, float], frame: float, plain: float, tolerance: float) -> str | None:
+    """Why the table cannot stand (its stages do not add up to the frame, or the clock changed the frame),
+    or None."""
+    total = sum(ms.values())
+    if abs(total - frame) > tolerance * frame:
+        return (f"the stages sum to {total:.2f} ms, the clocked frame took {frame:.2f} ms "
+                f"({100 * (total / frame - 1):+.1f}%, more than {100 * tolerance:.0f}%)")
+    if abs(frame - plain) > tolerance * plain:
+        return (f"the clocked frame took {frame:.2f} ms, the plain frame {plain:.2f} ms "
+                f"({100 * (frame / plain - 1):+.1f}%, more than {100 * tolerance:.0f}%): the clock changed "
+                "what it measured, or the machine's load changed between calls (raise --repeat)")
+    return None
+
+
 def main(argv: list[str] | None = None) -> None:
+    argv = list(sys.argv[1:] if argv is None else argv)
     parser = argparse.ArgumentParser(prog="python -m mcd.bench profile", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("overrides", nargs="*", help="Hydra overrides (default: capacity=paper)")
     parser.add_argument("--method", default="F", help="experiment of a two-stage row (A-M, unet)")
     parser.add_argument("--size", default="1080p", help="1080p, 256 or <W>x<H>")
-    parser.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the CPU has it")
-    parser.add_argument("--warmup", type=int, default=2,
-                        help=f"profiled calls before the reported one, and up to {MORE_WARMUPS} more while "
-                             f"the reported one makes {SETTLED} page faults or more (the kept heap settles)")
+    parser.add_argument("--device", choices=("cpu", "cuda"), default="cpu")
+    parser.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the device has it")
+    parser.add_argument("--warmup", type=int, default=2, help="calls before the measured ones")
+    parser.add_argument("--repeat", type=int, default=3, help="clocked calls, and as many plain ones")
+    parser.add_argument("--tolerance", type=float, default=0.10,
+                        help="largest relative gap between the stages' sum and the frame, and between the "
+                             "clocked and the plain frame, before the table is refused")
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
-    parser.add_argument("--out", type=Path, help="also write the table (markdown) here")
+    parser.add_argument("--out", type=Path, help="also write the table (markdown) here, unless refused")
     allocator.add_option(parser)
     args = parser.parse_args(argv)
     exit_on_renamed(args.overrides)
+    if args.repeat < 1 or args.warmup < 0:
+        parser.error("--repeat needs at least 1 and --warmup at least 0")
+    device = torch.device(args.device)
+    if device.type == "cuda" and not torch.cuda.is_available():
+        parser.error("--device cuda: torch sees no CUDA device here")
+    has_bf16 = torch.cuda.is_bf16_supported() if device.type == "cuda" else cpu_bf16_supported()
+    dtype = args.dtype or ("bf16" if has_bf16 else "fp32")
+    if dtype == "bf16" and not has_bf16:
+        parser.error(f"--dtype bf16: this {device.type.upper()} has no native bf16; use --dtype fp32")
     memory = allocator.apply(args.allocator)
     overrides = list(args.overrides)
     if not any(o.startswith("capacity=") for o in overrides):
@@ -167,47 +182,52 @@ def main(argv: list[str] | None = None) -> None:
         h, w = parse_size(args.size)
     except ValueError as err:
         parser.error(str(err))
-    dtype = args.dtype or ("bf16" if cpu_bf16_supported() else "fp32")
-    if dtype == "bf16" and not cpu_bf16_supported():
-        parser.error("--dtype bf16: this CPU has no native bf16 (avx512_bf16 / amx); use --dtype fp32")
-    path = InferencePath(torch.bfloat16 if dtype == "bf16" else None, channels_last=True, compiled=False)
+    half = torch.bfloat16 if dtype == "bf16" else None
     source = None if args.synthetic else store_frame(args.data, args.scene)
     cfg = compose([f"+experiment={args.method}", *overrides])
     gmacs = stage_macs(cfg, h, w)
 
     from mcd.models import build
 
-    device = torch.device("cpu")
-    model = build(cfg).eval().to(memory_format=torch.channels_last)
+    model = build(cfg).eval().to(device, memory_format=torch.channels_last)
     buffers, inputs = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, source)
     x = model_inputs(model, buffers, device, channels_last=True)
     model.reset()
-
-    def call() -> None:
-        with torch.inference_mode(), autocast_to(device, path.dtype):
-            model(x)
-
-    for _ in range(args.warmup):         # profiled too: the profiler's own allocations reshape the kept heap
-        profile_call(call)
-    warmups = args.warmup
-    ms, total, faults = profile_call(call)
-    while faults >= SETTLED and warmups < args.warmup + MORE_WARMUPS:       # it faulted: that was a warm-up
-        warmups += 1
-        ms, total, faults = profile_call(call)
+    for _ in range(args.warmup):
+        timed_call(model, x, device, half, clocked=True)
+        timed_call(model, x, device, half, clocked=False)
+    clocked_walls, runs, plain_walls = [], [], []
+    faults = minor_faults()
+    for _ in range(args.repeat):
+        wall, ms = timed_call(model, x, device, half, clocked=True)
+        clocked_walls.append(wall)
+        runs.append(ms)
+        plain_walls.append(timed_call(model, x, device, half, clocked=False)[0])
+    faults = minor_faults() - faults
+    ms, frame, plain = median_totals(runs), statistics.median(clocked_walls), statistics.median(plain_walls)
+    where = "GPU" if device.type == "cuda" else "CPU"
+    why = refusal(ms, frame, plain, args.tolerance)
     lines = [
-        f"# Inference profile: {args.method} at {w}x{h} on the CPU (python -m mcd.bench profile)",
+        f"# Inference profile: {args.method} at {w}x{h} on the {where} (python -m mcd.bench profile)",
         "",
-        f"- Command: `python -m mcd.bench profile {' '.join(argv if argv is not None else [])}`".rstrip(),
+        f"- Command: `python -m mcd.bench profile {' '.join(argv)}`".rstrip(),
+        f"- Commit: `{short_commit()}`",
         f"- Device: {device_name(device)}; torch {torch.__version__}; path {dtype} channels-last, "
         "inference mode",
-        f"- Inputs: {inputs}; {warmups} profiled warm-up call(s), then the profiled call",
-        f"- Allocator: {memory} (mcd/allocator.py); page faults during the profiled call: {faults}"
-        + ("" if faults < SETTLED else " (the heap had not settled: its first touch of new pages is in these "
-                                    "times; raise --warmup)"),
+        f"- Inputs: {inputs}; {args.warmup} warm-up call(s) of each kind, then medians of {args.repeat} "
+        f"clocked and {args.repeat} plain calls, interleaved",
+        f"- Frame: clocked {frame:.2f} ms, plain {plain:.2f} ms; stages (exclusive, "
+        f"{'CUDA events' if device.type == 'cuda' else 'perf_counter'}) sum to {sum(ms.values()):.2f} ms",
+        f"- Allocator: {memory} (mcd/allocator.py); page faults during the measured calls: {faults}",
         "",
-        *table(ms, total, gmacs),
+        *table(ms, frame, gmacs),
+        "",
+        *inclusive(ms, gmacs),
     ]
-    lines.insert(3, f"- Commit: `{short_commit()}`")
+    if why is not None:
+        print(f"REFUSED: {why}; the table below is not a result:\n")
+        print("\n".join(lines))
+        sys.exit(REFUSED)
     print("\n".join(lines))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
