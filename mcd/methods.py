@@ -28,7 +28,9 @@ class Method:
     params_m) or None; ``table1``: a row of Table 1 (in :data:`CATALOGUE`'s order); ``variant_of``: the Table
     1 row it varies (same paper numbers, shown after it, only where it ran); ``stand_in``: the experiment
     whose run stands in where this one has none (the same network); ``bench``: measured by default by ``python
-    -m mcd.bench``; ``train_bench``: measured by default by ``python -m mcd.bench train``.
+    -m mcd.bench``; ``train_bench``: measured by default by ``python -m mcd.bench train``; ``diagnostic``: a
+    variant that asks which input carries a method's score, not a method of the paper's or a baseline's
+    (docs/method.md "Diagnostics"): findings do not count it as a baseline.
     """
 
     experiment: str
@@ -41,6 +43,7 @@ class Method:
     stand_in: str | None = None
     bench: bool = False
     train_bench: bool = False
+    diagnostic: bool = False
 
 
 #: Every method, Table 1's rows in the paper's order first. Rows A-M of the component study are the
@@ -57,14 +60,15 @@ CATALOGUE: tuple[Method, ...] = (
     Method("dasr_paper_loss", "DASR (paper's loss)", "dasr", True, variant_of="dasr"),
     Method("ntasad", "NTASAD", "ntasad", True, table1=True, bench=True, train_bench=True,
            paper={"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578}),
-    Method("ntasad_no_warp", "NTASAD, no warp (diagnostic)", "ntasad", True, variant_of="ntasad"),
+    Method("ntasad_no_warp", "NTASAD, no warp (diagnostic)", "ntasad", True, variant_of="ntasad",
+           diagnostic=True),
     Method("ntasad_no_previous", "NTASAD, no previous output (diagnostic)", "ntasad", True,
-           variant_of="ntasad"),
+           variant_of="ntasad", diagnostic=True),
     Method("F", "Ours (F)", "two_stage", True, table1=True, bench=True, train_bench=True,
            paper={"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}),
     Method("F_paper", "Ours (F, paper's text)", "two_stage", True, variant_of="F"),
     Method("F_warp_previous", "F + warped previous output (not the paper's)", "two_stage", True,
-           variant_of="F"),
+           variant_of="F", diagnostic=True),
     Method("oidn", "OIDN", "oidn", False, table1=True, bench=True),
     Method("noisy", "Noisy input", "noisy", False, table1=True, bench=True),
     Method("A", "A", "two_stage", True, train_bench=True),
@@ -79,6 +83,9 @@ TABLE1_VARIANTS: dict[str, str] = {m.experiment: m.variant_of for m in CATALOGUE
 #: Table 1's trained baselines (trainable rows other than the paper's own method).
 TRAINED_BASELINES: tuple[str, ...] = tuple(m.experiment for m in CATALOGUE
                                            if m.table1 and m.trainable and m.method != "two_stage")
+#: The variants of Table 1's trained baselines that findings count as baselines (not the diagnostics).
+BASELINE_VARIANTS: tuple[str, ...] = tuple(m.experiment for m in CATALOGUE
+                                           if m.variant_of in TRAINED_BASELINES and not m.diagnostic)
 #: Table 1 by ``method.name``: the paper's numbers of each method it prints.
 TABLE1: dict[str, dict[str, float]] = {m.method: m.paper for m in CATALOGUE if m.table1 and m.paper}
 

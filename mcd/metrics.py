@@ -47,8 +47,20 @@ ADDED_METRICS = ("flip", "tpsnr", "border_gap", "colour_shift",
 #: Per-frame metric names, in the order of ``frames.csv``.
 FRAME_METRICS = (*PAPER_METRICS, *ADDED_METRICS)
 #: Per-frame statistics of a model's internals, present only for the models that have them: the kernel map's
-#: identity share and the spread of its kernel index across the frame (KP, ``mcd.lit.module``).
-MODEL_METRICS = ("kp_identity", "kp_index_std")
+#: identity share and the spread of its kernel index across the frame (KP, ``mcd.lit.module``); the sampling
+#: map's spread and outer-ring share (adaptive sampling: :func:`map_spread`, :func:`map_ring_share`).
+MODEL_METRICS = ("kp_identity", "kp_index_std", "map_spread", "map_ring_share")
+#: The sampling map's outer ring: the pixels within this many of the frame's edge (docs/benchmark.md
+#: "Sampling-map health").
+MAP_RING = 2
+#: A sampling map whose spread (standard deviation over mean, per frame) is below this is collapsed: every
+#: pixel gets about the same count, so the run samples uniformly (a constant map's spread is 0; the shipped
+#: ``F-cpu-bundle``'s is about 1e-8).
+MAP_COLLAPSED = 0.05
+#: A sampling map whose outer ring gets more than this many times its share of the frame's pixels is
+#: edge-bound (the content of the Cornell box and the Modern Hall explains 1.3-1.5x on a two-pixel ring:
+#: docs/method.md "Adaptive sampling" 6).
+MAP_EDGE_BOUND = 2.0
 
 
 def to_display(x: np.ndarray) -> np.ndarray:
@@ -219,3 +231,37 @@ def aggregate(rows: Iterable[Mapping[str, object]], keys: Iterable[str] = FRAME_
     out["per_scene"] = per_scene
     out["frames"] = {scene: len(scene_rows) for scene, scene_rows in by_scene.items()}
     return out
+
+
+def map_spread(m: np.ndarray) -> float:
+    """Standard deviation over mean of a sampling map ``m`` (``H x W``, sample counts) over the frame's
+    pixels; NaN when the map holds no sample. Below :data:`MAP_COLLAPSED` the map is collapsed."""
+    m = np.asarray(m, dtype=np.float64)
+    mean = float(m.mean())
+    return float(m.std() / mean) if mean > 0 else math.nan
+
+
+def map_ring_share(m: np.ndarray, ring: int = MAP_RING) -> float:
+    """The share of a sampling map's samples that fall on the frame's outer ring (the pixels within ``ring``
+    of an edge) over the ring's share of the pixels: 1 = no edge preference; above :data:`MAP_EDGE_BOUND` the
+    map is edge-bound. NaN when the map holds no sample or the frame has no interior."""
+    m = np.asarray(m, dtype=np.float64)
+    h, w = m.shape
+    total = float(m.sum())
+    if total <= 0 or min(h, w) <= 2 * ring:
+        return math.nan
+    inner = float(m[ring:-ring, ring:-ring].sum())
+    area = 1.0 - (h - 2 * ring) * (w - 2 * ring) / (h * w)
+    return ((total - inner) / total) / area
+
+
+def map_health(spread: float, ring_share: float) -> str:
+    """``collapsed`` (spread below :data:`MAP_COLLAPSED`), ``edge-bound`` (ring share above
+    :data:`MAP_EDGE_BOUND`), ``adaptive``, or ``unknown`` (NaN figures)."""
+    if math.isnan(spread):
+        return "unknown"
+    if spread < MAP_COLLAPSED:
+        return "collapsed"
+    if not math.isnan(ring_share) and ring_share > MAP_EDGE_BOUND:
+        return "edge-bound"
+    return "adaptive"

@@ -167,7 +167,7 @@ def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[F
     """Every finding of the report, in the README's order (docs/benchmark.md "Reports", findings)."""
     import pandas as pd
 
-    from mcd.reporting import findings, seeds, tables
+    from mcd.reporting import findings, map_health, seeds, tables
 
     return [
         *findings.headline(results["table1"]),
@@ -178,6 +178,7 @@ def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[F
         *tables.component_checks(results["components"]),
         *seeds.checks(results.get("seeds_differences", pd.DataFrame())),
         *seeds.reproducibility(runs),
+        *map_health.checks(runs),
     ]
 
 

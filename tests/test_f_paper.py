@@ -93,3 +93,17 @@ def test_f_paper_trains_and_tests_on_real_renders(cbox_store, tmp_path):
     assert m["method"]["denoiser_output"] == "direct" and m["method"]["kp"]["head_output"] == "tanh"
     frames = pd.read_csv(tmp_path / "frames.csv")
     assert len(frames) == 2 and frames["psnr"].notna().all()
+
+
+def test_findings_compare_f_with_baselines_not_with_its_variants_or_diagnostics():
+    """A Table 1 where F_paper and an NTASAD diagnostic score above F: the headline and the baselines'
+    finding compare F with the methods of the paper's Table 1 only (and DASR's loss variant)."""
+    from mcd.reporting import findings
+
+    t1 = pd.DataFrame({"experiment": ["F", "F_paper", "F_warp_previous", "ntasad_no_warp", "rae", "oidn"],
+                       "method": ["two_stage", "two_stage", "two_stage", "ntasad", "rae", "oidn"],
+                       "PSNR": [26.0, 30.0, 31.0, 32.0, 25.0, 29.0]})
+    (head,) = findings.headline(t1)
+    assert head.subjects == ("F", "oidn") and head.verdict == "does not hold"
+    (base,) = findings.baselines(t1)
+    assert base.subjects == ("F", "rae") and base.verdict == "holds so far"

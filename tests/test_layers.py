@@ -23,7 +23,7 @@ LAYERS: dict[str, int] = {
     # training and testing (Lightning)
     **dict.fromkeys(("lit", "run_record"), 3),
     # the product's commands and what they write: train, render, denoise, report
-    **dict.fromkeys(("run", "render", "denoise", "reporting", "report", "hydra_callbacks"), 4),
+    **dict.fromkeys(("run", "render", "denoise", "reporting", "report", "hydra_callbacks", "sweep_plan"), 4),
     # measuring tools, and the command that runs them
     "tools": 5,
     "bench": 6,

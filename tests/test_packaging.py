@@ -32,7 +32,8 @@ def wheel(tmp_path_factory) -> Path:
     """The wheel, built from a copy of the sources (so the checkout gets no build folder)."""
     tmp = tmp_path_factory.mktemp("wheel")
     src = tmp / "src"
-    shutil.copytree(PACKAGE_DIR, src / "mcd", ignore=shutil.ignore_patterns("__pycache__"))
+    for part, folder in (("mcd", PACKAGE_DIR), ("hydra_plugins", REPO / "hydra_plugins")):
+        shutil.copytree(folder, src / part, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(REPO / "pyproject.toml", src)
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
                     "-w", str(tmp / "dist"), str(src)], check=True, capture_output=True, timeout=300)
@@ -49,6 +50,8 @@ def test_the_wheel_carries_conf_scenes_and_bundles(wheel):
     assert "mcd/conf/config.yaml" in wanted and "mcd/scenes/cbox/scene.xml" in wanted
     assert wanted - names == set(), "package data missing from the wheel: pyproject.toml [tool.setuptools]"
     assert {"mcd/run.py", "mcd/denoise/cli.py", "mcd/bench/__main__.py"} <= names
+    # the planned sweeper's name for Hydra (conf/hydra/sweeper/planned.yaml), outside the mcd package
+    assert "hydra_plugins/mcd_sweep_plan/planned_sweeper.py" in names
 
 
 def test_the_installed_package_runs_from_another_folder(wheel, tmp_path):

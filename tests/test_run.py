@@ -49,7 +49,8 @@ def test_run_directory_holds_the_contract(f_run):
     assert len(m["commit"]) == 40 and m["device"] and m["wall_s"] > 0
     assert Path(m["config"]).is_file() and m["data"]["rendered"]["ref"] == 12
     frames = pd.read_csv(run / "frames.csv")
-    assert list(frames.columns) == ["scene", "frame", *FRAME_METRICS, "kp_identity", "kp_index_std"]
+    assert list(frames.columns) == ["scene", "frame", *FRAME_METRICS, "kp_identity", "kp_index_std",
+                                    "map_spread", "map_ring_share"]
     assert len(frames) == 2 and m["kp_index_std"] == pytest.approx(frames["kp_index_std"].mean())
     assert m["kp_identity"] == pytest.approx(frames["kp_identity"].mean())  # F has KP: one scene, its mean
     assert frames["psnr"].mean() == pytest.approx(m["psnr"])  # one scene: scene mean = overall mean

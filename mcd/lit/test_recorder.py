@@ -10,7 +10,9 @@ docs/architecture.md "Batches"):
   the noisy input (``input_*``); ``lt`` pairs each frame with the previous one of its sequence (NaN on a
   sequence's first frame), as do ``tpsnr`` and ``input_tpsnr``; with KP also the kernel map's identity
   share (``kp_identity``) and the standard deviation of its kernel index ``h[0]`` over the frame's pixels
-  (``kp_index_std``; 0 = one kernel everywhere);
+  (``kp_index_std``; 0 = one kernel everywhere); with a sampling map its spread (``map_spread``, standard
+  deviation over mean) and its outer ring's share of the samples over the ring's share of the pixels
+  (``map_ring_share``; :func:`mcd.metrics.map_spread`, :func:`mcd.metrics.map_ring_share`);
 - ``samples/<scene>/`` (``mcd.lit.samples``) of the frames at the sequence positions ``train.sample_frames``;
 - at the end of the test ``frames.csv`` (the rows) and :attr:`TestRecorder.averages`
   (``mcd.metrics.aggregate``: per scene, then over scenes) for the run record (``mcd.run_record``).
@@ -29,7 +31,16 @@ from lightning.pytorch.callbacks import Callback
 from torch import Tensor
 
 from mcd.lit.samples import save_samples
-from mcd.metrics import FRAME_METRICS, MODEL_METRICS, aggregate, frame_metrics, temporal_l1, temporal_psnr
+from mcd.metrics import (
+    FRAME_METRICS,
+    MODEL_METRICS,
+    aggregate,
+    frame_metrics,
+    map_ring_share,
+    map_spread,
+    temporal_l1,
+    temporal_psnr,
+)
 from mcd.models.kernel_pool import identity_weight
 
 
@@ -90,6 +101,9 @@ class TestRecorder(Callback):
         if "kernel_map" in out:
             row["kp_identity"] = kernel_map_identity_share(out["kernel_map"])
             row["kp_index_std"] = float(out["kernel_map"][0, 0].float().std())
+        if "sampling_map" in out:
+            m = out["sampling_map"][0, 0].float().cpu().numpy()
+            row["map_spread"], row["map_ring_share"] = map_spread(m), map_ring_share(m)
         self.rows.append(row)
         self._prev = (pred, ref, noisy)
         if self.run_dir is not None and self._position in self.sample_frames:

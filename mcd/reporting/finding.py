@@ -281,6 +281,18 @@ def _repeatability(f: Finding) -> str:
             f"{f.values['largest difference']:.4f} dB.")
 
 
+def _map_health(f: Finding) -> str:
+    d, (exp,) = f.detail, f.subjects
+    flag = {"collapsed": f"COLLAPSED (spread below {d['collapsed below']:g}: it samples uniformly)",
+            "edge-bound": f"EDGE-BOUND (ring share above {d['edge-bound above']:g})",
+            "adaptive": "adaptive", "unknown": "unknown (no samples)"}[d["health"]]
+    budget = "" if f.budget is None else f", {f.budget:g} spp"
+    return (f"Sampling map of {_name(f, exp)} (seed {d['seed']}, {d['data_profile']}{budget}, {d['run']}): "
+            f"{flag}; spread (std over mean, mean over test frames) {f.values['spread']:.3g}, the outer "
+            f"{d['ring']}-pixel ring's share of the samples {f.values['ring share']:.2f}x its share of the "
+            "pixels.")
+
+
 RENDERERS: dict[str, Callable[[Finding], str]] = {
     "headline": _headline,
     "f_vs_baselines": _baselines,
@@ -298,6 +310,7 @@ RENDERERS: dict[str, Callable[[Finding], str]] = {
     "seeds_f_above_a": _seeds_f_a,
     "seeds_kp_largest_step": _seeds_kp,
     "repeatability": _repeatability,
+    "sampling_map_health": _map_health,
 }
 
 

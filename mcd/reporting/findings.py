@@ -16,7 +16,7 @@ import math
 import pandas as pd
 
 from mcd.data.buffers import UNIFORM_BUDGETS
-from mcd.methods import TABLE1_VARIANTS, TRAINED_BASELINES, display_name
+from mcd.methods import BASELINE_VARIANTS, BY_EXPERIMENT, TABLE1_VARIANTS, TRAINED_BASELINES, display_name
 from mcd.reporting.finding import Finding
 from mcd.reporting.runs import Run
 from mcd.reporting.select import pick, scene_mean, train_scenes
@@ -36,12 +36,15 @@ def _f_over_seeds(spread: pd.DataFrame | None, budget: float) -> pd.Series | Non
 
 
 def headline(t1: pd.DataFrame) -> list[Finding]:
-    """F against the best other method of Table 1 (trained or not: OIDN and the noisy input count)."""
+    """F against the best other method of Table 1 (trained or not: OIDN and the noisy input count; F's own
+    variants, such as F_paper, and the diagnostics do not)."""
     ours = t1.set_index("experiment")
     if "F" not in ours.index or pd.isna(ours.loc["F", "PSNR"]):
         return [Finding("headline", "cannot check", "psnr", "dB", (), {}, TABLE1_BUDGET)]
     f = float(ours.loc["F", "PSNR"])
-    others = ours.drop(index="F")["PSNR"].dropna()
+    others = ours.drop(index=[e for e in ours.index if e == "F" or TABLE1_VARIANTS.get(e) == "F"
+                              or (e in BY_EXPERIMENT and BY_EXPERIMENT[e].diagnostic)])
+    others = others["PSNR"].dropna()
     if others.empty:
         return [Finding("headline", "measured", "psnr", "dB", ("F",), {"F": f}, TABLE1_BUDGET)]
     best = str(others.idxmax())
@@ -62,7 +65,7 @@ def baselines(t1: pd.DataFrame, spread: pd.DataFrame | None = None) -> list[Find
         return []
     f = float(t.loc["F", "PSNR"])
     done = {e: float(t.loc[e, "PSNR"]) for e in t.index
-            if e in (*TRAINED_BASELINES, *TABLE1_VARIANTS, "A") and not pd.isna(t.loc[e, "PSNR"])}
+            if e in (*TRAINED_BASELINES, *BASELINE_VARIANTS, "A") and not pd.isna(t.loc[e, "PSNR"])}
     missing = [display_name(e) for e in TRAINED_BASELINES
                if e not in done and not (e == "unet" and "A" in done)]
     if not done:
@@ -132,7 +135,7 @@ def against_budgets(spp_df: pd.DataFrame) -> list[Finding]:
     at each budget where F and one of them finished: whether F's margin holds as the budget grows."""
     ok = spp_df[spp_df["status"] == "ok"]
     f = ok[ok["experiment"] == "F"].set_index("budget")["psnr"]
-    trained = ok[ok["experiment"].isin((*TRAINED_BASELINES, *TABLE1_VARIANTS, "A"))]
+    trained = ok[ok["experiment"].isin((*TRAINED_BASELINES, *BASELINE_VARIANTS, "A"))]
     per_best, per_oidn, names = [], [], {}
     for b in sorted(f.index):
         at = trained[trained["budget"] == b]
