@@ -6,11 +6,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-import torch
 from torch import Tensor, nn
 
 from mcd.models.cpu_fast import fused_conv
-from mcd.models.inputs import with_constant
+from mcd.models.inputs import cat_channels, with_constant
 
 #: ``block(in_channels, out_channels) -> module`` builds one conv block of a U-Net.
 BlockFactory = Callable[[int, int], nn.Module]
@@ -49,7 +48,7 @@ class ConvReLU(nn.Module):
         whole = with_constant(parts, constant)
         if self.conv.padding_mode == "zeros" and fused_conv.applies(self.conv.weight, whole):
             return fused_conv.conv_on_parts(self.conv, whole, relu=True)
-        return self.forward(torch.cat(whole, 1) if len(whole) > 1 else whole[0])
+        return self.forward(cat_channels(whole) if len(whole) > 1 else whole[0])
 
 
 def on_parts(block: nn.Module, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
@@ -59,4 +58,4 @@ def on_parts(block: nn.Module, parts: Sequence[Tensor], constant: Tensor | None 
     forward_parts = getattr(block, "forward_parts", None)
     if callable(forward_parts):
         return forward_parts(parts, constant)
-    return block(torch.cat(with_constant(parts, constant), 1))
+    return block(cat_channels(with_constant(parts, constant)))

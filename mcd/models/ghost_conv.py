@@ -29,7 +29,7 @@ from mcd.models.cpu_fast.ghost_conv import (
     grouped_conv,
     primary_and_ghost,
 )
-from mcd.models.inputs import with_constant
+from mcd.models.inputs import cat_channels, with_constant
 from mcd.models.stages import stage
 
 
@@ -72,6 +72,6 @@ class FastGhostConv(nn.Module):
             primary = group_then_point(self.group, self.point.weight, self.point.bias, parts, constant)
         else:
             whole = with_constant(parts, constant)
-            x = torch.cat(whole, 1) if len(whole) > 1 else whole[0]
+            x = cat_channels(whole) if len(whole) > 1 else whole[0]
             primary = self.point(grouped_conv(self.group, x))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))

@@ -62,9 +62,10 @@ def grey(c: Tensor) -> Tensor:
 
 
 def gbuffers(x: dict[str, Tensor | None], who: str) -> Tensor:
-    """The 7 G-buffer channels ``[log1p(depth), normal, albedo]`` of one frame, ``[B, 7, H, W]``."""
+    """The 7 G-buffer channels ``[log1p(depth), normal, albedo]`` of one frame, ``[B, 7, H, W]``
+    (channels-last where the normals are: :func:`cat_channels`)."""
     depth = need(x, "depth", who)
-    return torch.cat([torch.log1p(depth.clamp_min(0)), need(x, "normal", who), need(x, "albedo", who)], 1)
+    return cat_channels([torch.log1p(depth.clamp_min(0)), need(x, "normal", who), need(x, "albedo", who)])
 
 
 def pad_to_multiple(t: Tensor, multiple: int) -> Tensor:

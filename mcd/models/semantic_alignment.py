@@ -5,7 +5,10 @@ key and value are the previous frame's attended features, kept from the last cal
 :meth:`reset` attends to itself). Multi-head attention + residual, then a 2-D feed-forward block
 (1x1 conv - ReLU - 1x1 conv) + residual. The output is kept for the next frame *without* detaching, so a
 5-frame training clip back-propagates through time; call :meth:`reset` at every clip / sequence start.
-Attention runs in fp32 whatever the autocast state (softmax over thousands of tokens is not bf16-safe).
+The reference runs the attention in fp32 whatever the autocast state. Fast path (:mod:`mcd.models.fast_paths`,
+docs/inference.md "Fast paths"): under autocast the projections and ``scaled_dot_product_attention`` run in
+the autocast dtype (its fused kernels keep the softmax's running maximum and sum in fp32), the residual sums
+in fp32.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from mcd.models import fast_paths
 from mcd.models.stages import stage
 
 
@@ -61,7 +65,8 @@ class SemanticAlignment(nn.Module):
             raise RuntimeError(f"semantic alignment kept features of shape {tuple(memory.shape)} from the "
                                f"previous frame but got {tuple(x.shape)}; call model.reset() at each "
                                "clip/sequence start")
-        no_autocast = nullcontext() if x.is_meta else torch.autocast(x.device.type, enabled=False)
+        half = not x.is_meta and fast_paths.enabled() and torch.is_autocast_enabled(x.device.type)
+        no_autocast = nullcontext() if x.is_meta or half else torch.autocast(x.device.type, enabled=False)
         with no_autocast:
             xf = x.float()
             query = (xf + sine_cosine_encoding(c, h, w, x.device)).flatten(2).transpose(1, 2)   # [B, L, C]
