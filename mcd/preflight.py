@@ -19,7 +19,6 @@ from omegaconf import DictConfig
 
 from mcd.data.buffers import UNIFORM_BUDGETS
 from mcd.data.splits import clip_stride
-from mcd.data.train_store import TrainStoreSettings
 from mcd.metrics import SSIM_WINDOW
 
 
@@ -119,6 +118,8 @@ def check_motion(cfg: DictConfig, buffers: Iterable[str]) -> None:
     :func:`check_augment`'s.)"""
     if "motion" not in set(buffers):
         return
+    from mcd.data.train_store import TrainStoreSettings  # here: it imports torch, which --help must not
+
     settings = TrainStoreSettings.from_cfg(cfg)
     meta = settings.dir / "store.json"
     if settings.format != "array" or not meta.is_file():
