@@ -11,10 +11,11 @@ The unit of work is one frame of one scene: its buffers are read through
 :meth:`mcd.data.store.StoreReader.load` (as models see them), written into the scene's array, flushed, read
 back and compared (CRC-32), and only then recorded in the scene's pack record (written atomically: temp file,
 then rename). A pack killed at any point (kill -9 included) loses nothing: run again, it skips recorded frames
-whose EXR sources are unchanged and packs the rest. A store packed with another config is refused before any
-work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR store that lacks a file, naming
-the render command. One packer per scene at a time (``<scene>.lock``, :func:`mcd.file_lock.exclusive`): a
-second one (another DDP rank) waits, then reuses the first one's frames.
+whose EXR sources are unchanged and whose bytes still have their recorded CRC-32 (a deleted, truncated or
+overwritten file is packed again), and packs the rest. A store packed with another config is refused before
+any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR store that lacks a file,
+naming the render command. One packer per scene at a time (``<scene>.lock``, :func:`mcd.file_lock.exclusive`):
+a second one (another DDP rank) waits, then reuses the first one's frames.
 """
 
 from __future__ import annotations
