@@ -33,6 +33,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mcd.paths import UnsafeNameError, check_folder_name
+
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
     import pandas as pd
 
@@ -181,6 +183,25 @@ def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[F
     ]
 
 
+def report_name(runs: list[Run], name: str | None) -> str:
+    """The report's folder name under the output root: ``name`` (``--name``), else the runs' one data profile
+    (``combined`` for several). Either must be one plain folder name (:func:`mcd.paths.check_folder_name`):
+    a profile comes from the runs' records (``data_profile`` in ``metrics.json``, or Hydra's choice of
+    ``data`` in ``.hydra/hydra.yaml``), and ``/`` or ``..`` in it would write, and delete, outside the output
+    root. UnsafeNameError naming the field and the file, or ``--name``, before anything is written."""
+    why = "the report is written to <out>/<name>/"
+    if name is not None:
+        return check_folder_name(name, "--name", why)
+    profiles = sorted({r.data_profile for r in runs})
+    if len(profiles) > 1:
+        return "combined"
+    run = runs[0]
+    source = (run.path / "metrics.json" if run.metrics is not None and "data_profile" in run.metrics
+              else run.path / ".hydra" / "hydra.yaml")
+    return check_folder_name(profiles[0], f"data_profile in {source}",
+                             f"{why} and the default name is the runs' data profile (or give --name)")
+
+
 def make_report(
     dirs: list[Path],
     out_root: Path,
@@ -205,9 +226,7 @@ def make_report(
         )
     records.keys(runs)  # two runs that would share a record folder: refused before anything is written
     sweeps = find_sweeps(dirs)
-    if name is None:
-        profiles = sorted({r.data_profile for r in runs})
-        name = profiles[0] if len(profiles) == 1 else "combined"
+    name = report_name(runs, name)
     out_dir = out_root / name
     out_dir.mkdir(parents=True, exist_ok=True)
     root = Path.cwd().resolve()
@@ -310,7 +329,11 @@ def main(argv: list[str] | None = None) -> None:
         print(f"index written to {index.write_index(args.out, current)}; results of {current} in {readme}")
         return
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
-    out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command, not args.no_viewer)
+    try:
+        out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
+                              not args.no_viewer)
+    except UnsafeNameError as err:  # a name that would leave the output root: nothing was written
+        sys.exit(f"error: {err}")
     print(f"report written to {out_dir}/README.md")
     print(f"index written to {index.write_index(args.out, current)}")
     if out_dir.name == current:
