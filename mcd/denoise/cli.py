@@ -60,8 +60,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--reference-max-spp", type=arguments.int_in(2, 2**20), default=MAX_SPP,
                    help="cap of the reference's spp (input b)")
     p.add_argument("--exposure", type=arguments.float_in(0, 1e12, lo_open=True), default=None,
-                   help="one exposure for the network and every score (input b; default: frame 0's reference "
-                   "mean, or its input's without a reference, becomes 0.5)")
+                   help="one exposure for the network and every score (input b; default: the network's from "
+                   "frame 0's input, the scores' from frame 0's reference, each mean brought to 0.5)")
     p.add_argument("--seed", type=arguments.int_in(0, 2**32 - 1), default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
