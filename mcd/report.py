@@ -142,6 +142,7 @@ def write_readme(
         f"## Findings (generated from the tables below; as data in [{finding.FILE}]({finding.FILE}))",
         "",
         *[f"- {finding.render(f)}" for f in found],
+        *([f"- {mixed}"] if (mixed := mixed_profiles_note(runs)) is not None else []),
         "",
         "## Table 1 (4 spp)",
         "",
@@ -165,12 +166,35 @@ def write_readme(
     return path
 
 
+def profiles_of(runs: list[Run]) -> dict[str, int]:
+    """``{data profile: number of runs}`` of the report's runs, by profile name."""
+    counts: dict[str, int] = {}
+    for r in runs:
+        counts[r.data_profile] = counts.get(r.data_profile, 0) + 1
+    return dict(sorted(counts.items()))
+
+
+def mixed_profiles_note(runs: list[Run]) -> str | None:
+    """None when every run has one data profile; else the sentence the README states where its findings
+    would be: which profiles (and how many runs of each), and that no finding compares across them."""
+    counts = profiles_of(runs)
+    if len(counts) < 2:
+        return None
+    listed = ", ".join(f"`{p}` ({n} run{'s' if n > 1 else ''})" for p, n in counts.items())
+    return (f"None: the runs come from {len(counts)} data profiles, {listed}, whose scores do not compare "
+            "(other scenes, sizes and sample counts), so no finding is made across them and the tables below "
+            "mix them. Report each profile's sweeps on their own.")
+
+
 def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[Finding]:
-    """Every finding of the report, in the README's order (docs/benchmark.md "Reports", findings)."""
+    """Every finding of the report, in the README's order (docs/benchmark.md "Reports", findings); none when
+    the runs come from more than one data profile (:func:`mixed_profiles_note`)."""
     import pandas as pd
 
     from mcd.reporting import findings, seeds, tables
 
+    if mixed_profiles_note(runs) is not None:
+        return []
     return [
         *findings.headline(results["table1"]),
         *findings.baselines(results["table1"], results.get("seeds")),
