@@ -1,7 +1,9 @@
 """One exclusive advisory lock (``fcntl.flock``) on a file, for every writer that must be alone on a path: the
 run directory's ``run.lock`` (:mod:`mcd.run_dir`; docs/reliability.md, "One owner per run directory"), the EXR
 store's scene and frame locks (:mod:`mcd.data.store_builder`; docs/architecture.md, "The store") and the
-training store's packer lock per scene (:mod:`mcd.data.pack`; docs/training_store.md).
+training store's packer lock per scene (:mod:`mcd.data.pack`; docs/training_store.md); and, with
+:func:`exclusive_folder`, on a folder itself (``mcd-denoise``'s ``-o``, :mod:`mcd.denoise.output_folder`),
+which adds no file among its outputs.
 
 The kernel drops a ``flock`` when its holder dies, so a killed process never leaves a stale lock behind. The
 lock file is made if missing and never truncated or removed here: a holder may keep notes in it (``run.lock``
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TextIO
@@ -42,3 +45,20 @@ def exclusive(path: Path, *, blocking: bool = True) -> Iterator[TextIO | None]:
             yield f
         finally:
             fcntl.flock(f, fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
+def exclusive_folder(path: Path) -> Iterator[bool]:
+    """Try an exclusive ``flock`` on the folder ``path`` itself (an ``O_DIRECTORY`` descriptor) while the
+    block runs; yield whether it is held (False at once when another holder has it). No lock file is made."""
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            held = False
+        else:
+            held = True
+        yield held
+    finally:
+        os.close(fd)  # drops the lock

@@ -7,7 +7,12 @@ key.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
+
+#: A name that becomes one folder under an output root (a store's profile or scene, a report, a bundle):
+#: letters, digits, ``_``, ``-``, ``.`` (not leading), so never ``/``, ``..`` or a hidden name.
+SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 #: The ``mcd`` package folder.
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -55,3 +60,18 @@ def scenes_dir(value: str | Path | None) -> Path | None:
                          "folder that holds the scenes not vendored in scenes/ (docs/scenes.md says where to "
                          "get each), or unset it to use the vendored scenes only")
     return path
+
+
+class UnsafeNameError(ValueError):
+    """A name that would become a folder is not one plain folder name (:func:`check_folder_name`)."""
+
+
+def check_folder_name(name: object, key: str, why: str) -> str:
+    """``name`` if it is one plain folder name (:data:`SAFE_NAME`), else UnsafeNameError naming ``key``
+    (where the name came from: an override, a flag, or a field and the file holding it) and ``why`` (which
+    folder it becomes). The one rule for names that become folders, so that a name from data or a command
+    line never writes outside its output root (docs/reliability.md)."""
+    if not isinstance(name, str) or not SAFE_NAME.fullmatch(name):
+        raise UnsafeNameError(f"{key}={name!r}: not a plain folder name (letters, digits, '_', '-', '.', not "
+                              f"leading '.'); {why}, so a name must not hold '/' or '..'")
+    return name

@@ -33,6 +33,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mcd.paths import UnsafeNameError, check_folder_name
+
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
     import pandas as pd
 
@@ -140,6 +142,7 @@ def write_readme(
         f"## Findings (generated from the tables below; as data in [{finding.FILE}]({finding.FILE}))",
         "",
         *[f"- {finding.render(f)}" for f in found],
+        *([f"- {mixed}"] if (mixed := mixed_profiles_note(runs)) is not None else []),
         "",
         "## Table 1 (4 spp)",
         "",
@@ -163,12 +166,35 @@ def write_readme(
     return path
 
 
+def profiles_of(runs: list[Run]) -> dict[str, int]:
+    """``{data profile: number of runs}`` of the report's runs, by profile name."""
+    counts: dict[str, int] = {}
+    for r in runs:
+        counts[r.data_profile] = counts.get(r.data_profile, 0) + 1
+    return dict(sorted(counts.items()))
+
+
+def mixed_profiles_note(runs: list[Run]) -> str | None:
+    """None when every run has one data profile; else the sentence the README states where its findings
+    would be: which profiles (and how many runs of each), and that no finding compares across them."""
+    counts = profiles_of(runs)
+    if len(counts) < 2:
+        return None
+    listed = ", ".join(f"`{p}` ({n} run{'s' if n > 1 else ''})" for p, n in counts.items())
+    return (f"None: the runs come from {len(counts)} data profiles, {listed}, whose scores do not compare "
+            "(other scenes, sizes and sample counts), so no finding is made across them and the tables below "
+            "mix them. Report each profile's sweeps on their own.")
+
+
 def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[Finding]:
-    """Every finding of the report, in the README's order (docs/benchmark.md "Reports", findings)."""
+    """Every finding of the report, in the README's order (docs/benchmark.md "Reports", findings); none when
+    the runs come from more than one data profile (:func:`mixed_profiles_note`)."""
     import pandas as pd
 
     from mcd.reporting import findings, map_health, seeds, tables
 
+    if mixed_profiles_note(runs) is not None:
+        return []
     return [
         *findings.headline(results["table1"]),
         *findings.baselines(results["table1"], results.get("seeds")),
@@ -180,6 +206,25 @@ def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[F
         *seeds.reproducibility(runs),
         *map_health.checks(runs),
     ]
+
+
+def report_name(runs: list[Run], name: str | None) -> str:
+    """The report's folder name under the output root: ``name`` (``--name``), else the runs' one data profile
+    (``combined`` for several). Either must be one plain folder name (:func:`mcd.paths.check_folder_name`):
+    a profile comes from the runs' records (``data_profile`` in ``metrics.json``, or Hydra's choice of
+    ``data`` in ``.hydra/hydra.yaml``), and ``/`` or ``..`` in it would write, and delete, outside the output
+    root. UnsafeNameError naming the field and the file, or ``--name``, before anything is written."""
+    why = "the report is written to <out>/<name>/"
+    if name is not None:
+        return check_folder_name(name, "--name", why)
+    profiles = sorted({r.data_profile for r in runs})
+    if len(profiles) > 1:
+        return "combined"
+    run = runs[0]
+    source = (run.path / "metrics.json" if run.metrics is not None and "data_profile" in run.metrics
+              else run.path / ".hydra" / "hydra.yaml")
+    return check_folder_name(profiles[0], f"data_profile in {source}",
+                             f"{why} and the default name is the runs' data profile (or give --name)")
 
 
 def make_report(
@@ -206,9 +251,7 @@ def make_report(
         )
     records.keys(runs)  # two runs that would share a record folder: refused before anything is written
     sweeps = find_sweeps(dirs)
-    if name is None:
-        profiles = sorted({r.data_profile for r in runs})
-        name = profiles[0] if len(profiles) == 1 else "combined"
+    name = report_name(runs, name)
     out_dir = out_root / name
     out_dir.mkdir(parents=True, exist_ok=True)
     root = Path.cwd().resolve()
@@ -311,7 +354,11 @@ def main(argv: list[str] | None = None) -> None:
         print(f"index written to {index.write_index(args.out, current)}; results of {current} in {readme}")
         return
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
-    out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command, not args.no_viewer)
+    try:
+        out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
+                              not args.no_viewer)
+    except UnsafeNameError as err:  # a name that would leave the output root: nothing was written
+        sys.exit(f"error: {err}")
     print(f"report written to {out_dir}/README.md")
     print(f"index written to {index.write_index(args.out, current)}")
     if out_dir.name == current:

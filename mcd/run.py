@@ -342,6 +342,16 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     return metrics
 
 
+def _skip_finished(out_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> bool:
+    """True (logged) if ``out_dir`` holds a finished run of this job; FileExistsError naming the keys if it
+    holds another job's finished run; False if it holds none."""
+    if not is_complete(out_dir / "metrics.json"):
+        return False
+    check_same_job(out_dir / "metrics.json", cfg, choices)
+    log.info("skip: %s already holds a complete metrics.json", out_dir)
+    return True
+
+
 @hydra_main
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
@@ -354,13 +364,15 @@ def main(cfg: DictConfig) -> None:
     choices = dict(hydra_cfg.runtime.choices)
     # one owner per run directory (mcd/run_dir.py): a second process is refused here, before it touches the
     # directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
+    # a finished run is never written again (mcd/run_dir.py): skipped, or refused when it is another job's,
+    # before the lock is taken and outside the try (no error.json); Hydra wrote nothing there either
+    if _skip_finished(out_dir, cfg, choices):
+        return
     owner = run_dir.hold(out_dir) if rank_zero_only.rank == 0 else contextlib.nullcontext()
     with owner:
+        if _skip_finished(out_dir, cfg, choices):  # it finished while this process started
+            return
         try:
-            if is_complete(out_dir / "metrics.json"):
-                check_same_job(out_dir / "metrics.json", cfg, choices)
-                log.info("skip: %s already holds a complete metrics.json", out_dir)
-                return
             train_and_test(cfg, out_dir, choices, started)
         except Exception as err:
             path = write_error(out_dir, cfg, list(hydra_cfg.overrides.task), err)

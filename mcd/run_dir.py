@@ -11,6 +11,10 @@
   ``hydra.run.dir`` given twice, two copies of one sweep) is refused with :class:`RunDirInUse`, naming the
   owner's pid. The kernel drops the lock when the owner dies, so a killed run never leaves a stale lock
   behind.
+- A finished run (a complete ``metrics.json``) is never written again: a rerun into its directory is skipped,
+  or refused when it is another job's, without taking the lock or writing ``error.json``
+  (:func:`mcd.run.main`), and ``conf/config.yaml`` sets Hydra's ``output_subdir`` and job log file through
+  :func:`record_subdir` and :func:`run_log`, so that Hydra's own files stay as the run left them too.
 """
 
 from __future__ import annotations
@@ -39,12 +43,35 @@ def run_id() -> str:
     return _RUN_ID
 
 
+def is_finished(run_dir: str | Path) -> bool:
+    """Whether ``run_dir`` holds a finished run (a complete ``metrics.json``,
+    :func:`mcd.run_record.is_complete`): its records are never written again."""
+    from mcd.run_record import is_complete
+
+    return is_complete(Path(run_dir) / "metrics.json")
+
+
+def record_subdir(run_dir: str) -> str | None:
+    """``hydra.output_subdir`` (``conf/config.yaml``): ``.hydra``, or None where ``run_dir`` holds a finished
+    run, so that Hydra, which saves its ``config.yaml``, ``hydra.yaml`` and ``overrides.yaml`` there before
+    any of our code runs, leaves a finished run's files as they are (a rerun is skipped or refused)."""
+    return None if is_finished(run_dir) else ".hydra"
+
+
+def run_log(run_dir: str, job_name: str) -> str:
+    """The file of Hydra's job log (``hydra.job_logging.handlers.file.filename``): ``<run dir>/<job>.log``, or
+    ``os.devnull`` where ``run_dir`` holds a finished run (its log is one of its records)."""
+    return os.devnull if is_finished(run_dir) else str(Path(run_dir) / f"{job_name}.log")
+
+
 def register_resolvers() -> None:
-    """Register ``${run_id:}`` with OmegaConf (idempotent)."""
+    """Register ``${run_id:}``, ``${record_subdir:dir}`` and ``${run_log:dir,job}`` with OmegaConf
+    (idempotent)."""
     from omegaconf import OmegaConf
 
-    if not OmegaConf.has_resolver("run_id"):
-        OmegaConf.register_new_resolver("run_id", run_id)
+    for name, resolver in (("run_id", run_id), ("record_subdir", record_subdir), ("run_log", run_log)):
+        if not OmegaConf.has_resolver(name):
+            OmegaConf.register_new_resolver(name, resolver)
 
 
 @contextlib.contextmanager

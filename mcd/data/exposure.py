@@ -43,6 +43,47 @@ def auto_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> f
     return target / mean if mean > 0 else None
 
 
+#: :func:`input_exposure` clamps values above this multiple of the :data:`OUTLIER_QUANTILE` of frame 0's
+#: positive values: a firefly is clamped; a light source covering more than the quantile's share of the frame
+#: sets the quantile itself and is kept.
+OUTLIER_FACTOR = 10.0
+OUTLIER_QUANTILE = 0.999
+#: the relative change of the mean above which :func:`input_exposure` warns that outliers would have moved it
+OUTLIER_WARN = 0.01
+
+
+def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> float | None:
+    """The scale that brings a robust mean of ``frame0`` (a user's noisy colour, sanitised first) to
+    ``target``; None if black. What ``mcd-denoise`` sets the network's input exposure from (docs/denoise.md,
+    "Frames from disk").
+
+    A noisy frame may hold fireflies: one pixel of 1e6 in a 128x128 frame of mean 0.5 multiplies the plain
+    mean by about 120, and so darkens every frame of the sequence the network sees by that factor. The mean
+    here is winsorised: values above :data:`OUTLIER_FACTOR` times the :data:`OUTLIER_QUANTILE` of the positive
+    values are clamped to that bound (then to :data:`EXPOSURE_CLAMP`). On a frame without such outliers it is
+    the plain mean of :func:`auto_exposure` (the statistic the training data's exposure comes from). When the
+    clamp moves the mean by more than :data:`OUTLIER_WARN`, a warning names ``name``, the values clamped and
+    both exposures.
+    """
+    clean, _ = sanitise(np.asarray(frame0, dtype=np.float32), allow_negative=False)
+    clean = np.minimum(clean, np.float32(EXPOSURE_CLAMP))
+    positive = clean[clean > 0]
+    if not positive.size:
+        return None
+    bound = float(OUTLIER_FACTOR * np.quantile(positive, OUTLIER_QUANTILE))
+    plain = float(clean.mean(dtype=np.float64))
+    mean = float(np.minimum(clean, bound).mean(dtype=np.float64))
+    if mean <= 0:
+        return None
+    if plain > mean * (1 + OUTLIER_WARN):
+        log.warning("%s: %d of %d values above %.4g (%g x its %g quantile) clamped for the exposure: they "
+                    "would have moved it from x%.4g to x%.4g (fireflies? one exposure holds for every frame)",
+                    name,
+                    int(np.count_nonzero(clean > bound)), clean.size, bound, OUTLIER_FACTOR,
+                    OUTLIER_QUANTILE, target / mean, target / plain)
+    return target / mean
+
+
 def depth_scale(depth0: np.ndarray) -> float:
     """Median positive first-hit distance of frame 0 (1 when nothing is hit)."""
     d = np.asarray(depth0)

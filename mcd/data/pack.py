@@ -11,10 +11,11 @@ The unit of work is one frame of one scene: its buffers are read through
 :meth:`mcd.data.store.StoreReader.load` (as models see them), written into the scene's array, flushed, read
 back and compared (CRC-32), and only then recorded in the scene's pack record (written atomically: temp file,
 then rename). A pack killed at any point (kill -9 included) loses nothing: run again, it skips recorded frames
-whose EXR sources are unchanged and packs the rest. A store packed with another config is refused before any
-work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR store that lacks a file, naming
-the render command. One packer per scene at a time (``<scene>.lock``, :func:`mcd.file_lock.exclusive`): a
-second one (another DDP rank) waits, then reuses the first one's frames.
+whose EXR sources are unchanged and whose bytes still have their recorded CRC-32 (a deleted, truncated or
+overwritten file is packed again), and packs the rest. A store packed with another config is refused before
+any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR store that lacks a file,
+naming the render command. One packer per scene at a time (``<scene>.lock``, :func:`mcd.file_lock.exclusive`):
+a second one (another DDP rank) waits, then reuses the first one's frames.
 """
 
 from __future__ import annotations
@@ -137,8 +138,11 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
         for f in frames:
             digest = frame_digest(man, f, store.packed)
             if done.get(str(f), {}).get("sources") == digest:
-                got["reused"] += 1
-                continue
+                if _bytes_intact(fh, mm, f, done[str(f)].get("crc32")):
+                    got["reused"] += 1
+                    continue
+                log.warning("%s: frame %d's bytes differ from those packed (CRC-32; the file was deleted, "
+                            "truncated or written over): packing it again", store.scene_path(scene), f)
             frame = np.empty((mm.shape[3], *size), dtype=np.float32)
             for b in store.packed:
                 c0, c1 = store.ranges[b]
@@ -165,6 +169,16 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
             got["packed"] += 1
             got["clamped"] += clamped
     return got
+
+
+def _bytes_intact(fh: Any, mm: np.memmap, frame: int, crc: Any) -> bool:
+    """Whether the packed bytes of ``frame`` in the open scene file ``fh`` (its array ``mm``) are whole and
+    have the CRC-32 recorded when they were packed: a frame is reused only then, so a store whose file was
+    deleted, truncated (a memory map zero-fills it again) or written over in place is packed again, never
+    read as zeros or damage (docs/training_store.md, "Pack: resumable, atomic, verified")."""
+    n = mm[frame].nbytes
+    back = os.pread(fh.fileno(), n, mm.offset + frame * n)
+    return isinstance(crc, int) and len(back) == n and zlib.crc32(back) == crc
 
 
 def main() -> None:

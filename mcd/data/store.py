@@ -32,14 +32,12 @@ from mcd.data.camera import Camera
 from mcd.data.exposure import normalise
 from mcd.data.exr import CorruptEXRError, read_exr, sha256
 from mcd.data.scenes import SceneSpec
+from mcd.paths import check_folder_name
 from mcd.paths import data_dir as resolve_data_dir
 from mcd.paths import scenes_dir as resolve_scenes_dir
 
 log = logging.getLogger(__name__)
 
-#: A profile or scene name is one folder name of the store: letters, digits, ``_``, ``-``, ``.`` (not
-#: leading).
-SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 #: Command-line overrides that shape the store (``data=..``, ``data.*``, ``+scene@data.scenes.*``,
 #: ``paths.*``).
 STORE_OVERRIDE = re.compile(r"[+~]*(data[.=]|scene@data\.|paths\.)")
@@ -52,17 +50,13 @@ class CorruptManifestError(RuntimeError):
 
 
 def check_name(name: str, key: str) -> str:
-    """``name`` if it is a single safe folder name (:data:`SAFE_NAME`), else ValueError naming ``key``.
+    """``name`` if it is a single safe folder name (:func:`mcd.paths.check_folder_name`), else ValueError
+    naming ``key``.
 
     Profile and scene names become folders of the store; ``..`` or ``/`` would write outside
     ``paths.data_dir``.
     """
-    if not SAFE_NAME.fullmatch(name):
-        raise ValueError(
-            f"{key}={name!r}: not a plain folder name (letters, digits, '_', '-', '.', not leading '.'); the "
-            "store writes <paths.data_dir>/<data.name>/<scene>/, so a name must not hold '/' or '..'"
-        )
-    return name
+    return check_folder_name(name, key, "the store writes <paths.data_dir>/<data.name>/<scene>/")
 
 
 def manifest_problem(man: object) -> str | None:

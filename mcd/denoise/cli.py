@@ -9,6 +9,7 @@ Every bad input is refused before the long work starts, with a message naming th
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import sys
 from pathlib import Path
@@ -59,8 +60,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--reference-max-spp", type=arguments.int_in(2, 2**20), default=MAX_SPP,
                    help="cap of the reference's spp (input b)")
     p.add_argument("--exposure", type=arguments.float_in(0, 1e12, lo_open=True), default=None,
-                   help="one exposure for the network and every score (input b; default: frame 0's reference "
-                   "mean, or its input's without a reference, becomes 0.5)")
+                   help="one exposure for the network and every score (input b; default: the network's from "
+                   "frame 0's input, the scores' from frame 0's reference, each mean brought to 0.5)")
     p.add_argument("--seed", type=arguments.int_in(0, 2**32 - 1), default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
@@ -124,6 +125,13 @@ def run(argv: list[str] | None = None) -> dict:
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     allocator.keep_freed_memory()           # full frames reuse freed pages (mcd/allocator.py)
+    # -o is locked from its check to the last write of denoise.json (output_folder.hold, in _scene/_frames)
+    with contextlib.ExitStack() as folder_lock:
+        return _run(args, folder_lock)
+
+
+def _run(args: argparse.Namespace, folder_lock: contextlib.ExitStack) -> dict:
+    """:func:`run` with the parsed ``args``; ``folder_lock`` holds the lock of ``-o`` once it is taken."""
     try:
         device = pick_device(args.device)
         dtype = precision.check(args.precision, device)
@@ -132,9 +140,9 @@ def run(argv: list[str] | None = None) -> dict:
         meta = {"checkpoint": loaded.source, "experiment": loaded.experiment, "provenance": loaded.provenance,
                 "precision": args.precision, "device": str(device), "allocator": allocator.policy()}
         if args.scene is not None:
-            report = _scene(args, loaded, device, dtype)
+            report = _scene(args, loaded, device, dtype, folder_lock)
         else:
-            report = _frames(args, loaded, device, dtype, meta)
+            report = _frames(args, loaded, device, dtype, meta, folder_lock)
     except (ValueError, FileNotFoundError, RuntimeError, ImportError) as err:  # ImportError: a missing extra
         print(f"mcd-denoise: error: {err}", file=sys.stderr)
         raise SystemExit(2) from err
@@ -148,7 +156,7 @@ def run(argv: list[str] | None = None) -> dict:
 
 
 def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.device,
-           dtype: torch.dtype | None) -> dict:
+           dtype: torch.dtype | None, folder_lock: contextlib.ExitStack) -> dict:
     """Input (b): check ``-o``, render and denoise the scene, print each frame's samples and scores."""
     if args.inputs:
         raise ValueError("give either EXR frames or --scene, not both")
@@ -174,6 +182,7 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
     output_folder.check_writable(args.output)
+    folder_lock.enter_context(output_folder.hold(args.output))
     report = denoise_scene(loaded, args.scene, args.output, device, args.width, args.height,
                            args.frames, args.gbuffer_spp, args.seed, args.reference_spp,
                            progress=not args.no_progress, dtype=dtype, exposure=args.exposure,
@@ -184,7 +193,7 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
 
 
 def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.device, dtype: torch.dtype | None,
-            meta: dict) -> dict:
+            meta: dict, folder_lock: contextlib.ExitStack) -> dict:
     """Input (a): find and check the frames and ``-o`` (before any work), denoise (resuming), print."""
     if not args.inputs:
         raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
@@ -202,6 +211,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     work.check(h * w * len(paths), work.MAX_PIXELS, f"{len(paths)} frames of {w}x{h}: pixels to denoise",
                args.allow_large)
     output_folder.check_writable(args.output)
+    folder_lock.enter_context(output_folder.hold(args.output))
     size = check_frames(paths, wanted_layers(loaded))
     if refs:
         check_references(refs, size)

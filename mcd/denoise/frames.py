@@ -12,9 +12,10 @@ Naming (one frame = one colour file, in name order):
 
 An input is a folder (every ``*.exr`` in it that is not a sibling layer file), one or more files, or a glob
 pattern. Every frame and layer must have one size. Colour and G-buffers go through
-:mod:`mcd.data.exposure` exactly as the training data: colour scaled so that frame 0's mean is the
-checkpoint's ``data.exposure_target`` (the same scale for the whole sequence, undone on output), depth divided
-by frame 0's median, NaN/Inf/negative values replaced by 0 and counted.
+:mod:`mcd.data.exposure` as the training data: colour scaled so that frame 0's mean (a robust one, fireflies
+clamped: :func:`mcd.data.exposure.input_exposure`) is the checkpoint's ``data.exposure_target`` (the same
+scale for the whole sequence, undone on output), depth divided by frame 0's median, NaN/Inf/negative values
+replaced by 0 and counted.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ import numpy as np
 import OpenEXR
 
 from mcd.data import exr
-from mcd.data.exposure import auto_exposure, depth_scale, normalise
+from mcd.data.exposure import depth_scale, input_exposure, normalise
 
 log = logging.getLogger(__name__)
 
@@ -232,7 +233,7 @@ class FrameSequence:
     def __post_init__(self) -> None:
         first = read_frame(self.paths[0], self.want)
         self.size = first["colour"].shape[:2]
-        exposure = auto_exposure(first["colour"], self.exposure_target)
+        exposure = input_exposure(first["colour"], self.exposure_target, str(self.paths[0]))
         if exposure is None:
             log.warning("%s: frame 0 is black; exposure left at 1", self.paths[0])
         self.exposure = exposure or 1.0

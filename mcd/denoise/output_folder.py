@@ -4,15 +4,19 @@ docs/reliability.md, "Denoising your frames").
 Nothing a user gives is lost: the folder must be a folder that can be made and written to, must not be the
 folder of an input file, must not contain an input (at any depth, symlinks resolved both ways), and no file
 the run would write may be an input or a symlink. An output folder inside an input folder is allowed: frames
-are read from a folder's own ``*.exr``, never from its subfolders.
+are read from a folder's own ``*.exr``, never from its subfolders. One run at a time writes into a folder
+(:func:`hold`): a second ``mcd-denoise`` on the same ``-o`` is refused before it writes anything.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+
+from mcd import file_lock
 
 
 class OutputFolderError(ValueError):
@@ -43,6 +47,18 @@ def check_writable(out: Path) -> None:
     except OSError as exc:
         raise OutputFolderError(f"-o {out}: cannot write there ({exc.strerror or exc}); give a writable "
                                 "folder") from exc
+
+
+@contextlib.contextmanager
+def hold(out: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the folder ``out`` (made by :func:`check_writable`) while the block runs:
+    OutputFolderError at once if another ``mcd-denoise`` holds it, so two runs never mix their outputs and
+    ``denoise.json``. The kernel drops the lock when its holder dies."""
+    with file_lock.exclusive_folder(out) as held:
+        if not held:
+            raise OutputFolderError(f"-o {out}: another mcd-denoise is writing into this folder; wait for it "
+                                    "to finish, or give another folder")
+        yield
 
 
 def check_apart(out: Path, inputs: Iterable[Path], outputs: Iterable[str]) -> None:

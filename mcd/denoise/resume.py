@@ -3,10 +3,11 @@ settings (docs/denoise.md, "Output"; docs/reliability.md, "Denoising your frames
 
 ``<out>/denoise.json`` is rewritten (atomically) after every frame with ``settings`` (what the outputs depend
 on: the input files with their sizes and modification times, the weights' SHA-256, the experiment, budget,
-precision, device, tile cap and overlap) and ``finished`` (the stems whose every file is written). A rerun
-with equal ``settings`` skips a finished frame whose EXR is still there; any other difference (or no record)
-denoises every frame again, naming the settings that changed. A method with temporal state still runs every
-frame (its state needs them), writing only the missing ones.
+precision, device, tile cap and overlap), ``finished`` (the stems whose every file is written) and
+``checksums`` (the SHA-256 of each of those files). A rerun with equal ``settings`` skips a finished frame
+whose files are all there with their recorded SHA-256 (one emptied or replaced since is denoised again); any
+other difference (or no record) denoises every frame again, naming the settings that changed. A method with
+temporal state still runs every frame (its state needs them), writing only the missing ones.
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ from typing import Any
 import torch
 from torch import nn
 
-from mcd.denoise.output import SUMMARY, write_json
+from mcd.data.exr import sha256
+from mcd.denoise.output import SUMMARY, frame_files, write_json
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +54,9 @@ class Record:
         self.out_dir = out_dir
         self.settings = json.loads(json.dumps(settings, default=str))    # as it reads back from the JSON
         self.finished: list[str] = []
-        self.previous: set[str] = set()
+        #: SHA-256 of each output file of each finished frame (this run's, and those a previous run left)
+        self.checksums: dict[str, dict[str, str]] = {}
+        self.previous: dict[str, dict[str, str]] = {}
         if self.path.is_file():
             try:
                 old = json.loads(self.path.read_text())
@@ -60,7 +64,10 @@ class Record:
                 old = {}
             old_settings = old.get("settings") if isinstance(old, dict) else None
             if old_settings == self.settings:
-                self.previous = {str(s) for s in old.get("finished", [])}
+                sums = old.get("checksums")
+                sums = sums if isinstance(sums, dict) else {}
+                self.previous = {str(s): sums[s] for s in old.get("finished", [])
+                                 if isinstance(sums.get(s), dict) and sums[s]}
             else:
                 changed = sorted(k for k in {*self.settings, *(old_settings or {})}
                                  if (old_settings or {}).get(k) != self.settings.get(k))
@@ -68,18 +75,33 @@ class Record:
                          ", ".join(changed) or "no record")
 
     def is_finished(self, stem: str, exr_name: str) -> bool:
-        """Whether a previous run with these settings finished ``stem`` and its EXR ``exr_name`` is there."""
-        return stem in self.previous and (self.out_dir / exr_name).is_file()
+        """Whether a previous run with these settings finished ``stem``, and every file it wrote for it (the
+        EXR ``exr_name`` among them) is there with the SHA-256 it was recorded with: an output emptied,
+        truncated or replaced since is denoised again, never kept."""
+        sums = self.previous.get(stem)
+        if not sums or exr_name not in sums:
+            return False
+        for name, digest in sums.items():
+            path = self.out_dir / name
+            if not path.is_file() or sha256(path) != digest:
+                log.warning("%s: not as the previous run wrote it (missing or other bytes): denoising frame "
+                            "%s again", path, stem)
+                return False
+        return True
 
     def keep(self, stem: str) -> None:
         """Record ``stem`` as finished by the previous run (kept, not written again)."""
         self.finished.append(stem)
+        self.checksums[stem] = self.previous[stem]
 
     def done(self, stem: str, summary: dict[str, Any]) -> None:
-        """Record ``stem`` as finished; rewrite the JSON with ``summary`` (the run's figures so far)."""
+        """Record ``stem`` as finished with the SHA-256 of each file written for it; rewrite the JSON with
+        ``summary`` (the run's figures so far)."""
         self.finished.append(stem)
+        self.checksums[stem] = {name: sha256(self.out_dir / name) for name in frame_files(stem)
+                                if (self.out_dir / name).is_file()}
         self.write(summary, complete=False)
 
     def write(self, summary: dict[str, Any], complete: bool) -> None:
         write_json(self.path, {**summary, "complete": complete, "settings": self.settings,
-                               "finished": self.finished})
+                               "finished": self.finished, "checksums": self.checksums})

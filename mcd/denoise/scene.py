@@ -12,11 +12,12 @@ output), rendered on top and reported as ``extra_samples``; no other adaptive me
 itself. The film size defaults to the scene's own (:func:`film_size`).
 
 With ``reference_spp``, every method is scored on the same terms (docs/denoise.md, "Scores of the real
-loop"): one exposure (given, or from frame 0's reference), the same uniform input ``c_s`` beside an adaptive
-method's own input, a reference raised to a target quality with its own noise estimated
-(:mod:`mcd.denoise.reference`) and written beside the outputs; for adaptive methods also the stack
-``c_1 .. c_{2^levels}`` of the simulated render, run through a copy of the model (what the benchmark
-measures) and compared with the real loop. Renders made only for the scores are counted as ``score_samples``.
+loop"): one exposure for the scores (given, or from frame 0's reference; the network's own comes from its
+input, as without a reference), the same uniform input ``c_s`` beside an adaptive method's own input, a
+reference raised to a target quality with its own noise estimated (:mod:`mcd.denoise.reference`) and
+written beside the outputs; for adaptive methods also the stack ``c_1 .. c_{2^levels}`` of the simulated
+render, run through a copy of the model (what the benchmark measures) and compared with the real loop.
+Renders made only for the scores are counted as ``score_samples``.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from tqdm import tqdm
 
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.data.camera import Camera, backward_motion, interpolate_path
-from mcd.data.exposure import auto_exposure, depth_scale, normalise
+from mcd.data.exposure import depth_scale, input_exposure, normalise
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
 from mcd.denoise.output import hwc, write_frame
@@ -110,8 +111,10 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     """Render and denoise ``path`` (module docstring) with autocast to ``dtype`` (None: fp32;
     mcd/denoise/precision.py); returns a summary with per-frame samples and, with ``reference_spp``, scores.
 
-    ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: from frame 0's reference when
-    there is one, else from frame 0's input (``data.exposure_target``). ``reference_db`` None: every reference
+    ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: the network's from frame 0's
+    own input (a robust mean brought to ``data.exposure_target``, :func:`mcd.data.exposure.input_exposure`),
+    with or without a reference, so that scoring never changes the outputs; the scores' from frame 0's
+    reference (the same for every method). ``reference_db`` None: every reference
     at ``reference_spp``. ``check_work(width, height)``: called once the film size is known, before anything
     is rendered (mcd-denoise's work limit, mcd/denoise/work.py).
     """
@@ -141,6 +144,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     target = float(cfg.data.get("exposure_target", 0.5))
     sim_model = copy.deepcopy(model) if plan is not None and adaptive else None
     exposure_source = "--exposure" if exposure is not None else None
+    score_exposure, score_source = exposure, exposure_source  # the scores' exposure (one for every method)
     scale = 1.0
     rows: list[dict[str, Any]] = []
     model.reset()
@@ -158,10 +162,10 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         if plan is not None:
             before = r.samples_rendered
             if f == 0:
-                ref, exposure = plan.first(r, exposure, target)
-                exposure_source = exposure_source or "frame 0's reference"
+                ref, score_exposure = plan.first(r, score_exposure, target)
+                score_source = score_source or "frame 0's reference"
             else:
-                ref = plan.render(r, f, exposure)
+                ref = plan.render(r, f, score_exposure)
             spent["scores"] += r.samples_rendered - before
         raw: dict[str, np.ndarray] = {}
         if adaptive:
@@ -174,15 +178,16 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             spent[key] += n * budget
         gb = r.gbuffer(gbuffer_spp, derive_seed(seed, "gbuffer", f))
         if f == 0:
-            if exposure is None:
-                exposure = auto_exposure(raw.get("c1_in", raw.get(uniform)), target) or 1.0
+            if exposure is None:  # what the user has: the method's own input, never the reference
+                exposure = input_exposure(raw.get("c1_in", raw.get(uniform)), target,
+                                          f"{path}: frame 0's input") or 1.0
                 exposure_source = "frame 0's input"
             scale = depth_scale(gb["depth"])
         x: dict[str, torch.Tensor | None] = {}
         for name, img in {**raw, **{b: gb[b] for b in GBUFFERS if b in reads}}.items():
             x[name] = layout(_tensor(normalise(img, name, exposure, scale, colour=name not in GBUFFERS)[0],
                                      device), dtype)
-        uniform_input = x.get(uniform)
+        uniform_input = raw.get(uniform) if ref is not None else None
         if not read_uniform:
             x.pop(uniform, None)  # rendered for the scores only: the method never sees it
         if "motion" in reads:
@@ -207,10 +212,18 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                    gbuffer_samples=n * gbuffer_spp)
         written = dict(out)
         if ref is not None:
-            ref_img = normalise(ref.image, "ref", exposure, scale, colour=True)[0]
-            written["reference"] = _tensor(ref_img, device)
+            assert score_exposure is not None and uniform_input is not None
+            to_scores = float(score_exposure / exposure)  # the network's exposure -> the scores'
+            ref_img = normalise(ref.image, "ref", score_exposure, scale, colour=True)[0]
+            written["reference"] = _tensor(normalise(ref.image, "ref", exposure, scale, colour=True)[0],
+                                           device)
             row.update(reference_spp=ref.spp, reference_psnr_estimate=ref.psnr_estimate)
-            row.update(scores(ref_img, uniform_input, out.get("adaptive"), out["output"]))
+            scored_uniform = _tensor(normalise(uniform_input, uniform, score_exposure, scale, colour=True)[0],
+                                     device)
+            adaptive_input = out.get("adaptive")
+            row.update(scores(ref_img, scored_uniform,
+                              None if adaptive_input is None else adaptive_input.float() * to_scores,
+                              out["output"].float() * to_scores))
             if sim_model is not None:
                 before = r.samples_rendered
                 stack = {k: layout(_tensor(normalise(r.color(2 ** j, derive_seed(seed, k, f)), k, exposure,
@@ -219,13 +232,14 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                 spent["scores"] += r.samples_rendered - before
                 with running(device, dtype):
                     sim = sim_model({**x, **stack})
-                row["psnr_simulated"] = psnr(hwc(sim["output"]), ref_img)
+                row["psnr_simulated"] = psnr(hwc(sim["output"].float() * to_scores), ref_img)
                 row["psnr_output_minus_simulated"] = row["psnr_output"] - row["psnr_simulated"]
         row["score_samples"] = spent["scores"]
         write_frame(out_dir, f"{scene.spec.name}_{f:04d}", written, exposure)
         rows.append(row)
     return {"frames": rows, "size": [height, width], "budget": budget, "exposure": exposure,
-            "exposure_source": exposure_source, "mean": mean_scores(rows),
+            "exposure_source": exposure_source, "score_exposure": score_exposure if plan else None,
+            "score_exposure_source": score_source if plan else None, "mean": mean_scores(rows),
             "reference": plan.summary() if plan is not None else None,
             "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant()}
 
@@ -271,8 +285,11 @@ def report_lines(report: dict[str, Any]) -> list[str]:
                      f"{report['mean']['reference_psnr_estimate']:.2f} dB (pilot {ref['pilot_spp']} spp: "
                      f"{ref['pilot_db']:.2f} dB; target {ref['target_db']} dB, cap {ref['max_spp']} spp); "
                      "a score near it is limited by the reference")
-    lines.append(f"exposure {report['exposure']:.6g} (from {report['exposure_source']}), the same for every "
-                 "column")
+    line = f"network exposure {report['exposure']:.6g} (from {report['exposure_source']})"
+    if report.get("score_exposure") is not None:
+        line += (f"; scores in exposure {report['score_exposure']:.6g} (from "
+                 f"{report['score_exposure_source']}), the same for every column")
+    lines.append(line)
     return lines
 
 

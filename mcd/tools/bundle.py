@@ -23,10 +23,10 @@ import yaml
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.config import upgrade_saved
-from mcd.data.store import check_name
 from mcd.denoise.weights import BUNDLED_DIR
 from mcd.lit import checkpoint
 from mcd.lit.transfer import checkpoint_of
+from mcd.paths import check_folder_name
 
 #: Keys of a run's metrics.json copied into the provenance.
 METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse", "per_scene",
@@ -48,7 +48,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     """
     from mcd.models import build
 
-    check_name(name, "--name")
+    check_folder_name(name, "--name", f"the bundle is written as {out_dir}/<name>.pt and .json")
     metrics_path = run_dir / "metrics.json"
     if not metrics_path.is_file():
         raise FileNotFoundError(f"{metrics_path}: missing; bundle a finished run of python -m mcd.run")

@@ -93,7 +93,9 @@ def test_scores_of_two_methods_share_exposure_uniform_input_and_reference(tmp_pa
     printed_f = capsys.readouterr().out
     ru = run([*common, "-o", str(tmp_path / "u"), "--checkpoint", str(unet)])
     printed_u = capsys.readouterr().out
-    assert rf["exposure"] == ru["exposure"] and rf["exposure_source"] == "frame 0's reference"
+    assert rf["score_exposure"] == ru["score_exposure"]
+    assert rf["score_exposure_source"] == "frame 0's reference"
+    assert rf["exposure_source"] == ru["exposure_source"] == "frame 0's input"  # each network's own input
     a, b = rf["frames"][0], ru["frames"][0]
     assert a["psnr_uniform"] == b["psnr_uniform"] and a["ssim_uniform"] == b["ssim_uniform"]
     assert "psnr_adaptive" in a and "psnr_adaptive" not in b
@@ -106,9 +108,9 @@ def test_scores_of_two_methods_share_exposure_uniform_input_and_reference(tmp_pa
     assert a["score_samples"] == 32 * 32 * (pilot_and_ref + 4 + 1 + 2 + 4 + 8 + 16 + 32)  # c_s, the stack
     assert b["score_samples"] == 32 * 32 * pilot_and_ref  # the uniform method's input is its own c_s
     saved = [read_exr(tmp_path / d / "cbox_0000_reference.exr") for d in ("f", "u")]
-    assert np.array_equal(saved[0], saved[1]) and saved[0].shape == (32, 32, 3)
+    assert np.allclose(saved[0], saved[1], rtol=1e-6, atol=0) and saved[0].shape == (32, 32, 3)
     fixed = run([*common, "-o", str(tmp_path / "x"), "--checkpoint", str(unet), "--exposure", "2.5"])
-    assert fixed["exposure"] == 2.5 and fixed["exposure_source"] == "--exposure"
+    assert fixed["exposure"] == fixed["score_exposure"] == 2.5 and fixed["exposure_source"] == "--exposure"
 
 
 #: A scene as Bitterli's Mitsuba 0.5 files are written: version 0.5.0, camelCase names, no <default>s.

@@ -1,0 +1,47 @@
+"""A rerun into a finished run never rewrites its records (mcd/run_dir.py, ``mcd.run.main``): Hydra saved a
+rerun's ``.hydra/*.yaml`` into the finished run before ``mcd.run`` skipped it (so ``mcd.report`` then read the
+rerun's ``capacity=paper`` for a ``capacity=cpu`` run), and a rerun of another job, refused, still wrote
+``error.json`` there. Every file of the finished run now keeps its bytes."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.conftest import store32_overrides
+from tests.reliability.denoise_helpers import snapshot
+from tests.test_run import mcd_run
+
+RUN = ["train.epochs=1", "train.batch_size=1", "train.sample_frames=[]", "trainer.enable_progress_bar=false"]
+
+
+@pytest.fixture(scope="module")
+def finished(cbox_store, tmp_path_factory):
+    """A run directory of ``+experiment=unet capacity=cpu`` that ``mcd.run`` finished."""
+    run = tmp_path_factory.mktemp("finished") / "run"
+    base = [*store32_overrides(cbox_store[1].data_dir), *RUN]
+    proc = mcd_run("+experiment=unet", "capacity=cpu", *base, f"hydra.run.dir={run}")
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert (run / "metrics.json").is_file() and (run / ".hydra" / "config.yaml").is_file()
+    return run, base
+
+
+def test_a_rerun_of_the_same_job_with_another_capacity_is_skipped_and_changes_no_byte(finished):
+    run, base = finished
+    before = snapshot(run)
+    proc = mcd_run("+experiment=unet", "capacity=paper", *base, f"hydra.run.dir={run}")
+    assert proc.returncode == 0 and "skip:" in proc.stdout + proc.stderr, proc.stderr[-4000:]
+    after = snapshot(run)
+    assert sorted(after) == sorted(before)
+    assert [name for name in before if after[name] != before[name]] == []
+    assert "capacity: paper" not in (run / ".hydra" / "hydra.yaml").read_text()
+
+
+def test_a_rerun_of_another_job_is_refused_and_writes_nothing_there(finished):
+    run, base = finished
+    before = snapshot(run)
+    proc = mcd_run("+experiment=F", *base, f"hydra.run.dir={run}")
+    refusal = "holds a finished run of another job (experiment: 'unet' there, 'F' here"
+    assert proc.returncode != 0 and refusal in proc.stderr, proc.stderr[-4000:]
+    after = snapshot(run)
+    assert sorted(after) == sorted(before)  # no error.json
+    assert [name for name in before if after[name] != before[name]] == []
