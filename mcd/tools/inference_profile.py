@@ -15,8 +15,9 @@ on the GPU's stream, read after one synchronize, so launches are not stalled), a
 boundaries goes to the innermost open label; ``other`` is the time inside the call outside every label. The
 rows therefore add up to the clock's span, and the table is **refused** (printed under REFUSED and not
 written to ``--out``; exit status 3) unless that sum is within ``--tolerance`` (10%) of the frame's wall time
-(the call closed by a synchronize on CUDA) and the clocked frame is within the same tolerance of the plain
-frame (the clock did not change what it measures). Medians over the repeats. The second table sums each label
+(the clocked call timed from outside, closed by a synchronize on CUDA). Medians over the repeats; the plain
+frame is printed beside it with its gap (a gap beyond the tolerance is flagged: the clock changed the frame,
+or the machine's load changed between calls). The second table sums each label
 with what is nested in it (these overlap: ``Ghost conv`` lies in ``F_s`` and in the kernel-map head).
 
 MACs per row are counted the same way (a :class:`mcd.models.stages.FlopClock` over ``FlopCounterMode`` on the
@@ -130,17 +131,12 @@ def inclusive(ms: dict[str, float], gmacs: dict[str, float]) -> list[str]:
     return lines
 
 
-def refusal(ms: dict[str, float], frame: float, plain: float, tolerance: float) -> str | None:
-    """Why the table cannot stand (its stages do not add up to the frame, or the clock changed the frame),
-    or None."""
+def refusal(ms: dict[str, float], frame: float, tolerance: float) -> str | None:
+    """Why the table cannot stand (its stages do not add up to the frame), or None."""
     total = sum(ms.values())
     if abs(total - frame) > tolerance * frame:
-        return (f"the stages sum to {total:.2f} ms, the clocked frame took {frame:.2f} ms "
+        return (f"the stages sum to {total:.2f} ms, the frame took {frame:.2f} ms "
                 f"({100 * (total / frame - 1):+.1f}%, more than {100 * tolerance:.0f}%)")
-    if abs(frame - plain) > tolerance * plain:
-        return (f"the clocked frame took {frame:.2f} ms, the plain frame {plain:.2f} ms "
-                f"({100 * (frame / plain - 1):+.1f}%, more than {100 * tolerance:.0f}%): the clock changed "
-                "what it measured, or the machine's load changed between calls (raise --repeat)")
     return None
 
 
@@ -156,8 +152,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--warmup", type=int, default=2, help="calls before the measured ones")
     parser.add_argument("--repeat", type=int, default=3, help="clocked calls, and as many plain ones")
     parser.add_argument("--tolerance", type=float, default=0.10,
-                        help="largest relative gap between the stages' sum and the frame, and between the "
-                             "clocked and the plain frame, before the table is refused")
+                        help="largest relative gap between the stages' sum and the frame before the table "
+                             "is refused")
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
@@ -206,7 +202,8 @@ def main(argv: list[str] | None = None) -> None:
     faults = minor_faults() - faults
     ms, frame, plain = median_totals(runs), statistics.median(clocked_walls), statistics.median(plain_walls)
     where = "GPU" if device.type == "cuda" else "CPU"
-    why = refusal(ms, frame, plain, args.tolerance)
+    why = refusal(ms, frame, args.tolerance)
+    gap = frame / plain - 1
     lines = [
         f"# Inference profile: {args.method} at {w}x{h} on the {where} (python -m mcd.bench profile)",
         "",
@@ -216,8 +213,11 @@ def main(argv: list[str] | None = None) -> None:
         "inference mode",
         f"- Inputs: {inputs}; {args.warmup} warm-up call(s) of each kind, then medians of {args.repeat} "
         f"clocked and {args.repeat} plain calls, interleaved",
-        f"- Frame: clocked {frame:.2f} ms, plain {plain:.2f} ms; stages (exclusive, "
-        f"{'CUDA events' if device.type == 'cuda' else 'perf_counter'}) sum to {sum(ms.values()):.2f} ms",
+        f"- Frame: {frame:.2f} ms (wall time of the clocked call); stages (exclusive, "
+        f"{'CUDA events' if device.type == 'cuda' else 'perf_counter'}) sum to {sum(ms.values()):.2f} ms; "
+        f"plain frame {plain:.2f} ms ({100 * gap:+.1f}%"
+        + (", beyond the tolerance: the clock changed the frame, or the load changed between calls)"
+           if abs(gap) > args.tolerance else ")"),
         f"- Allocator: {memory} (mcd/allocator.py); page faults during the measured calls: {faults}",
         "",
         *table(ms, frame, gmacs),
