@@ -342,7 +342,7 @@ def train_and_test(cfg: DictConfig, out_dir: Path, choices: dict[str, str],
     return metrics
 
 
-@hydra_main
+@hydra_main(job_errors=True)  # a sweep's job with a bad value writes its error.json (build's preflight)
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
     from lightning.pytorch.utilities import rank_zero_only
