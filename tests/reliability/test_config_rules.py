@@ -21,12 +21,13 @@ from tests.conftest import store32_overrides
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _command(tmp_path: Path, module: str, *overrides: str) -> subprocess.CompletedProcess:
+def _command(tmp_path: Path, module: str, *overrides: str, flags: tuple[str, ...] = ()) \
+        -> subprocess.CompletedProcess:
     """``python -m <module>`` on the 32x32 profile of tests/conftest.py, its data and run in ``tmp_path``."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1"}
     args = [*store32_overrides(tmp_path / "data"), f"hydra.run.dir={tmp_path / 'run'}", *overrides]
-    return subprocess.run([sys.executable, "-m", module, *args], cwd=tmp_path, env=env, capture_output=True,
-                          text=True, timeout=180)
+    return subprocess.run([sys.executable, "-m", module, *flags, *args], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=180)
 
 
 def _assert_refused(tmp_path: Path, proc: subprocess.CompletedProcess, key: str) -> str:
@@ -97,14 +98,27 @@ def test_every_hydra_command_checks_the_config_before_any_work(tmp_path, module)
     _assert_refused(tmp_path, _command(tmp_path, module, "data.clip_len=0"), "data.clip_len")
 
 
+def test_a_sweep_job_with_a_bad_value_writes_its_error_and_the_sweep_goes_on(tmp_path):
+    """In a multirun the check is the job's: ``mcd.run`` writes its ``error.json`` (mcd/hydra_callbacks.py
+    then exits 1 naming the failed jobs), as for any job that fails."""
+    proc = _command(tmp_path, "mcd.run", "+experiment=unet", "seed=-1", f"hydra.sweep.dir={tmp_path / 'sw'}",
+                    flags=("-m",))
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    (error,) = (tmp_path / "sw").rglob("error.json")
+    assert "seed=-1: give a whole number from 0" in error.read_text()
+    assert not (tmp_path / "data").exists()
+
+
 def _profiles() -> list[list[str]]:
     groups = [[f"{g}={p.stem}"] for g in ("data", "train", "capacity", "trainer", "loss")
               for p in sorted((CONF_DIR / g).glob("*.yaml"))]
-    return groups + [[f"+experiment={e}"] for e in experiment_names()]
+    sweeps = [[f"+sweep={p.stem}"] for p in sorted((CONF_DIR / "sweep").glob("[!_]*.yaml"))]
+    return groups + sweeps + [[f"+experiment={e}"] for e in experiment_names()]
 
 
 @pytest.mark.parametrize("overrides", _profiles(), ids=lambda o: o[0])
 def test_every_profile_and_experiment_passes_and_every_numeric_key_has_a_rule(overrides):
+    """Every profile of the groups data, train, capacity, trainer and loss, every sweep and experiment."""
     from mcd.config_rules import check_config, rule_of
 
     cfg = compose(overrides)
