@@ -48,10 +48,10 @@ class Rule:
     high_key: str | None = None
     check: Callable[[Any, DictConfig], None] | None = None
 
-    def expected(self, cfg: DictConfig | None = None) -> str:
-        """What to give, e.g. ``give a whole number from 1 to 16384 or null``."""
+    def expected(self, cfg: DictConfig | None = None, many: bool = False) -> str:
+        """What to give, e.g. ``give a whole number from 1 to 16384 or null`` (``many``: for a list)."""
         noun = "a whole number" if self.kind == "int" else "a number"
-        if self.each:
+        if many:
             noun = "whole numbers" if self.kind == "int" else "numbers"
         high = self.high
         if self.high_key is not None and cfg is not None:
@@ -193,7 +193,7 @@ RULES: dict[str, Rule] = {
 
 #: Rules of key families (``fnmatch`` patterns over the dotted key; a key of :data:`RULES` comes first).
 PATTERNS: dict[str, Rule] = {
-    "capacity.*": _whole(1, 4096, "a layer width or count of the capacity profile (conf/capacity/)",
+    "capacity.*": _whole(1, 4096, "a layer width or count of the capacity profile, conf/capacity/",
                          each=True),
     "data.scenes.*.path.*": _number(None, None, "a camera path setting of the scene (docs/scenes.md)"),
     "data.scenes.*.seed": _whole(0, 2**31 - 1, "the procedural room's layout seed (mcd/data/procedural.py)"),
@@ -251,13 +251,12 @@ def checked(key: str, value: Any, cfg: DictConfig | None = None) -> Any:
             raise ConfigError(str(err)) from None
         return value
     items = list(value) if rule.each and isinstance(value, list | tuple | ListConfig) else [value]
-    if rule.each and value is None:
-        items = []
     bad = [v for v in items if _fails(rule, v, cfg)]
     if bad:
+        many = isinstance(value, list | tuple | ListConfig)
         shown = _show(OmegaConf.to_container(value) if isinstance(value, ListConfig) else value)
-        which = f" ({_show(bad[0])} is not)" if isinstance(value, list | tuple | ListConfig) else ""
-        raise ConfigError(f"{key}={shown}: {rule.expected(cfg)}{which} ({rule.about})")
+        which = f" ({_show(bad[0])} is not)" if many else ""
+        raise ConfigError(f"{key}={shown}: {rule.expected(cfg, many)}{which} ({rule.about})")
     if rule.kind == "int" and isinstance(value, float):
         return int(value)
     return value

@@ -143,7 +143,7 @@ def test_every_profile_and_experiment_passes_and_every_numeric_key_has_a_rule(ov
 
 @pytest.mark.parametrize(("key", "value", "message"), [
     ("train.max_steps", 1e3, None), ("train.max_steps", 2.5, "train.max_steps=2.5: give a whole number >= 1"),
-    ("train.lr", float("inf"), "train.lr=inf: give a number above 0"),
+    ("train.lr", float("inf"), "train.lr=inf: give a number from 0 to 10"),
     ("train.lr", True, "train.lr=True"), ("train.grad_clip", None, None),
     ("train.batch_size", None, "train.batch_size=null: give a whole number from 1"),
     ("capacity.rae.encoder", [8, 0],
