@@ -14,6 +14,7 @@ line, :func:`exit_on_renamed`), and a config saved under an old name reads as to
 from __future__ import annotations
 
 import functools
+import os
 import re
 import sys
 from collections.abc import Callable, Iterable, Mapping
@@ -108,29 +109,85 @@ def compose(overrides: Iterable[str] = ()) -> DictConfig:
         return hydra_compose(config_name="config", overrides=overrides)
 
 
-def hydra_main(task: Callable[[DictConfig], Any]) -> Callable[[], Any]:
+def exit_on_invalid(cfg: DictConfig) -> None:
+    """End the command with the first value that breaks its key's rule
+    (:func:`mcd.config_rules.check_config`) on one line (``error: <key>=<value>: ...``, no traceback), exit
+    status 2."""
+    from mcd.config_rules import ConfigError, check_config
+
+    try:
+        check_config(cfg)
+    except ConfigError as err:
+        print(f"error: {err}", file=sys.stderr)
+        raise SystemExit(2) from None
+
+
+def print_to_pipe(text: str) -> None:
+    """Print ``text`` to stdout; a reader that closed the pipe early (``| head``) ends the command quietly."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        raise SystemExit(0) from None
+
+
+def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
+               job_errors: bool = False) -> Any:
     """``@hydra.main`` on the root config (``conf/config.yaml``) with rows A-M registered: the decorator of
-    every Hydra command. An override on the command line that names a renamed group ends the command with
-    :func:`check_overrides`' message and exit status 2, before Hydra composes anything."""
+    every Hydra command. Before any work:
+
+    - an override on the command line that names a renamed group ends the command with
+      :func:`check_overrides`' message and exit status 2, before Hydra composes anything;
+    - the config is checked against every key's rule (:mod:`mcd.config_rules`): a single run composes it
+      first (:func:`compose`) and ends with one ``error:`` line and exit status 2 before Hydra writes its run
+      directory; the task checks it again (a sweep's job, or flags that Hydra composes alone), ending a single
+      run the same way and raising :class:`mcd.config_rules.ConfigError` in a sweep's job or a direct call
+      ``main(cfg)``, except with ``job_errors=True`` (``mcd.run``, whose preflight checks it and writes the
+      job's ``error.json`` so that the sweep goes on).
+    """
+    if task is None:
+        return functools.partial(hydra_main, job_errors=job_errors)
     import hydra
 
     register_experiments()
-    main = hydra.main(config_path=str(CONF_DIR), config_name="config", version_base="1.3")(task)
+
+    @functools.wraps(task)
+    def checked_task(cfg: DictConfig) -> Any:
+        from hydra.core.hydra_config import HydraConfig
+        from hydra.types import RunMode
+
+        if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.RUN:
+            exit_on_invalid(cfg)
+        elif not job_errors:
+            from mcd.config_rules import check_config
+
+            check_config(cfg)
+        return task(cfg)
+
+    main = hydra.main(config_path=str(CONF_DIR), config_name="config", version_base="1.3")(checked_task)
 
     @functools.wraps(main)
     def checked(*args: Any, **kwargs: Any) -> Any:
         overrides = [a for a in sys.argv[1:] if not a.startswith("-")]
         exit_on_renamed(overrides)
-        if HELP_FLAGS & set(sys.argv[1:]):
-            from hydra.errors import HydraException
-            from omegaconf.errors import OmegaConfBaseException
+        from hydra.errors import HydraException
+        from omegaconf.errors import OmegaConfBaseException
 
+        if HELP_FLAGS & set(sys.argv[1:]):
             try:
-                print(app_help(overrides, sys.modules[task.__module__].__doc__))
+                text = app_help(overrides, sys.modules[task.__module__].__doc__)
             except (HydraException, OmegaConfBaseException) as err:
                 print(f"error: {err}", file=sys.stderr)
                 raise SystemExit(2) from None
+            print_to_pipe(text)
             return None
+        if len(overrides) == len(sys.argv[1:]):  # a single run, no Hydra flags: check before Hydra writes
+            try:
+                cfg = compose(overrides)
+            except (HydraException, OmegaConfBaseException, ValueError):
+                cfg = None  # Hydra says what is wrong with the overrides, in its own words
+            if cfg is not None:
+                exit_on_invalid(cfg)
         return main(*args, **kwargs)
 
     return checked

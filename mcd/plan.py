@@ -20,7 +20,8 @@ The plan counts, from the config alone:
 and it measures, on the machine it runs on, in this process (``plan.measure=false`` skips them):
 
 - render speed: a pilot render of one real scene of the profile (the first whose file is found),
-  ``plan.pilot_frames`` frames at 1/``plan.pilot_scale`` of the size and ``plan.pilot_spp`` spp after one
+  ``plan.pilot_frames`` frames at 1/``plan.pilot_scale`` of the size (at most 512x512 pixels,
+  :func:`mcd.workload.pilot_size`) and ``plan.pilot_spp`` spp after one
   warm-up frame; seconds per sample
   = seconds / (pixels x spp x frames), times the profile's samples gives the render time here;
 - training memory and time per step: one real forward and backward of the configured method and loss on a

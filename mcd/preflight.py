@@ -1,13 +1,13 @@
 """Checks of a run's config that must fail before anything is rendered or trained (docs/reliability.md).
 
-:func:`check_run` refuses a budget that is not a number or has no stored uniform render, images smaller
-than the SSIM window, training crops the frames cannot hold, a training-clip stride outside 1 to
-``data.clip_len``, a malformed ``data.augment`` block, a warm-up that is not a step count and a diagnostic
-switch on a method without that input (:func:`check_diagnostics`); :func:`check_motion` refuses a run that
-reads the motion buffer where the training data cannot hold it (docs/reliability.md); the
-store checks every scene file before its first render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`),
-and the model its own budget rule when it is built (row F's adaptive sampling needs ``1 < s``; a method
-without it reads ``c_s``).
+:func:`check_run` refuses a value outside its key's rule (mcd/config_rules.py, the one table of them: a
+budget that is not a number or has no stored uniform render, a warm-up that is not a step count, ...),
+images smaller than the SSIM window, training crops the frames cannot hold, a training-clip stride outside
+1 to ``data.clip_len``, a malformed ``data.augment`` block and a diagnostic switch on a method without
+that input (:func:`check_diagnostics`); :func:`check_motion` refuses a run that reads the motion buffer where
+the training data cannot hold it (docs/reliability.md); the store checks every scene file before its first
+render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`), and the model its own budget rule when it is
+built (row F's adaptive sampling needs ``1 < s``; a method without it reads ``c_s``).
 """
 
 from __future__ import annotations
@@ -17,28 +17,15 @@ from collections.abc import Iterable
 
 from omegaconf import DictConfig
 
-from mcd.data.buffers import UNIFORM_BUDGETS
+from mcd.config_rules import check_config, checked
 from mcd.data.splits import clip_stride
 from mcd.metrics import SSIM_WINDOW
 
 
 def check_budget(cfg: DictConfig) -> float:
-    """``cfg.budget`` as a number, if every method can be tested at it; else ValueError saying what to give.
-
-    Every run is scored against the noisy uniform render at the budget (``c_s``, ``input_psnr``), which the
-    store renders for s in 1, 2, 4, 8, 16, 32 only.
-    """
-    raw = cfg.get("budget")
-    choices = ", ".join(str(s) for s in UNIFORM_BUDGETS)
-    try:
-        budget = float(raw)
-    except (TypeError, ValueError):
-        raise ValueError(f"budget={raw!r}: not a number; give the average samples per pixel, one of "
-                         f"{choices} (e.g. budget=4)") from None
-    if budget not in UNIFORM_BUDGETS:
-        raise ValueError(f"budget={raw}: every run is compared with the noisy uniform render at the budget "
-                         f"(c_s), which the store holds for s in {choices} only; give one of them")
-    return budget
+    """``cfg.budget`` as a number, if every method can be tested at it; else ValueError saying what to give
+    (the rule of ``budget`` in mcd/config_rules.py: a budget with a stored uniform render ``c_s``)."""
+    return float(checked("budget", cfg.get("budget")))
 
 
 def check_image_size(cfg: DictConfig) -> None:
@@ -52,16 +39,14 @@ def check_image_size(cfg: DictConfig) -> None:
 
 def check_crops(cfg: DictConfig) -> None:
     """ValueError unless ``data.train_crop`` fits the frames and ``data.train_crop_at_edge`` is a
-    probability."""
+    probability (its rule in mcd/config_rules.py)."""
     d = cfg.data
+    checked("data.train_crop", d.train_crop)
+    checked("data.train_crop_at_edge", d.get("train_crop_at_edge", 0.0))
     crop, w, h = int(d.train_crop), int(d.width), int(d.height)
     if crop > min(w, h):
         raise ValueError(f"data.train_crop={crop} is larger than the {w}x{h} frames of profile {d.name}: "
                          f"give data.train_crop <= {min(w, h)}")
-    at_edge = float(d.get("train_crop_at_edge", 0.0))
-    if not 0.0 <= at_edge <= 1.0:
-        raise ValueError(f"data.train_crop_at_edge={at_edge} is a probability: give a value in [0, 1] (0: "
-                         f"uniform crops; docs/training.md, 'Crops at frame edges')")
 
 
 def check_clip_stride(cfg: DictConfig) -> None:
@@ -81,11 +66,7 @@ def check_augment(cfg: DictConfig, buffers: Iterable[str] | None = None) -> None
 def check_warmup(cfg: DictConfig) -> int:
     """``train.warmup_steps`` as an int (absent: 0), or ValueError naming the key unless it is a whole
     number >= 0 (:func:`mcd.lit.module.warmup_factor`)."""
-    raw = cfg.train.get("warmup_steps", 0)
-    if isinstance(raw, bool) or not isinstance(raw, int) or raw < 0:
-        raise ValueError(f"train.warmup_steps={raw!r}: give a whole number of optimiser steps >= 0 "
-                         "(0: no warm-up; docs/training.md 'Budgets')")
-    return raw
+    return int(checked("train.warmup_steps", cfg.train.get("warmup_steps", 0)))
 
 
 #: Diagnostic switches (docs/method.md "Diagnostics", docs/baselines.md "NTASAD's diagnostics"): key of
@@ -134,7 +115,9 @@ def check_motion(cfg: DictConfig, buffers: Iterable[str]) -> None:
 
 
 def check_run(cfg: DictConfig) -> None:
-    """Every check of this module, in the order a user would fix them."""
+    """Every key's own rule (:func:`mcd.config_rules.check_config`), then every check of this module, in the
+    order a user would fix them."""
+    check_config(cfg)
     check_diagnostics(cfg)
     check_budget(cfg)
     check_image_size(cfg)

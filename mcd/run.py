@@ -352,7 +352,7 @@ def _skip_finished(out_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> b
     return True
 
 
-@hydra_main
+@hydra_main(job_errors=True)  # a sweep's job with a bad value writes its error.json (build's preflight)
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
     from lightning.pytorch.utilities import rank_zero_only
@@ -362,12 +362,12 @@ def main(cfg: DictConfig) -> None:
     hydra_cfg = HydraConfig.get()
     out_dir = Path(hydra_cfg.runtime.output_dir)
     choices = dict(hydra_cfg.runtime.choices)
-    # one owner per run directory (mcd/run_dir.py): a second process is refused here, before it touches the
-    # directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
     # a finished run is never written again (mcd/run_dir.py): skipped, or refused when it is another job's,
     # before the lock is taken and outside the try (no error.json); Hydra wrote nothing there either
     if _skip_finished(out_dir, cfg, choices):
         return
+    # one owner per run directory (mcd/run_dir.py): a second process is refused here, before it touches the
+    # directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
     owner = run_dir.hold(out_dir) if rank_zero_only.rank == 0 else contextlib.nullcontext()
     with owner:
         if _skip_finished(out_dir, cfg, choices):  # it finished while this process started

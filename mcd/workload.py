@@ -130,9 +130,25 @@ def work(cfg: DictConfig) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------------------------- measurements
+#: The most pixels of the pilot render: seconds per sample need no more, and a huge profile (or
+#: ``plan.pilot_scale=1``) must not make the plan itself the long work.
+PILOT_MAX_PIXELS = 512 * 512
+
+
+def pilot_size(width: int, height: int, scale: int) -> tuple[int, int]:
+    """The pilot's frame size: 1/`scale` of ``width x height``, at least 8 pixels a side, shrunk (keeping
+    the aspect) to at most :data:`PILOT_MAX_PIXELS`."""
+    w, h = max(8, width // scale), max(8, height // scale)
+    shrink = math.sqrt(w * h / PILOT_MAX_PIXELS)
+    if shrink > 1:
+        w, h = max(8, int(w / shrink)), max(8, int(h / shrink))
+    return w, h
+
+
 def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1) -> dict[str, Any]:
     """Seconds per sample here (:mod:`mcd.plan`): one real scene of the profile at 1/`scale` of
-    the size, `frames` frames of `spp` spp after a warm-up frame (JIT compilation not timed)."""
+    the size (at most :data:`PILOT_MAX_PIXELS`, :func:`pilot_size`), `frames` frames of `spp` spp after a
+    warm-up frame (JIT compilation not timed)."""
     from mcd.data.camera import interpolate_path
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
@@ -140,7 +156,7 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
     d = cfg.data
     variant = select_variant(str(cfg.render.get("variant", "auto")))
     reader = StoreReader.from_cfg(cfg, overrides=[])  # registers scenes given by path
-    w, h = max(8, int(d.width) // scale), max(8, int(d.height) // scale)
+    w, h = pilot_size(int(d.width), int(d.height), scale)
     tried = []
     for name in reader.scene_names:
         spec = reader.specs[name]

@@ -17,7 +17,7 @@ LAYERS: dict[str, int] = {
     **dict.fromkeys(("__init__", "paths", "provenance", "registry", "metrics", "machine", "allocator",
                      "file_lock", "cpu_threads"), 0),
     # rendering, the store, sampling maps, and the checks a run's config gets before anything renders
-    **dict.fromkeys(("data", "sampling", "preflight"), 1),
+    **dict.fromkeys(("data", "sampling", "preflight", "config_rules"), 1),
     # networks and losses; the methods, and config composition (which registers rows A-M from them)
     **dict.fromkeys(("models", "losses", "methods", "config"), 2),
     # training and testing (Lightning)

@@ -33,7 +33,6 @@ module's own: OIDN normalises exposure at preprocessing instead.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -41,6 +40,7 @@ from typing import Any
 import torch
 from omegaconf import DictConfig
 
+from mcd.config_rules import checked
 from mcd.data.buffers import COLOUR_BUFFERS
 
 #: The largest absolute value the exposure scale may produce: far above any radiance, far below float32's
@@ -101,12 +101,9 @@ class Augment:
         for key in ("flips", "transpose", "channels", "reverse"):
             if not isinstance(v[key], bool):
                 raise ValueError(f"data.augment.{key}={v[key]!r}: give true or false")
-        p, stops, m = float(v["zero_pad"]), float(v["exposure_stops"]), v["zero_pad_max"]
-        if not 0.0 <= p <= 1.0:
-            raise ValueError(f"data.augment.zero_pad={p} is a probability: give a value in [0, 1] (0: off)")
-        if not (math.isfinite(stops) and 0.0 <= stops <= 20.0):
-            raise ValueError(f"data.augment.exposure_stops={stops}: give a number of stops in [0, 20] "
-                             "(0: off)")
+        p = float(checked("data.augment.zero_pad", v["zero_pad"]))  # the ranges: mcd/config_rules.py
+        stops = float(checked("data.augment.exposure_stops", v["exposure_stops"]))
+        m = v["zero_pad_max"]
         limit = crop if crop is not None else int(data_cfg.train_crop)
         if not isinstance(m, int) or not 1 <= m <= limit:
             raise ValueError(f"data.augment.zero_pad_max={m!r}: give an integer in 1 .. data.train_crop "

@@ -107,9 +107,12 @@ def parse_shard(value: Any, shards: Any = None) -> tuple[int, int]:
         if shards is not None and shards != count:
             raise ValueError(f"render.shard={value!r} and render.shards={shards!r} disagree on the shard "
                              "count: give one of them")
-    if count < 1 or index >= count:
+    if count < 1:
+        raise ValueError(f"render.shard={value!r}: the shard count N of i/N must be at least 1; give "
+                         "render.shard=i/N with 0 <= i < N (0-based), e.g. render.shard=0/4")
+    if index >= count:
         raise ValueError(f"render.shard={value!r}: shard {index} is out of range for {count} shards; shards "
-                         f"are numbered from 0 to {max(count - 1, 0)} (0-based)")
+                         f"are numbered from 0 to {count - 1} (0-based)")
     return index, count
 
 

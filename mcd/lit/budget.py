@@ -22,6 +22,7 @@ import torch
 from lightning.pytorch.callbacks import Callback, EarlyStopping, ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf
 
+from mcd.config_rules import checked
 from mcd.lit import precision
 from mcd.lit.csv_log import ResumableCSVLogger, drop_rows_after
 
@@ -32,16 +33,9 @@ CURVE_COLUMNS = ("step", "epoch", "seconds", "lr", "train_loss", "val_loss", "va
 
 
 def _limit(train: DictConfig, key: str) -> float | None:
-    value = train.get(key)
-    if value is None:
-        return None
-    try:
-        number = float(value)
-    except (TypeError, ValueError) as err:
-        raise ValueError(f"train.{key}={value!r}: expected a positive number or null") from err
-    if not (number > 0 or (key == "epochs" and number == 0)):  # 0 epochs: test as loaded (transfer)
-        raise ValueError(f"train.{key}={value!r}: expected a positive number or null (no limit)")
-    return number
+    """``train.<key>`` as a number, or None (no limit); its range is the rule of mcd/config_rules.py."""
+    value = checked(f"train.{key}", train.get(key))
+    return None if value is None else float(value)
 
 
 #: Lightning Trainer arguments that ``train.*`` keys set (:func:`trainer_limits`); ``trainer.*`` must not.

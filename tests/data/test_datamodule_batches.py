@@ -126,7 +126,8 @@ def test_a_crop_edge_probability_outside_0_1_is_refused(cbox_store):
     cfg, store = cbox_store
     bad = cfg.copy()
     bad.data.train_crop_at_edge = 1.5
-    with pytest.raises(ValueError, match=r"data\.train_crop_at_edge=1\.5 is a probability"):
+    with pytest.raises(ValueError, match=r"data\.train_crop_at_edge=1\.5: give a number from 0 to 1 \(a "
+                                         r"probability"):
         MCDDataModule(bad, store, {"c4"}).setup("fit")
 
 

@@ -40,8 +40,8 @@ def test_an_image_below_the_ssim_window_fails_before_rendering(tmp_path):
 @pytest.mark.parametrize(("override", "message"), [
     ("data.train_crop=64", r"data\.train_crop=64 is larger than the 32x32 frames.*give "
                            r"data\.train_crop <= 32"),
-    ("data.train_crop_at_edge=-0.1", r"data\.train_crop_at_edge=-0\.1 is a probability: give a value in "
-                                     r"\[0, 1\]"),
+    ("data.train_crop_at_edge=-0.1", r"data\.train_crop_at_edge=-0\.1: give a number from 0 to 1 \(a "
+                                     r"probability"),
     ("data.train_clip_stride=0", r"data\.train_clip_stride=0: give a whole number from 1 to 5 "
                                  r"\(data\.clip_len\)"),
     ("data.train_clip_stride=6", r"data\.train_clip_stride=6: give a whole number from 1 to 5"),
