@@ -31,6 +31,7 @@ from torch import Tensor, nn
 
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
+from mcd.models.init import initialise
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import kp_options_of, pool_picture
 from mcd.models.misses import miss_mask
@@ -58,7 +59,7 @@ class TwoStage(nn.Module):
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
                  sampler_padding: str = "zeros", denoiser_margin: int = 0, reads_map: bool = True,
-                 warp_previous: bool = False) -> None:
+                 warp_previous: bool = False, init: str = "torch") -> None:
         super().__init__()
         #: ``method.warp_previous``: ``F_d`` also reads its previous output warped by the motion vectors
         self.warp_previous = bool(warp_previous)
@@ -109,6 +110,7 @@ class TwoStage(nn.Module):
         self.denoiser = Denoiser(cin, list(den["widths"]), den["convs"], position_pooling=self.sw["PP"],
                                  semantic_alignment=self.sw["SA"], pp_hidden=pp.get("hidden", 0),
                                  heads=att.get("heads", 4), ffn_mult=att.get("ffn_mult", 2))
+        initialise(self, init)
 
     @property
     def temporal_state(self) -> bool:
@@ -206,7 +208,7 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
                     sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
                     denoiser_output: str = "direct", sampler_padding: str = "zeros",
                     denoiser_margin: int = 0, denoiser_reads_map: bool = True,
-                    warp_previous: bool = False) -> TwoStage:
+                    warp_previous: bool = False, init: str = "torch") -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
@@ -214,7 +216,8 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
     for a config from before the key), ``denoiser_margin`` (``F_d``'s reflected margin outside training: 16
     in the config, 0 for a config from before the key), ``denoiser_reads_map`` (``F_d`` reads the normalised
     sampling map with AS: this project's default; false: the paper's list of ``F_d``'s inputs),
-    ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output); and its
+    ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output),
+    ``init`` (the convolutions' initialisation, :mod:`mcd.models.init`); and its
     widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
     ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio),
     ``pooling``, ``attention`` (docs/method.md). The output steps are :func:`mcd.models.registry.build`'s."""
@@ -224,4 +227,4 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
     return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
                     kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding),
                     denoiser_margin=int(denoiser_margin), reads_map=bool(denoiser_reads_map),
-                    warp_previous=bool(warp_previous))
+                    warp_previous=bool(warp_previous), init=str(init))
