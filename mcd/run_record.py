@@ -15,12 +15,12 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
 from pathlib import Path
 from typing import Any
 
 from omegaconf import DictConfig
 
+from mcd.core.atomic_write import atomic_write_json
 from mcd.metrics import FRAME_METRICS, MODEL_METRICS, PAPER_METRICS
 from mcd.models.switches import switch_row
 
@@ -88,13 +88,11 @@ class RunRecord:
         return {k: _json_safe(v) for k, v in {**self.scores, **fields}.items()}
 
     def write(self, run_dir: Path) -> dict[str, Any]:
-        """Write ``run_dir/metrics.json`` atomically (a temporary file renamed over it: a killed write
+        """Write ``run_dir/metrics.json`` atomically (:mod:`mcd.core.atomic_write`: a killed write
         leaves no half file under that name, so a damaged one is damage, mcd.reporting.runs); returns what
         it wrote."""
         data = self.as_dict()
-        tmp = run_dir / ".metrics.json.tmp"
-        tmp.write_text(json.dumps(data, indent=2))
-        os.replace(tmp, run_dir / "metrics.json")
+        atomic_write_json(run_dir / "metrics.json", data, indent=2)
         return data
 
 
@@ -152,10 +150,7 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
         if not isinstance(recorded, dict):
             raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
         _refuse_another_job(recorded, cfg, choices, run_dir, "an interrupted run")
-    run_dir.mkdir(parents=True, exist_ok=True)
-    tmp = run_dir / f".{JOB_FILE}.{os.getpid()}.tmp"  # atomic: the processes of a DDP run all write it
-    tmp.write_text(json.dumps(job_identity(cfg, choices), indent=2))
-    os.replace(tmp, path)
+    atomic_write_json(path, job_identity(cfg, choices), indent=2)  # the processes of a DDP run all write it
 
 
 def _refuse_another_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], run_dir: Path,

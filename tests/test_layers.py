@@ -13,8 +13,9 @@ MCD = Path(__file__).resolve().parents[1] / "mcd"
 #: Layer of each top-level part of ``mcd`` (a subpackage or a module), lowest first. A module may import
 #: its own layer and those below it, never one above.
 LAYERS: dict[str, int] = {
-    # plumbing: one home each for paths, provenance, registries, metrics, the machine, file locks, threads
-    **dict.fromkeys(("__init__", "paths", "provenance", "registry", "metrics", "machine", "allocator",
+    # plumbing: ``mcd/core/`` (the atomic write), and one home each for paths, provenance, registries,
+    # metrics, the machine, file locks, threads
+    **dict.fromkeys(("core", "__init__", "paths", "provenance", "registry", "metrics", "machine", "allocator",
                      "file_lock", "cpu_threads"), 0),
     # rendering, the store, sampling maps, and the checks a run's config gets before anything renders
     **dict.fromkeys(("data", "sampling", "preflight", "config_rules"), 1),

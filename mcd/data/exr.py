@@ -1,10 +1,10 @@
 """Float EXR files via the OpenEXR package (docs/benchmark.md, "Data protocol": everything HDR, linear,
 float).
 
-Writes are atomic (a temporary file in the same folder, then ``os.replace``), so an interrupted render never
-leaves a half-written file under a final name; the file gets the mode the umask gives a new file. A file that
-OpenEXR cannot read, or whose size or checksum
-differs from the manifest, raises :class:`CorruptEXRError`, whose message names the file and the command that
+Writes are atomic (:func:`mcd.core.atomic_write.atomic_write`: a temporary file in the same folder, then
+renamed), so an interrupted render never leaves a half-written file under a final name; the file gets the mode
+the umask gives a new file. A file that OpenEXR cannot read, or whose size or checksum differs from the
+manifest, raises :class:`CorruptEXRError`, whose message names the file and the command that
 re-renders it. Every read checks the header first (:func:`read_header`, no pixels read): a data window above
 :data:`MAX_PIXELS` is refused before anything is allocated (docs/reliability.md, "Denoising your frames").
 A readable file in another channel layout (a layered frame of ``mcd.denoise``) raises
@@ -14,12 +14,12 @@ A readable file in another channel layout (a layered frame of ``mcd.denoise``) r
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import OpenEXR
+
+from mcd.core.atomic_write import atomic_write
 
 CHANNEL_NAMES: dict[int, tuple[str, ...]] = {1: ("Y",), 2: ("U", "V"), 3: ("R", "G", "B")}
 #: The largest data window read (width x height): 16384 x 8192, 512 MiB per float channel. A header that
@@ -66,16 +66,6 @@ def read_header(path: Path | str, fix: str | None = None) -> tuple[int, int, lis
     return width, height, names
 
 
-def umask_mode() -> int:
-    """The mode a plainly created file gets under the process's umask (``0o644`` under umask 022).
-
-    Temp files from :func:`tempfile.mkstemp` are ``0o600``; a store shared with colleagues needs the umask's.
-    """
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
 def write_exr(path: Path, image: np.ndarray, compress: bool = True) -> None:
     """Write an ``(H, W)`` or ``(H, W, C)`` array (C in 1..3) as a float32 EXR, atomically.
 
@@ -91,16 +81,7 @@ def write_exr(path: Path, image: np.ndarray, compress: bool = True) -> None:
     channels = {n: np.ascontiguousarray(img[..., i]) for i, n in enumerate(names)}
     compression = OpenEXR.ZIP_COMPRESSION if compress else OpenEXR.NO_COMPRESSION
     header = {"compression": compression, "type": OpenEXR.scanlineimage}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp.exr")
-    os.close(fd)
-    try:
-        OpenEXR.File(header, channels).write(tmp)
-        os.chmod(tmp, umask_mode())
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    atomic_write(path, lambda tmp: OpenEXR.File(header, channels).write(str(tmp)))
 
 
 def read_exr(path: Path, fix: str | None = None) -> np.ndarray:

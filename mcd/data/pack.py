@@ -9,13 +9,13 @@ when ``data.train_store.format=array``; this command does it ahead (e.g. once, b
 
 The unit of work is one frame of one scene: its buffers are read through
 :meth:`mcd.data.store.StoreReader.load` (as models see them), written into the scene's array, flushed, read
-back and compared (CRC-32), and only then recorded in the scene's pack record (written atomically: temp file,
-then rename). A pack killed at any point (kill -9 included) loses nothing: run again, it skips recorded frames
-whose EXR sources are unchanged and whose bytes still have their recorded CRC-32 (a deleted, truncated or
-overwritten file is packed again), and packs the rest. A store packed with another config is refused before
-any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR store that lacks a file,
-naming the render command. One packer per scene at a time (``<scene>.lock``, :func:`mcd.file_lock.exclusive`):
-a second one (another DDP rank) waits, then reuses the first one's frames.
+back and compared (CRC-32), and only then recorded in the scene's pack record (written atomically,
+:mod:`mcd.core.atomic_write`). A pack killed at any point (kill -9 included) loses nothing: run again, it
+skips recorded frames whose EXR sources are unchanged and whose bytes still have their recorded CRC-32 (a
+deleted, truncated or overwritten file is packed again), and packs the rest. A store packed with another
+config is refused before any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR
+store that lacks a file, naming the render command. One packer per scene at a time (``<scene>.lock``,
+:func:`mcd.file_lock.exclusive`): a second one (another DDP rank) waits, then reuses the first one's frames.
 """
 
 from __future__ import annotations
@@ -32,10 +32,10 @@ import numpy as np
 from omegaconf import DictConfig
 
 from mcd import file_lock
+from mcd.core.atomic_write import atomic_write, atomic_write_json, leftovers
 from mcd.data.buffers import BUFFERS
 from mcd.data.splits import split_of
 from mcd.data.store import StoreReader
-from mcd.data.store_builder import _write_json_atomic
 from mcd.data.train_store import (
     DTYPES,
     FP16_MAX,
@@ -88,7 +88,7 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
         check_meta(json.loads(meta_path.read_text()), settings, cfg.data, buffers, meta_path)
         meta = json.loads(meta_path.read_text())
     else:
-        _write_json_atomic(meta_path, meta)
+        atomic_write_json(meta_path, meta)
     store = TrainStore(settings.dir, meta, command)
     t0 = time.perf_counter()
     report = {"root": str(settings.dir), "packed": 0, "reused": 0, "clamped": 0}
@@ -119,9 +119,8 @@ def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple
                     shape)
         del mm
         store.record_path(scene).unlink(missing_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    np.lib.format.open_memmap(tmp, mode="w+", dtype=store.dtype, shape=shape).flush()
-    os.replace(tmp, path)
+    atomic_write(path, lambda tmp: np.lib.format.open_memmap(tmp, mode="w+", dtype=store.dtype,
+                                                             shape=shape).flush())
     return np.load(path, mmap_mode="r+")
 
 
@@ -129,6 +128,8 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
                 size: tuple[int, int]) -> dict[str, int]:
     """Pack the scene's ``frames`` that are missing or stale (module docstring: the unit of work)."""
     man = reader.manifest(scene)
+    for stale in (*leftovers(store.scene_path(scene)), *leftovers(store.record_path(scene))):
+        stale.unlink(missing_ok=True)  # of a killed packer; this one holds the scene's lock
     mm = _scene_array(store, reader, scene, size)
     record = store.record(scene)
     done = record["frames"]
@@ -165,7 +166,7 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
                 raise OSError(f"{store.scene_path(scene)}: frame {f} reads back other bytes than were "
                               "written (disk full or failing?); nothing was recorded for it: pack again")
             done[str(f)] = {"sources": digest, "crc32": crc, "clamped": clamped}
-            _write_json_atomic(store.record_path(scene), record)
+            atomic_write_json(store.record_path(scene), record)
             got["packed"] += 1
             got["clamped"] += clamped
     return got

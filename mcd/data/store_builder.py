@@ -8,8 +8,8 @@ checksum, or generator seed), the per-frame cameras, the exposure scale, and per
 byte size, SHA-256 and the counts of NaN / Inf / negative values the renderer produced. A file is *done* when
 its manifest entry exists, its key (everything that determines its content: camera, spp, seed, scene, size,
 depth limit) matches the current config, and its size on disk matches; otherwise it is (re-)rendered. Files
-and the manifest are written atomically (temp file + rename) and the manifest after every frame, so an
-interrupted render resumes where it stopped. Several processes may render one store at once (the shards of
+and the manifest are written atomically (:mod:`mcd.core.atomic_write`), the manifest after every frame, so
+an interrupted render resumes where it stopped. Several processes may render one store at once (the shards of
 ``render.shard``, :mod:`mcd.data.shards`, or identical renders): a frame is rendered under its own lock
 (``<scene>/<frame>/.lock``), and the manifest is read, merged and written under a short scene lock
 (``<scene>/.lock``), so no unit is rendered twice and no entry is lost (:meth:`StoreBuilder._ensure_scene`).
@@ -29,8 +29,6 @@ import contextlib
 import hashlib
 import json
 import logging
-import os
-import tempfile
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
@@ -42,10 +40,11 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from mcd import file_lock
+from mcd.core.atomic_write import atomic_write_json
 from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS, GBUFFERS, NEGATIVE_OK, buffer_spp, validate_buffers
 from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import auto_exposure, depth_scale
-from mcd.data.exr import count_bad, read_exr, sha256, umask_mode, write_exr
+from mcd.data.exr import count_bad, read_exr, sha256, write_exr
 from mcd.data.reference_quality import estimate_psnr, spp_for_target
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneSpec
@@ -61,19 +60,6 @@ MANIFEST_VERSION = 1
 
 def _hash(obj: Any) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
-
-
-def _write_json_atomic(path: Path, obj: Any) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(obj, f, indent=1)
-        os.chmod(tmp, umask_mode())
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 class StoreBuilder(StoreReader):
@@ -572,7 +558,7 @@ class StoreBuilder(StoreReader):
         }
 
     def _save(self, scene: str, man: dict) -> None:
-        _write_json_atomic(self.manifest_path(scene), man)
+        atomic_write_json(self.manifest_path(scene), man)
 
 
 @dataclass

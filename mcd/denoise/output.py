@@ -7,23 +7,21 @@ method has them ``<stem>_sampling_map``, ``<stem>_kernel_map``, ``<stem>_adaptiv
 (:func:`mcd.lit.samples.picture`); with a reference (``--scene ... --reference-spp``) ``<stem>_reference``
 too, in the same units.
 
-Every file is written atomically: to a hidden temporary file in the same folder, then renamed over the final
-name (``os.replace``), so a killed run never leaves a half-written file under a final name, and a symlink
-named like an output is replaced, never written through (docs/reliability.md, "Denoising your frames").
+Every file is written atomically (:mod:`mcd.core.atomic_write`): to a hidden temporary file in the same
+folder, then renamed over the final name, so a killed run never leaves a half-written file under a final
+name, and a symlink named like an output is replaced, never written through (docs/reliability.md, "Denoising
+your frames").
 """
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mcd.data.exr import umask_mode, write_exr
+from mcd.core.atomic_write import atomic_write, atomic_write_json
+from mcd.data.exr import write_exr
 
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
     from torch import Tensor
@@ -45,23 +43,9 @@ def frame_files(stem: str) -> list[str]:
     return [f"{b}{ext}" for b in bases for ext in (".exr", ".png")]
 
 
-def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
-    """Call ``write(tmp)`` on a hidden temporary file beside ``path`` (same suffix), then rename it to
-    ``path``; the temporary file is removed if ``write`` fails."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".tmp{path.suffix}")
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, umask_mode())
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 def write_json(path: Path, content: dict[str, Any]) -> None:
     """``content`` as indented JSON at ``path``, atomically."""
-    write_atomic(path, lambda tmp: tmp.write_text(json.dumps(content, indent=1, default=str) + "\n"))
+    atomic_write_json(path, content, default=str)
 
 
 def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: float) -> list[Path]:
@@ -80,6 +64,6 @@ def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: floa
         exr = base.with_name(base.name + ".exr")
         write_exr(exr, img / np.float32(exposure) if name in COLOUR else img, compress=name not in COLOUR)
         preview = picture(name, img)
-        write_atomic(base.with_name(base.name + ".png"), lambda tmp, p=preview: imsave(tmp, p, format="png"))
+        atomic_write(base.with_name(base.name + ".png"), lambda tmp, p=preview: imsave(tmp, p, format="png"))
         written.append(exr)
     return written

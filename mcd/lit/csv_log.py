@@ -11,12 +11,13 @@ so each step appears once.
 from __future__ import annotations
 
 import csv
-import os
 from pathlib import Path
 
 from lightning.fabric.loggers.logger import rank_zero_experiment
 from lightning.pytorch.loggers import CSVLogger
 from lightning.pytorch.loggers.csv_logs import ExperimentWriter
+
+from mcd.core.atomic_write import atomic_write
 
 
 class _AppendingWriter(ExperimentWriter):
@@ -42,9 +43,9 @@ class ResumableCSVLogger(CSVLogger):
 
 
 def drop_rows_after(path: Path, step: int) -> int:
-    """Rewrite the CSV file at ``path`` (atomically) without its rows whose ``step`` column exceeds ``step``
-    (those of a killed process, past the checkpoint a run resumed from); returns how many were dropped. A
-    missing file, or one without a ``step`` column, is left alone."""
+    """Rewrite the CSV file at ``path`` (atomically, :mod:`mcd.core.atomic_write`) without its rows whose
+    ``step`` column exceeds ``step`` (those of a killed process, past the checkpoint a run resumed from);
+    returns how many were dropped. A missing file, or one without a ``step`` column, is left alone."""
     if not path.is_file():
         return 0
     with path.open(newline="") as f:
@@ -56,10 +57,12 @@ def drop_rows_after(path: Path, step: int) -> int:
     kept = [r for r in rows if not r["step"] or float(r["step"]) <= step]
     if len(kept) == len(rows):
         return 0
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=fields)
-        writer.writeheader()
-        writer.writerows(kept)
-    os.replace(tmp, path)
+
+    def write(tmp: Path) -> None:
+        with tmp.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=fields)
+            writer.writeheader()
+            writer.writerows(kept)
+
+    atomic_write(path, write)
     return len(rows) - len(kept)

@@ -188,6 +188,21 @@ def test_a_re_rendered_exr_file_makes_its_frame_stale(cbox_store, tmp_path):
     MCDDataModule(cfg, reader, ["c1_in"]).setup()
 
 
+def test_a_killed_packers_temp_files_are_removed_and_the_scene_packed_whole(cbox_store, tmp_path):
+    """The temp files of an atomic write (mcd/core/atomic_write.py) a killed packer left beside the scene's
+    array and record are removed under the scene's lock; a neighbour scene's are not its to remove."""
+    _, store = cbox_store
+    folder = tmp_path / "ts"
+    folder.mkdir()
+    stale = [folder / ".cbox.npy.0a1b2c3d.tmp.npy", folder / ".cbox.json.4e5f6a7b.tmp.json"]
+    other = folder / ".cboxes.npy.0a1b2c3d.tmp.npy"
+    for p in (*stale, other):
+        p.write_bytes(b"half")
+    assert pack(_array_cfg(store.data_dir, folder), store, ["c1_in", "ref"])["packed"] == 10
+    assert not any(p.exists() for p in stale) and other.read_bytes() == b"half"
+    assert np.load(folder / "cbox.npy", mmap_mode="r").shape[0] == store.frame_count("cbox")
+
+
 def test_an_exr_store_lacking_a_buffer_is_named_before_any_work(cbox_store, tmp_path):
     _, store = cbox_store
     data_dir = tmp_path / "data"
