@@ -51,7 +51,7 @@ def exit_on_renamed(overrides: Iterable[str]) -> None:
     """End the command, when an override names a renamed group, with :func:`check_overrides`' message on one
     line (``error: ...``, no traceback) and exit status 2, before any work: the command-line check of the
     Hydra commands (:func:`hydra_main`) and of the tools that take Hydra overrides (``python -m mcd.bench``'s
-    modes, ``python -m mcd.tools.bundle_scores``); docs/architecture.md, "Config"."""
+    modes, the lab's ``tools/bundle_scores.py``); docs/architecture.md, "Config"."""
     try:
         check_overrides(overrides)
     except ValueError as err:

@@ -2,7 +2,7 @@
 # Retrain the bundled checkpoints (docs/denoise.md "Bundled checkpoints"): row F and the U-Net (row A) on
 # data=bundle (every vendored scene and two procedural rooms, the augmentations of docs/training.md
 # "Augmentations" on, four real interiors held out), then bundle them into mcd/bundled/ and score them on the
-# held-out interiors beside OIDN (python -m mcd.tools.bundle_scores), writing the table into docs/denoise.md.
+# held-out interiors beside OIDN (tools/bundle_scores.py, a lab tool), writing the table into docs/denoise.md.
 #
 #   scripts/train_bundles.sh [hydra override ...]   # overrides reach both trainings and the scoring
 #
@@ -43,7 +43,7 @@ for stage in ${STAGES:-train bundle score}; do
       bundles=()
       for name in "${NAMES[@]}"; do bundles+=(--bundle "$BUNDLE_DIR/$name.pt"); done
       bundles+=(--bundle F-cpu-small --bundle unet-cpu-small)  # the previous bundles, trained on data=small
-      "$PY" -m mcd.tools.bundle_scores "${bundles[@]}" --write "${DOC:-docs/denoise.md}" "$@" ;;
+      PYTHONPATH=. "$PY" tools/bundle_scores.py "${bundles[@]}" --write "${DOC:-docs/denoise.md}" "$@" ;;
     *) echo "unknown stage $stage (train, bundle, score)" >&2; exit 2 ;;
   esac
 done

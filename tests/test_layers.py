@@ -25,7 +25,7 @@ LAYERS: dict[str, int] = {
     **dict.fromkeys(("lit", "run_record"), 3),
     # the product's commands and what they write: train, render, denoise, report
     **dict.fromkeys(("run", "render", "denoise", "reporting", "report", "hydra_callbacks", "sweep_plan"), 4),
-    # measuring tools, and the command that runs them
+    # the product's measuring tools (complexity, edge effect, path check, bundling), and the bench command
     "tools": 5,
     "bench": 6,
 }
@@ -124,6 +124,25 @@ def test_no_import_runs_back_up():
     assert upward(import_graph()) == [], "these imports run back up a layer (LAYERS in this file)"
 
 
+def lab_imports(root: Path = MCD) -> list[str]:
+    """``file: module`` for every import of the lab (the top-level ``tools`` package, tools/README.md) in
+    ``root``'s files: the product never needs the lab, which the wheel does not carry."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            found += [f"{path.relative_to(root.parent)}: {n}" for n in names if n.split(".")[0] == "tools"]
+    return found
+
+
+def test_the_product_imports_no_lab_tool(tmp_path):
+    assert lab_imports() == [], "mcd imports the lab's tools/ (tools/README.md): move what it needs into mcd"
+    (tmp_path / "mcd").mkdir()
+    (tmp_path / "mcd" / "report.py").write_text("def f():\n    from tools.stage_ring import ring_mask\n")
+    assert lab_imports(tmp_path / "mcd") == ["mcd/report.py: tools.stage_ring"]
+
+
 def test_the_checks_catch_a_circle_and_an_upward_import(tmp_path):
     """The same checks on a small package with one circle and one upward import find both."""
     pkg = tmp_path / "mcd"
@@ -131,11 +150,11 @@ def test_the_checks_catch_a_circle_and_an_upward_import(tmp_path):
     (pkg / "tools").mkdir()
     for init in (pkg, pkg / "data", pkg / "tools"):
         (init / "__init__.py").write_text("")
-    (pkg / "data" / "store.py").write_text("def f():\n    from mcd.tools import bench\n")
-    (pkg / "tools" / "bench.py").write_text("from mcd.data.store import f\n")
+    (pkg / "data" / "store.py").write_text("def f():\n    from mcd.tools import complexity\n")
+    (pkg / "tools" / "complexity.py").write_text("from mcd.data.store import f\n")
     (pkg / "metrics.py").write_text("from . import paths\n")
     (pkg / "paths.py").write_text("import mcd.metrics\n")
     graph = import_graph(pkg)
-    assert circles(graph) == [["mcd.data.store", "mcd.tools.bench"], ["mcd.metrics", "mcd.paths"]]
-    assert upward(graph) == ["mcd.data.store (1) -> mcd.tools.bench (5)"]
+    assert circles(graph) == [["mcd.data.store", "mcd.tools.complexity"], ["mcd.metrics", "mcd.paths"]]
+    assert upward(graph) == ["mcd.data.store (1) -> mcd.tools.complexity (5)"]
 

@@ -1,6 +1,7 @@
 """The wheel carries what an installed ``mcd`` reads at run time (issue 31 step 2; docs/architecture.md,
 "Layers"): the Hydra configs, the vendored scenes and the bundled checkpoints, so that ``mcd-denoise`` and
-``python -m mcd.run`` work from any directory after ``pip install .``."""
+``python -m mcd.run`` work from any directory after ``pip install .``; and none of the lab (``tools/``,
+tools/README.md)."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from mcd.models.switches import SWITCHES
 from mcd.paths import CONF_DIR, PACKAGE_DIR, VENDORED_SCENES_DIR
 
 REPO = Path(__file__).resolve().parents[1]
+LAB = REPO / "tools"  # the investigation tools: not packaged (tools/README.md)
 
 
 def _files(folder: Path) -> set[str]:
@@ -29,10 +31,11 @@ def _files(folder: Path) -> set[str]:
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
-    """The wheel, built from a copy of the sources (so the checkout gets no build folder)."""
+    """The wheel, built from a copy of the sources (so the checkout gets no build folder), the lab's
+    ``tools/`` beside the package as in the checkout."""
     tmp = tmp_path_factory.mktemp("wheel")
     src = tmp / "src"
-    for part, folder in (("mcd", PACKAGE_DIR), ("hydra_plugins", REPO / "hydra_plugins")):
+    for part, folder in (("mcd", PACKAGE_DIR), ("hydra_plugins", REPO / "hydra_plugins"), ("tools", LAB)):
         shutil.copytree(folder, src / part, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(REPO / "pyproject.toml", src)
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
@@ -49,9 +52,19 @@ def test_the_wheel_carries_conf_scenes_and_bundles(wheel):
     assert "mcd/reporting/viewer_page/viewer.js" in wanted
     assert "mcd/conf/config.yaml" in wanted and "mcd/scenes/cbox/scene.xml" in wanted
     assert wanted - names == set(), "package data missing from the wheel: pyproject.toml [tool.setuptools]"
-    assert {"mcd/run.py", "mcd/denoise/cli.py", "mcd/bench/__main__.py"} <= names
+    assert {"mcd/run.py", "mcd/denoise/cli.py", "mcd/bench/__main__.py", "mcd/bench/speed.py",
+            "mcd/tools/complexity.py"} <= names
     # the planned sweeper's name for Hydra (conf/hydra/sweeper/planned.yaml), outside the mcd package
     assert "hydra_plugins/mcd_sweep_plan/planned_sweeper.py" in names
+
+
+def test_no_lab_tool_is_in_the_wheel(wheel):
+    """The lab sits beside the package in the checkout; the wheel carries neither its folder nor any of its
+    files under another name (pyproject.toml's ``packages.find`` includes ``mcd`` and ``hydra_plugins``)."""
+    names = zipfile.ZipFile(wheel).namelist()
+    lab = {p.name for p in LAB.glob("*.py")} - {"__init__.py"}
+    assert "stage_ring.py" in lab and "startup_bench.py" in lab
+    assert [n for n in names if n.startswith("tools/") or Path(n).name in lab] == []
 
 
 def test_the_installed_package_runs_from_another_folder(wheel, tmp_path):

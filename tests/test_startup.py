@@ -2,7 +2,7 @@
 libraries, and ``mcd-denoise`` imports only what its input needs (Mitsuba only for ``--scene``, Lightning
 never). Each check runs the command in a fresh interpreter, as a user does.
 
-The checks are deterministic: how long ``--help`` takes is measured by ``python -m mcd.bench startup``, not
+The checks are deterministic: how long ``--help`` takes is measured by ``tools/startup_bench.py``, not
 by a test (a shared machine's load would fail it at random).
 """
 
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from mcd.tools.startup_bench import COMMANDS  # the commands whose --help must be fast
+from tools.startup_bench import COMMANDS  # the commands whose --help must be fast
 
 REPO = Path(__file__).resolve().parents[1]
 #: Libraries that take seconds to import; none belongs on the path to ``--help``.

@@ -1,9 +1,10 @@
 """``python -m mcd.bench [MODE] [ARGS]``: the measuring commands behind one name (docs/benchmark.md "Metrics",
-speed; docs/training.md "Throughput"). Each mode is a tool of :mod:`mcd.tools`, imported only when chosen, and
-``python -m mcd.bench MODE --help`` shows that tool's own options.
+speed; docs/training.md "Throughput"). Each mode is a module of :mod:`mcd.bench`, imported only when
+chosen, and ``python -m mcd.bench MODE --help`` shows that module's own options.
 
-The mode is the first argument; without one the command measures inference speed (``speed``). The older
-flags ``--train``, ``--profile`` and ``--loader`` anywhere on the line choose the same modes.
+The mode is the first argument; without one (nothing, or an option or override first) the command measures
+inference speed (``speed``). A first word that names no mode is refused, listing the modes. The older flags
+``--train``, ``--profile`` and ``--loader`` anywhere on the line choose the same modes.
 """
 
 from __future__ import annotations
@@ -14,11 +15,10 @@ import sys
 
 #: mode -> (module whose ``main(argv)`` runs it, one line of help). ``speed`` is the default.
 MODES: dict[str, tuple[str, str]] = {
-    "speed": ("mcd.tools.bench", "inference ms/frame of every method (the default mode)"),
-    "train": ("mcd.tools.train_bench", "training steps/s of each method and training path"),
-    "profile": ("mcd.tools.inference_profile", "where a two-stage row's inference time goes, stage by stage"),
-    "loader": ("mcd.tools.loader_bench", "training clips/s of one loader worker, EXR vs the training store"),
-    "startup": ("mcd.tools.startup_bench", "CPU and wall seconds of each command's --help"),
+    "speed": ("mcd.bench.speed", "inference ms/frame of every method (the default mode)"),
+    "train": ("mcd.bench.train", "training steps/s of each method and training path"),
+    "profile": ("mcd.bench.profile", "where a two-stage row's inference time goes, stage by stage"),
+    "loader": ("mcd.bench.loader", "training clips/s of one loader worker, EXR vs the training store"),
 }
 DEFAULT = "speed"
 
@@ -43,8 +43,8 @@ def main(argv: list[str] | None = None) -> None:
     if flag is not None:  # the old spelling: python -m mcd.bench --train ...
         args.remove(flag)
         args.insert(0, flag[2:])
-    elif not args or (args[0] not in MODES and args[0] not in ("-h", "--help")):
-        args.insert(0, DEFAULT)
+    elif not args or (args[0] not in ("-h", "--help") and (args[0].startswith("-") or "=" in args[0])):
+        args.insert(0, DEFAULT)  # a word that is no mode reaches the parser, which refuses it
     chosen = parser().parse_args(args[:1])
     importlib.import_module(MODES[chosen.mode][0]).main(args[1:])
 

@@ -1,6 +1,6 @@
 """Timing one frame through a model (docs/benchmark.md "Metrics", speed): the inputs in the model's layout,
 timed calls closed by a device synchronisation, and :func:`latency_ms`, the median time of one output frame
-of a built model at a given resolution. ``python -m mcd.bench`` (mcd/tools/bench.py) measures every inference
+of a built model at a given resolution. ``python -m mcd.bench`` (mcd/bench/speed.py) measures every inference
 path with these; the report's speed-against-error figure (mcd/reporting/speed.py) measures each run's own
 model with :func:`latency_ms`, so that a point's latency and error come from one architecture, capacity and
 resolution."""

@@ -6,7 +6,7 @@ profile").
 and the time (or the count, for :class:`FlopClock`) between two consecutive boundaries goes to the innermost
 label open between them. Each stage's figure is therefore *exclusive* (a nested label's time is not its
 parent's), and the stages, with ``other`` for the time outside every label, add up to the clock's span by
-construction; :mod:`mcd.tools.inference_profile` checks that span against the frame's wall time.
+construction; :mod:`mcd.bench.profile` checks that span against the frame's wall time.
 
 On CUDA a boundary is a ``torch.cuda.Event`` recorded on the current stream (read after one synchronize at the
 end), so the clock measures the GPU's timeline without stalling the launches; on the CPU it is

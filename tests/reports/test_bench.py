@@ -9,9 +9,9 @@ import pytest
 import torch
 
 from mcd import allocator
+from mcd.bench import speed as bench
 from mcd.bench.__main__ import MODES
 from mcd.bench.__main__ import main as bench_command
-from mcd.tools import bench
 
 INTERFACE = ["method", "device", "dtype", "compiled", "height", "width", "ms_median", "fps"]
 
@@ -220,3 +220,14 @@ def test_help_lists_every_mode_and_each_mode_has_its_own_help(capsys):
         own = _help([mode, "--help"], capsys)
         prog = f"python -m mcd.bench {'[speed]' if mode == 'speed' else mode}"
         assert own.startswith(f"usage: {prog}"), own[:80]
+
+
+def test_a_word_that_names_no_mode_is_refused_before_any_work(capsys):
+    """`python -m mcd.bench startup` (a mode no more: the lab's tools/startup_bench.py) or a typo ends with
+    exit status 2 and the modes listed, instead of running the speed mode; an override first means speed."""
+    with pytest.raises(SystemExit) as done:
+        bench_command(["startup", "--runs", "1"])
+    assert done.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'startup'" in err and all(f"'{mode}'" in err for mode in MODES)
+    assert _help(["capacity=cpu", "--help"], capsys).startswith("usage: python -m mcd.bench [speed]")

@@ -1,4 +1,4 @@
-"""``python -m mcd.bench profile`` (mcd/tools/inference_profile.py, docs/inference.md "Stage profile"): real
+"""``python -m mcd.bench profile`` (mcd/bench/profile.py, docs/inference.md "Stage profile"): real
 clocked calls of row F on the CPU, stage by stage, whose exclusive stages add up to the frame; a table that
 does not add up is refused; the clock's attribution (mcd/models/stages.py) counted in FLOPs."""
 
@@ -7,9 +7,9 @@ from __future__ import annotations
 import pytest
 import torch
 
+from mcd.bench import profile as inference_profile
 from mcd.models.complexity import flop_counter_mode
 from mcd.models.stages import FlopClock, stage
-from mcd.tools import inference_profile
 
 
 def rows_of(text: str) -> list[tuple[str, list[str]]]:

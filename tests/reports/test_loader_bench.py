@@ -1,4 +1,4 @@
-"""``python -m mcd.bench --loader --json`` (mcd/tools/loader_bench.py, mcd/data/loader_rate.py): one run
+"""``python -m mcd.bench --loader --json`` (mcd/bench/loader.py, mcd/data/loader_rate.py): one run
 measures the EXR path and the training store, warm and cold, at a small shape here (the paper's shape is the
 command's default; docs/training_store.md has its figures)."""
 

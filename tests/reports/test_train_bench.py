@@ -1,4 +1,4 @@
-"""`python -m mcd.bench --train` (mcd/tools/train_bench.py): real Lightning fits on the 32x32 test store, one
+"""`python -m mcd.bench --train` (mcd/bench/train.py): real Lightning fits on the 32x32 test store, one
 process
 per path, the CSV columns of docs/training.md "Throughput"."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import csv
 
 from mcd import allocator
-from mcd.tools import train_bench
+from mcd.bench import train as train_bench
 from tests.conftest import store32_overrides
 
 

@@ -1,4 +1,4 @@
-"""``python -m mcd.bench startup``: how long each command takes to answer ``--help``, in a fresh interpreter
+"""``python tools/startup_bench.py``: how long each command takes to answer ``--help``, in a fresh interpreter
 as a user runs it (docs/architecture.md, "Start-up"). Prints, per command, the median and the range over
 ``--runs`` runs of the child's CPU time (user + system, which a loaded machine inflates less than wall time)
 and of its wall time, with the machine beside them; ``--json`` writes the rows too.
@@ -21,7 +21,7 @@ from pathlib import Path
 
 #: The commands a user starts with ``--help``: the Hydra apps, the report, the benchmark and ``mcd-denoise``.
 COMMANDS = ("mcd.run", "mcd.render", "mcd.plan", "mcd.report", "mcd.bench", "mcd.denoise")
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[1]
 
 
 def time_help(module: str) -> tuple[float, float]:
@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> None:
     from mcd.machine import device_name
     from mcd.provenance import short_commit
 
-    ap = argparse.ArgumentParser(prog="python -m mcd.bench startup", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python tools/startup_bench.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=3, help="runs per command (default 3)")
     ap.add_argument("--commands", nargs="+", default=list(COMMANDS), help="modules to time (default: all)")
     ap.add_argument("--json", type=Path, help="also write the rows to this JSON file")

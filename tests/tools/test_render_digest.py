@@ -1,4 +1,5 @@
-"""A fixed seed reproduces a render bit for bit (docs/data.md, "Reproducible renders").
+"""A fixed seed reproduces a render bit for bit (docs/data.md, "Reproducible renders"), checked by the lab's
+``tools/render_digest.py``.
 
 Every vendored scene and the procedural room are rendered at 128x128 in two separate processes, the second
 with one Dr.Jit thread, and their digests must match. Before the fix (scenes loaded with Mitsuba's default
@@ -16,9 +17,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 def digests(*args: str) -> dict[str, str]:
     env = {**os.environ, "PYTHONPATH": str(REPO)}
-    proc = subprocess.run([sys.executable, "-m", "mcd.data.render_digest", "--procedural", "--size", "128",
-                           "--spp", "2", "--seed", "7", *args], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=600)
+    tool = REPO / "tools" / "render_digest.py"  # a lab tool, run as tools/README.md says
+    proc = subprocess.run([sys.executable, str(tool), "--procedural", "--size", "128", "--spp", "2", "--seed",
+                           "7", *args], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads(proc.stdout[proc.stdout.index("{"):])
 

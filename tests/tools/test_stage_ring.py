@@ -1,4 +1,4 @@
-"""The ring-against-interior measure of ``python -m mcd.tools.stage_ring`` (docs/method.md "Where F loses
+"""The ring-against-interior measure of ``python tools/stage_ring.py`` (docs/method.md "Where F loses
 cbox's FLIP"): a bias put on a known side of the frame's ring is found there, and nowhere else."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mcd.tools.stage_ring import SIDES, ring_mask, ring_stats
+from tools.stage_ring import SIDES, ring_mask, ring_stats
 
 
 def test_a_brightened_side_shows_on_that_side_only():

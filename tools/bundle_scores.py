@@ -1,4 +1,4 @@
-"""``python -m mcd.tools.bundle_scores``: the bundled checkpoints scored on held-out scenes beside OIDN and
+"""``python tools/bundle_scores.py``: the bundled checkpoints scored on held-out scenes beside OIDN and
 the noisy input (docs/denoise.md, "Bundled checkpoints").
 
 For each transfer scene of the data profile (``--data``, default ``bundle``: ``data.transfer_scenes``, the
@@ -39,7 +39,7 @@ from mcd.lit.test_recorder import hwc
 from mcd.methods import display_name
 from mcd.metrics import frame_metrics
 from mcd.paths import CONF_DIR
-from mcd.tools.doc_section import check, write_section
+from tools._doc_section import check, write_section
 
 log = logging.getLogger(__name__)
 
@@ -169,7 +169,7 @@ def provenance(argv: list[str], cfg: DictConfig, scenes: list[str], load: tuple[
     from mcd.provenance import short_commit
 
     d = cfg.data
-    command = " ".join(["python -m mcd.tools.bundle_scores", *map(shlex.quote, argv)])
+    command = " ".join(["python tools/bundle_scores.py", *map(shlex.quote, argv)])
     q = d.ref_quality
     return (f"`{command}` at commit {short_commit()}, {device_name(torch.device('cpu'))}, load average "
             f"{load[0]:.1f} at the start and {load[1]:.1f} at the end (the whole machine's, other processes "
@@ -180,7 +180,7 @@ def provenance(argv: list[str], cfg: DictConfig, scenes: list[str], load: tuple[
 
 def main(argv: list[str] | None = None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
-    p = argparse.ArgumentParser(prog="python -m mcd.tools.bundle_scores",
+    p = argparse.ArgumentParser(prog="python tools/bundle_scores.py",
                                 description=__doc__.split("\n\n")[0])
     p.add_argument("--bundle", action="append", dest="bundles",
                    help="a bundle name, .pt file or run dir; repeat for more (default: every bundled one)")

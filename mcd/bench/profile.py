@@ -36,6 +36,7 @@ import torch
 from torch import nn
 
 from mcd import allocator
+from mcd.bench.speed import frame_buffers, parse_size, store_frame
 from mcd.config import compose, exit_on_renamed
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
@@ -44,7 +45,6 @@ from mcd.models.latency import model_inputs, sync
 from mcd.models.stages import FlopClock, StageClock
 from mcd.models.two_stage import TwoStage
 from mcd.provenance import short_commit
-from mcd.tools.bench import frame_buffers, parse_size, store_frame
 
 #: The name of the time inside the call outside every label.
 OTHER = "other"

@@ -1,4 +1,4 @@
-"""``python -m mcd.tools.bundle_scores`` (docs/denoise.md, "Bundled checkpoints") on a real 32x32 store: a
+"""``python tools/bundle_scores.py`` (docs/denoise.md, "Bundled checkpoints") on a real 32x32 store: a
 bundle, OIDN and the noisy input scored on a scene's test frames, the table written between the markers."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import importlib.util
 import pytest
 
 from mcd.methods import display_name
-from mcd.tools import bundle_scores
 from tests.conftest import store32_overrides
+from tools import bundle_scores
 
 
 def _rows(text: str) -> dict[tuple[str, str], list[float]]:
@@ -29,7 +29,7 @@ def test_scores_table_written_between_markers(cbox_store, tmp_path, capsys):
     bundle_scores.main(["--bundle", "unet-cpu-small", "--data", "tiny", "--write", str(doc), *overrides])
     printed = capsys.readouterr().out
     text = doc.read_text()
-    assert text.startswith("intro\n<!-- bundle-scores -->\n`python -m mcd.tools.bundle_scores --bundle")
+    assert text.startswith("intro\n<!-- bundle-scores -->\n`python tools/bundle_scores.py --bundle")
     assert "old table" not in text and text.endswith("<!-- /bundle-scores -->\nrest\n")
     assert printed.strip() in text and "load average" in text and "commit" in text
     rows = _rows(text)

@@ -1,4 +1,4 @@
-"""``python -m mcd.data.render_digest``: SHA-256 digests of each vendored scene's render at a fixed seed, to
+"""``python tools/render_digest.py``: SHA-256 digests of each vendored scene's render at a fixed seed, to
 check that a render is reproducible (docs/data.md, "Reproducible renders").
 
 For every scene registered with ``vendored: true`` in ``conf/scene/`` (and, with ``--procedural``, the
@@ -56,7 +56,7 @@ def render_digests(names: list[str], width: int = 128, height: int = 128, spp: i
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="python -m mcd.data.render_digest", description=__doc__.split("\n\n")[0],
+    p = argparse.ArgumentParser(prog="python tools/render_digest.py", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--size", type=int, default=128, help="film width and height in pixels")
     p.add_argument("--spp", type=int, default=2, help="samples per pixel")

@@ -12,7 +12,7 @@ and inside it, and FLIP on each; per frame, the matched output's bias on each si
 ``--all-frames`` denoises the scene's whole sequence as one test sequence (training frames included), which
 tells a bias of the held-out frames from one the training frames share::
 
-    python -m mcd.tools.stage_ring RUN_DIR [--scene cbox] [--width 3] [--all-frames]
+    python tools/stage_ring.py RUN_DIR [--scene cbox] [--width 3] [--all-frames]
 """
 
 from __future__ import annotations
@@ -116,7 +116,7 @@ def report(frames: Frames, width: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m mcd.tools.stage_ring", description=__doc__,
+    parser = argparse.ArgumentParser(prog="python tools/stage_ring.py", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run_dir", type=Path, help="a finished run directory (metrics.json, resolved config)")
     parser.add_argument("--scene", default="cbox")
@@ -126,7 +126,7 @@ def main(argv: list[str] | None = None) -> None:
     if not (args.run_dir / "metrics.json").is_file():
         parser.error(f"{args.run_dir}: no metrics.json (a finished run directory of python -m mcd.run)")
     frames = measure(args.run_dir, args.scene, args.width, args.all_frames)
-    print(f"python -m mcd.tools.stage_ring {args.run_dir} --scene {args.scene} --width {args.width}"
+    print(f"python tools/stage_ring.py {args.run_dir} --scene {args.scene} --width {args.width}"
           f"{' --all-frames' if args.all_frames else ''}: {len(frames)} frames, means over them\n")
     print(report(frames, args.width))
 

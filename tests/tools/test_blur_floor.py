@@ -1,4 +1,4 @@
-"""``python -m mcd.tools.blur_floor`` (docs/method.md, "Dark regions"): the blur a scene's noisy input allows
+"""``python tools/blur_floor.py`` (docs/method.md, "Dark regions"): the blur a scene's noisy input allows
 before FLIP calls the blur worse, on a real 32x32 store, and the table written between the markers."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from mcd.metrics import flip
-from mcd.tools import blur_floor
 from tests.conftest import store32_overrides
+from tools import blur_floor
 
 
 def test_blur_keeps_a_flat_frame_and_its_edges_and_spreads_a_point():
@@ -44,7 +44,7 @@ def test_table_of_a_real_store_written_between_markers(cbox_store, tmp_path, cap
     blur_floor.main(["--data", "tiny", "--sigma", "0.5", "--sigma", "1", "--sigma", "3", "--write", str(doc),
                      *overrides])
     text = doc.read_text()
-    assert text.startswith("intro\n<!-- blur-floor -->\n`python -m mcd.tools.blur_floor --data tiny")
+    assert text.startswith("intro\n<!-- blur-floor -->\n`python tools/blur_floor.py --data tiny")
     assert "old table" not in text and text.endswith("<!-- /blur-floor -->\nrest\n")
     assert capsys.readouterr().out.strip() in text and "commit" in text
     row = _rows(text)["cbox"]

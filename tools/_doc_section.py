@@ -1,6 +1,6 @@
 """Generated tables inside the repository's documents: a tool that prints a table can also write it between
 two marker lines of a Markdown file (``--write FILE``), so that the documented table is the command's output
-(``mcd.tools.bundle_scores``, ``mcd.tools.blur_floor``)."""
+(``tools/bundle_scores.py``, ``tools/blur_floor.py``)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``python -m mcd.tools.blur_floor``: how much blur a scene's noisy input allows before FLIP says the blur is
+"""``python tools/blur_floor.py``: how much blur a scene's noisy input allows before FLIP says the blur is
 worse (docs/method.md, "Dark regions").
 
 FLIP (``mcd.metrics.flip``) weighs edges and discounts fine-grained noise, so on a small, lightly noisy frame
@@ -27,7 +27,7 @@ import numpy as np
 from omegaconf import DictConfig
 
 from mcd.metrics import flip, psnr
-from mcd.tools.doc_section import check, write_section
+from tools._doc_section import check, write_section
 
 #: Default standard deviations of the Gaussian blur, in pixels.
 SIGMAS = (0.5, 0.7, 1.0, 1.5, 2.0)
@@ -102,7 +102,7 @@ def provenance(argv: list[str], cfg: DictConfig) -> str:
     from mcd.provenance import short_commit
 
     d = cfg.data
-    command = " ".join(["python -m mcd.tools.blur_floor", *map(shlex.quote, argv)])
+    command = " ".join(["python tools/blur_floor.py", *map(shlex.quote, argv)])
     q = d.ref_quality
     return (f"`{command}` at commit {short_commit()}, {device_name(torch.device('cpu'))}. Data profile "
             f"`{d.name}` ({d.width}x{d.height}), noisy input at {cfg.budget} spp, each scene's test frames, "
@@ -111,7 +111,7 @@ def provenance(argv: list[str], cfg: DictConfig) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
-    p = argparse.ArgumentParser(prog="python -m mcd.tools.blur_floor", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python tools/blur_floor.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--data", default="tiny", help="the data profile whose test scenes are scored")
     p.add_argument("--sigma", type=float, action="append", dest="sigmas",
                    help=f"a blur in pixels; repeat for more (default: {', '.join(map(str, SIGMAS))})")

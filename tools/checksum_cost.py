@@ -3,7 +3,7 @@ store at the ``tiny`` profile's shape (64x64, 32 frames, 2 scenes; the buffers r
 :class:`mcd.data.store.StoreReader`, once with ``verify_checksums=never`` and once with ``once`` (the
 default: SHA-256 on each file's first load in the process), each in a fresh reader, and print the seconds and
 the overhead. The store is synthetic (mcd/data/synthetic_store.py): same layout, file sizes and compression
-as a render, made in seconds. Usage: ``python -m mcd.tools.checksum_cost [--width 64 --height 64]``.
+as a render, made in seconds. Usage: ``python tools/checksum_cost.py [--width 64 --height 64]``.
 """
 
 from __future__ import annotations

@@ -37,8 +37,8 @@ seeded synthetic buffers (:func:`mcd.data.synthetic.synthetic_frame`). The ``inp
 Unavailable paths (no pyoidn, no bf16 on this CPU) get a row whose ``status`` says why and no time; failures
 get ``status`` ``failed: <error>``.
 
-``python -m mcd.bench profile``: the time of each stage of one method (mcd/tools/inference_profile.py,
-docs/inference.md); ``python -m mcd.bench train``: training throughput (mcd/tools/train_bench.py).
+``python -m mcd.bench profile``: the time of each stage of one method (mcd/bench/profile.py,
+docs/inference.md); ``python -m mcd.bench train``: training throughput (mcd/bench/train.py).
 """
 
 from __future__ import annotations
