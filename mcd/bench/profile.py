@@ -5,9 +5,9 @@ The method (``--method``, default row F; ``capacity=paper`` unless an override s
 frame of the store (as ``python -m mcd.bench`` does: a store read, tiled to ``--size``; ``--synthetic``:
 seeded synthetic buffers) on ``--device``, along the path ``--dtype`` (``bf16`` autocast where the device
 computes bf16 natively, else ``fp32``; channels-last, ``torch.inference_mode``). ``--warmup`` calls, then
-``--repeat`` calls read by a :class:`mcd.models.stages.StageClock` interleaved with ``--repeat`` plain calls.
+``--repeat`` calls read by a :class:`mcd.core.stages.StageClock` interleaved with ``--repeat`` plain calls.
 
-Each stage is a :func:`mcd.models.stages.stage` label of the model: ``input packing``, ``F_s`` (with its
+Each stage is a :func:`mcd.core.stages.stage` label of the model: ``input packing``, ``F_s`` (with its
 ``Ghost conv`` blocks), ``adaptive render``, ``kernel pool`` (``kernel-map head``, ``kernel application``),
 ``F_d`` (its levels ``L0``..., with ``PP`` and ``SA`` inside), ``output steps``. A stage's time is
 *exclusive*: the clock's boundaries are every label's entry and exit (``perf_counter`` on the CPU; CUDA events
@@ -15,12 +15,14 @@ on the GPU's stream, read after one synchronize, so launches are not stalled), a
 boundaries goes to the innermost open label; ``other`` is the time inside the call outside every label. The
 rows therefore add up to the clock's span, and the table is **refused** (printed under REFUSED and not
 written to ``--out``; exit status 3) unless that sum is within ``--tolerance`` (10%) of the frame's wall time
-(the clocked call timed from outside, closed by a synchronize on CUDA). Medians over the repeats; the plain
-frame is printed beside it with its gap (a gap beyond the tolerance is flagged: the clock changed the frame,
-or the machine's load changed between calls). The second table sums each label
-with what is nested in it (these overlap: ``Ghost conv`` lies in ``F_s`` and in the kernel-map head).
+(the clocked call timed from outside, closed by a synchronize on CUDA). The table is one call's: the clocked
+call of median wall time, its stages beside its own wall time (the medians of each stage over the calls need
+not add up to the median frame on a loaded machine); the median plain frame is printed beside it with its
+gap (a gap beyond the tolerance is flagged: the clock changed the frame, or the machine's load changed between
+calls). The second table sums each label with what is nested in it (these overlap: ``Ghost conv`` lies in
+``F_s`` and in the kernel-map head).
 
-MACs per row are counted the same way (a :class:`mcd.models.stages.FlopClock` over ``FlopCounterMode`` on the
+MACs per row are counted the same way (a :class:`mcd.core.stages.FlopClock` over ``FlopCounterMode`` on the
 meta device, as :mod:`mcd.models.complexity` counts them), so GMAC/s is each row's own.
 """
 
@@ -38,11 +40,11 @@ from torch import nn
 from mcd import allocator
 from mcd.bench.speed import frame_buffers, parse_size, store_frame
 from mcd.config import compose, exit_on_renamed
+from mcd.core.stages import FlopClock, StageClock
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.machine import device_name
 from mcd.models.complexity import dummy_batch, flop_counter_mode
 from mcd.models.latency import model_inputs, sync
-from mcd.models.stages import FlopClock, StageClock
 from mcd.models.two_stage import TwoStage
 from mcd.provenance import short_commit
 
@@ -93,9 +95,11 @@ def timed_call(model: nn.Module, x: dict, device: torch.device, dtype: torch.dty
     return wall, (clock.totals() if clocked else {})
 
 
-def median_totals(runs: list[dict[str, float]]) -> dict[str, float]:
-    """Per path, the median over the clocked calls (the paths in the first call's order)."""
-    return {p: statistics.median(r.get(p, 0.0) for r in runs) for p in runs[0]}
+def median_call(walls: list[float], runs: list[dict[str, float]]) -> tuple[float, dict[str, float]]:
+    """The clocked call of median wall time (the lower middle one for an even count): its wall time and its
+    stages, so that the table's rows and its frame come from one call."""
+    i = sorted(range(len(walls)), key=walls.__getitem__)[(len(walls) - 1) // 2]
+    return walls[i], runs[i]
 
 
 def table(ms: dict[str, float], frame: float, gmacs: dict[str, float]) -> list[str]:
@@ -200,7 +204,7 @@ def main(argv: list[str] | None = None) -> None:
         runs.append(ms)
         plain_walls.append(timed_call(model, x, device, half, clocked=False)[0])
     faults = minor_faults() - faults
-    ms, frame, plain = median_totals(runs), statistics.median(clocked_walls), statistics.median(plain_walls)
+    (frame, ms), plain = median_call(clocked_walls, runs), statistics.median(plain_walls)
     where = "GPU" if device.type == "cuda" else "CPU"
     why = refusal(ms, frame, args.tolerance)
     gap = frame / plain - 1
@@ -211,8 +215,8 @@ def main(argv: list[str] | None = None) -> None:
         f"- Commit: `{short_commit()}`",
         f"- Device: {device_name(device)}; torch {torch.__version__}; path {dtype} channels-last, "
         "inference mode",
-        f"- Inputs: {inputs}; {args.warmup} warm-up call(s) of each kind, then medians of {args.repeat} "
-        f"clocked and {args.repeat} plain calls, interleaved",
+        f"- Inputs: {inputs}; {args.warmup} warm-up call(s) of each kind, then {args.repeat} clocked and "
+        f"{args.repeat} plain calls, interleaved; the table is the clocked call of median wall time",
         f"- Frame: {frame:.2f} ms (wall time of the clocked call); stages (exclusive, "
         f"{'CUDA events' if device.type == 'cuda' else 'perf_counter'}) sum to {sum(ms.values()):.2f} ms; "
         f"plain frame {plain:.2f} ms ({100 * gap:+.1f}%"

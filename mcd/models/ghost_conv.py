@@ -21,6 +21,7 @@ from collections.abc import Sequence
 import torch
 from torch import Tensor, nn
 
+from mcd.core.stages import stage
 from mcd.models.blocks import check_padding
 from mcd.models.cpu_fast import fused_conv
 from mcd.models.cpu_fast.ghost_conv import (
@@ -30,7 +31,6 @@ from mcd.models.cpu_fast.ghost_conv import (
     primary_and_ghost,
 )
 from mcd.models.inputs import cat_channels, with_constant
-from mcd.models.stages import stage
 
 
 class FastGhostConv(nn.Module):

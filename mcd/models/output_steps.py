@@ -13,10 +13,10 @@ from typing import Any
 from omegaconf import DictConfig
 from torch import Tensor, nn
 
+from mcd.core.stages import stage
 from mcd.data.buffers import uniform_buffer
 from mcd.models.mean_match import match_frame_mean
 from mcd.models.misses import pass_misses
-from mcd.models.stages import stage
 
 
 def current_frame(buffer: Tensor, past: int) -> Tensor:

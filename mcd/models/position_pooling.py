@@ -17,7 +17,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from mcd.models.stages import stage
+from mcd.core.stages import stage
 
 
 def position_features(h: int, w: int, like: Tensor) -> Tensor:

@@ -12,6 +12,7 @@ from functools import partial
 
 from torch import Tensor, nn
 
+from mcd.core.stages import stage
 from mcd.models.blocks import BlockFactory, ConvReLU
 from mcd.models.ghost_conv import FastGhostConv
 from mcd.models.kernel_pool import (
@@ -21,7 +22,6 @@ from mcd.models.kernel_pool import (
     interpolate_kernels,
     kp_options_of,
 )
-from mcd.models.stages import stage
 from mcd.models.unet import UNet
 
 #: Channels the sampling network reads: c_1 (3) + G-buffers (7) + grey c_1 + grey albedo.

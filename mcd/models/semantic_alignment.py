@@ -20,8 +20,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from mcd.core.stages import stage
 from mcd.models import fast_paths
-from mcd.models.stages import stage
 
 
 def sine_cosine_encoding(channels: int, h: int, w: int, device: torch.device) -> Tensor:

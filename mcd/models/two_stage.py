@@ -19,7 +19,7 @@ render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 crops its output back (docs/method.md "Frame edges"). ``method.warp_previous`` (not the paper's; a diagnostic,
 docs/method.md "Diagnostics") also feeds ``F_d`` its previous output, warped to this frame by the motion
 vectors as NTASAD's is (on a sequence's first frame, its own colour input). The stages run under
-:func:`mcd.models.stages.stage` labels (:data:`STAGES`, ``F_d``'s levels ``L0``..., ``PP``, ``SA``,
+:func:`mcd.core.stages.stage` labels (:data:`STAGES`, ``F_d``'s levels ``L0``..., ``PP``, ``SA``,
 ``Ghost conv``), which ``python -m mcd.bench profile`` reads (docs/inference.md "Stage profile").
 """
 
@@ -29,6 +29,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from mcd.core.stages import stage
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
 from mcd.models.init import initialise
@@ -37,7 +38,6 @@ from mcd.models.kernel_pool import kp_options_of, pool_picture
 from mcd.models.misses import miss_mask
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
-from mcd.models.stages import stage
 from mcd.models.switches import check_switches
 from mcd.models.warp import warp
 from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_names

@@ -17,9 +17,9 @@ from contextlib import AbstractContextManager, nullcontext
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from mcd.core.stages import stage
 from mcd.models.blocks import BlockFactory, ConvReLU, on_parts
 from mcd.models.inputs import crop, pad_to_multiple
-from mcd.models.stages import stage
 
 PoolFactory = Callable[[int], nn.Module]
 
@@ -37,7 +37,7 @@ class UNet(nn.Module):
                  level_labels: bool = False) -> None:
         super().__init__()
         #: each level's blocks (and the pool after an encoder level) under a stage label ``L<j>``
-        #: (:func:`mcd.models.stages.stage`; the output convolution is level 0's)
+        #: (:func:`mcd.core.stages.stage`; the output convolution is level 0's)
         self.level_labels = level_labels
         if len(widths) < 1 or convs < 1:
             raise ValueError(f"a U-Net needs at least one level and one conv per level; "

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import torch
 from torch import Tensor
-from torch.profiler import record_function
 
+from mcd.core.stages import stage
 from mcd.sampling.normalise import cap_for_levels, frame_budget, normalise_map, shares
 from mcd.sampling.real import active_renderer
 from mcd.sampling.simulate import blend_with_c1
@@ -31,7 +31,7 @@ class AdaptiveRender(torch.autograd.Function):
     @staticmethod
     def forward(ctx, p: Tensor, c1: Tensor, stack: Tensor, ref: Tensor | None, budget: float):
         cap = cap_for_levels(stack.shape[1] - 1)
-        with record_function("map normalisation"):
+        with stage("map normalisation"):
             m = normalise_map(p, budget, cap)
         i = blend_with_c1(c1.float(), m.float(), stack.float())
         ctx.mark_non_differentiable(m)

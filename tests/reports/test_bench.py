@@ -188,21 +188,29 @@ def test_bench_gpu_paths(tmp_path):
 
 def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
     """`python -m mcd.bench --profile` (the old flag of the `profile` mode): a real profiled forward of row
-    F; each stage label has a time, and the stages with modules have their MACs."""
+    F; each stage label has a time in the exclusive table, whose rows add up to its frame, and the labels
+    with modules have their MACs in the inclusive one."""
     out = tmp_path / "profile.md"
     bench_command(["--profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
                 "capacity=cpu"])
     text = capsys.readouterr().out
     assert text.strip() == out.read_text().strip()
-    rows = {line.split("|")[1].strip().replace("&nbsp;", ""): line.split("|")[2:6]
-            for line in text.splitlines() if line.startswith("| ") and not line.startswith("| stage")}
-    for stage in ("F_s", "adaptive render", "map normalisation", "kernel pool", "kernel-map head",
-                  "kernel application", "F_d", "PP", "SA", "other", "**frame**"):
+    exclusive, inclusive = text.split("| label, nested labels included |")
+    cells = [[c.strip() for c in line.split("|")[1:-1]] for line in exclusive.splitlines()
+             if line.startswith("| ") and not line.startswith("| stage")]
+    rows = {c[0].replace("&nbsp;", ""): c[1:] for c in cells}
+    for stage in ("input packing", "F_s", "Ghost conv", "adaptive render", "map normalisation", "kernel pool",
+                  "kernel-map head", "kernel application", "F_d", "L0", "PP", "SA", "output steps", "other",
+                  "**sum of stages**", "**frame**"):
         assert stage in rows, stage
-    for stage in ("F_s", "kernel-map head", "F_d", "PP", "SA", "**frame**"):
-        ms, _, gmacs, rate = (c.strip() for c in rows[stage])
-        assert float(ms) > 0 and float(gmacs) > 0 and float(rate) > 0, stage
-
+    stages = sum(float(c[1]) for c in cells if not c[0].startswith("**"))
+    assert stages == pytest.approx(float(rows["**sum of stages**"][0]), rel=1e-3)
+    assert stages == pytest.approx(float(rows["**frame**"][0]), rel=0.1)
+    lines = [line for line in inclusive.splitlines() if line.startswith("| ")]
+    nested = {c[0]: c[1:] for c in ([x.strip() for x in line.split("|")[1:-1]] for line in lines)}
+    for label in ("F_s", "kernel-map head", "F_d", "PP", "SA"):
+        ms, gmacs, rate = nested[label]
+        assert float(ms) > 0 and float(gmacs) > 0 and float(rate) > 0, label
 
 
 def _help(argv: list[str], capsys) -> str:

@@ -1,6 +1,6 @@
 """``python -m mcd.bench profile`` (mcd/bench/profile.py, docs/inference.md "Stage profile"): real
 clocked calls of row F on the CPU, stage by stage, whose exclusive stages add up to the frame; a table that
-does not add up is refused; the clock's attribution (mcd/models/stages.py) counted in FLOPs."""
+does not add up is refused; the clock's attribution (mcd/core/stages.py) counted in FLOPs."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import pytest
 import torch
 
 from mcd.bench import profile as inference_profile
+from mcd.core.stages import FlopClock, stage
 from mcd.models.complexity import flop_counter_mode
-from mcd.models.stages import FlopClock, stage
 
 
 def rows_of(text: str) -> list[tuple[str, list[str]]]:
