@@ -181,7 +181,7 @@ RULES: dict[str, Rule] = {
     "loss.frame_weights": _number(0, each=True, about="a weight per clip frame"),
     "loss.perceptual_layers": _whole(0, 30, "VGG-16 feature layer indices", each=True),
     # method
-    "method.denoiser_margin": _whole(0, 4096, "reflected pixels around F_d's input (not in training)"),
+    "method.denoiser_margin": _whole(0, 4096, "reflected pixels around a denoiser's input (not in training)"),
     "method.sampling.levels": _whole(1, 16, "levels of the sampling map's normalisation"),
     "method.kp.highlight": _number(0, None, "the kernel pool filters below it; null: everything",
                                    above=True, null=True),

@@ -42,8 +42,9 @@ are measured. Elsewhere they are derived: render time from the reference GPU's s
 the reference GPU's (the same ratio assumed for both: a rough figure, said so in the output). GPU-hours =
 render samples x GPU seconds per sample + run steps x GPU seconds per step.
 
-``mcd.run`` and ``mcd.render`` call :func:`announce` before their work: it prints the plan's one-line summary
-when the plan puts the work above an hour (a pilot runs only where the work's samples could take that long).
+``mcd.run`` and ``mcd.render`` log the counts alone before their work (:func:`mcd.workload.announce`: the
+figures of ``plan.measure=false`` for the buffers they render; no pilot render, no training step, no model):
+the measured figures are this command's.
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ def main(cfg: DictConfig) -> dict:
     selection = Selection.from_render_cfg(cfg.render, store.scene_names, store.n_frames)
     buffers = requested_buffers(cfg)
     units = sum(map(len, selection.units(store.scene_names, store.n_frames).values()))
-    announce(cfg, "mcd.render", train=False, share=units / (len(store.scene_names) * store.n_frames))
+    announce(cfg, "mcd.render", buffers, train=False, share=units / (len(store.scene_names) * store.n_frames))
     log.info("rendering profile %s into %s: buffers %s; %s", store.profile, store.root,
              ",".join(sorted(buffers)), selection.describe())
     report = store.ensure(buffers, selection=selection)

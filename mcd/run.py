@@ -161,7 +161,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     buffers = run_buffers(model.required_buffers(), cfg.budget)
     check_motion(cfg, buffers)  # the motion buffer where the training clips cannot hold it, before rendering
     check_augment(cfg, buffers)  # data.augment.reverse with a motion buffer, before anything is rendered
-    announce(cfg, "mcd.run", train=bool(cfg.method.get("trainable", True)))  # the plan's line if over 1 h
+    announce(cfg, "mcd.run", buffers, train=bool(cfg.method.get("trainable", True)))  # counts, no measuring
     store = StoreBuilder.from_cfg(cfg)
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused

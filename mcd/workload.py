@@ -1,8 +1,8 @@
 """What a run's work is, from its config, and what it costs where it runs: the counts and measurements
 behind ``python -m mcd.plan`` (its docstring says what each figure is; docs/scale.md, "Plan"), and
-:func:`announce`, the plan's one-line summary that ``mcd.run`` and ``mcd.render`` log before work over an
-hour. :func:`requested_buffers` is the buffer set ``render.buffers`` asks for (``mcd.render``,
-``mcd.data.pack``). It imports no loader measurement, so the commands can import it.
+:func:`announce`, the line of counts that ``mcd.run`` and ``mcd.render`` log before their work (no render, no
+model: the plan alone measures). :func:`requested_buffers` is the buffer set ``render.buffers`` asks for
+(``mcd.render``, ``mcd.data.pack``). It imports no loader measurement, so the commands can import it.
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -28,8 +29,6 @@ log = logging.getLogger("mcd.workload")
 #: commit and the machine); the plan's render time where no GPU is present
 GPU_S_PER_SAMPLE = (29.2e-9, 30.3e-9)
 HOUR = 3600.0
-#: samples per second no CPU renders faster than, for the cheap test of whether a render could take an hour
-FAST_CPU_SAMPLES_PER_S = 1e8
 
 
 def requested_buffers(cfg: DictConfig) -> set[str]:
@@ -51,30 +50,30 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
 
 
 # ------------------------------------------------------------------------------------------------ arithmetic
-def _render_buffers(cfg: DictConfig) -> list[str]:
-    bufs = requested_buffers(cfg)
-    if "motion" in bufs:
-        bufs.add("depth")
-    return [b for b in CHANNELS if b in bufs]
-
-
-def _train_buffers(cfg: DictConfig) -> list[str]:
+def work(cfg: DictConfig) -> dict[str, Any]:
+    """The plan's counts from the config alone (:mod:`mcd.plan`): :func:`counts` of the buffers
+    ``render.buffers`` asks for and of those the configured method trains on (this builds the method)."""
     from mcd.models import build
 
-    return [b for b in CHANNELS if b in run_buffers(build(cfg).required_buffers(), cfg.budget)]
+    return counts(cfg, requested_buffers(cfg), run_buffers(build(cfg).required_buffers(), cfg.budget))
 
 
-def work(cfg: DictConfig) -> dict[str, Any]:
-    """The plan's counts from the config alone (:mod:`mcd.plan`): bytes, samples, steps. A training store
-    frame counts as the pack writes it, its tiles padded (:func:`mcd.data.train_store.frame_bytes`)."""
+def counts(cfg: DictConfig, render_buffers: Iterable[str], train_buffers: Iterable[str]) -> dict[str, Any]:
+    """Bytes, samples and steps of the config's profile when `render_buffers` are rendered (``motion``
+    brings ``depth``) and `train_buffers` packed and trained on: arithmetic on counts, no render and no
+    model. A training store frame counts as the pack writes it, its tiles padded
+    (:func:`mcd.data.train_store.frame_bytes`)."""
     from mcd.data import train_store
 
     d = cfg.data
     reader = StoreReader.from_cfg(cfg, overrides=[])  # registers scenes given by path
     scenes, n = reader.scene_names, reader.n_frames
     w, h = int(d.width), int(d.height)
-    render = _render_buffers(cfg)
-    train = _train_buffers(cfg)
+    asked = set(render_buffers)
+    if "motion" in asked:
+        asked.add("depth")
+    render = [b for b in CHANNELS if b in asked]
+    train = [b for b in CHANNELS if b in set(train_buffers)]
     frame_bytes = {b: w * h * CHANNELS[b] * 4 for b in render}
     n_test = test_frame_count(n, float(d.get("test_fraction", 0.2)))
     q = d.get("ref_quality")
@@ -325,25 +324,25 @@ def summary(p: dict[str, Any]) -> str:
     return s
 
 
-def announce(cfg: DictConfig, what: str, train: bool, share: float = 1.0) -> None:
-    """Log the plan's one-line summary before `what` starts when the plan puts its work above an hour.
+def announce(cfg: DictConfig, what: str, buffers: Iterable[str], train: bool, share: float = 1.0) -> str:
+    """Log, and return, the line `what` (``mcd.run``, ``mcd.render``) prints before its work: the plan's
+    counts (:func:`counts`, the figures ``python -m mcd.plan plan.measure=false`` prints for the same config)
+    for the `buffers` the command renders and, where `train`, trains on. No render, no model: the times
+    need a pilot render and a training step, which ``python -m mcd.plan`` measures.
 
-    `share`: the part of the profile's render this process does (a shard's units over all). Cheap first: a
-    pilot render runs only where that share's samples could take an hour even at
-    :data:`FAST_CPU_SAMPLES_PER_S`; the training part counts ``train.max_minutes`` (or, without it, the
-    steps at one measured step each) where `train`."""
-    wk = work(cfg)
-    hours = 0.0
-    p: dict[str, Any] = {"work": wk}
-    if wk["samples"][1] * share / FAST_CPU_SAMPLES_PER_S > HOUR:
-        pilot = pilot_render(cfg, int(cfg.get("plan", {}).get("pilot_scale", 8)), 4, 1)
-        p["render_hours_here"] = tuple(s * pilot["s_per_sample"] / HOUR for s in wk["samples"])
-        hours += p["render_hours_here"][0] * share
+    `share`: the part of the profile's render units this process renders (a shard's units over all)."""
+    wk = counts(cfg, buffers, buffers)
+    line = (f"{what}: profile {wk['profile']}: {len(wk['scenes'])} scenes x {wk['frames']} frames at "
+            f"{wk['width']}x{wk['height']}; EXR store {_gb(wk['exr_bytes'])} "
+            f"({','.join(wk['render_buffers'])}); {_range(*wk['samples'])} samples to render")
+    if share < 1.0:
+        line += f", {share:.3g} of them in this process"
     if train:
+        line += (f"; training store {_gb(wk['train_store_bytes']['float32'])} (float32); training: "
+                 + (f"{wk['run_steps'] or '?'} steps of batch {wk['batch']} ({wk['run_steps_how']})"
+                    if wk["train_error"] is None else f"none on this profile: {wk['train_error']}"))
         if wk["max_minutes"] is not None:
-            hours += float(wk["max_minutes"]) / 60
-        elif wk["run_steps"] is not None and wk["run_steps"] * 0.01 > HOUR:  # an hour even at 100 steps/s
-            hours += wk["run_steps"] * train_step(cfg)["seconds"] * wk["batch"] / HOUR
-    if hours > 1.0:
-        log.info("%s: %s; this process: about %.3g h of work on this machine (python -m mcd.plan with these "
-                 "overrides prints the whole plan)", what, summary(p), hours)
+            line += f", at most {wk['max_minutes']} minutes (train.max_minutes)"
+    line += "; render and step times: python -m mcd.plan measures them"
+    log.info("%s", line)
+    return line

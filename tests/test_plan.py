@@ -1,18 +1,24 @@
 """``python -m mcd.plan`` (issue 30, part 5; mcd/plan.py, docs/scale.md "Plan"): the counts of a profile, the
-measured figures and the one-line summary ``mcd.run`` / ``mcd.render`` print before work over an hour; the
-render's progress lines."""
+measured figures; the line of counts ``mcd.run`` / ``mcd.render`` log before their work (no render, no model);
+the render's progress lines."""
 
 from __future__ import annotations
 
+import json
 import logging
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import mcd
 from mcd.data import StoreBuilder
 from mcd.data.pack import pack
-from mcd.plan import main
-from mcd.workload import announce, derive, work
+from mcd.plan import lines, main, plan
+from mcd.workload import _gb, _range, derive, work
 from tests.conftest import compose_cfg, store32_overrides
 
 
@@ -98,15 +104,67 @@ def test_a_profile_too_short_to_train_on_is_planned_without_training(tmp_path, c
     assert "training: none on this profile: a 3-frame sequence" in capsys.readouterr().out
 
 
-def test_announce_prints_the_summary_only_above_an_hour(tmp_path, caplog):
-    caplog.set_level(logging.INFO, logger="mcd.workload")
-    announce(compose_cfg(*store32_overrides(tmp_path)), "mcd.run", train=True)  # 12 minutes, a tiny render
-    assert not caplog.records
-    paper = compose_cfg("data=paper", "capacity=paper", f"paths.data_dir={tmp_path}")
-    announce(paper, "mcd.render", train=False)
-    (rec,) = caplog.records
-    assert rec.getMessage().startswith("mcd.render: plan paper: EXR store 2.44 TB")
-    assert " h here" in rec.getMessage()
+#: announce in a fresh interpreter: its line, and which of the modules a pilot render (Mitsuba, Dr.Jit, the
+#: renderer) or a model build (the method registry, the training module) needs it imported
+ANNOUNCE = """
+import json, sys
+from mcd.config import compose
+from mcd.workload import announce
+cfg = compose(json.loads(sys.argv[1]))
+line = announce(cfg, sys.argv[2], json.loads(sys.argv[3]), train=sys.argv[2] == "mcd.run", share=0.25)
+heavy = [m for m in sys.modules if m.split(".")[0] in ("mitsuba", "drjit")
+         or m in ("mcd.data.renderer", "mcd.data.mitsuba_env", "mcd.models.registry", "mcd.lit.module")]
+print(json.dumps({"line": line, "heavy": sorted(heavy)}))
+"""
+
+
+@pytest.mark.parametrize("what", ["mcd.run", "mcd.render"])
+def test_announce_counts_without_rendering_or_building_a_model(tmp_path, what):
+    """The paper profile (which once made the announce render a pilot and build a second model to time a
+    step): in a fresh interpreter the announce imports neither Mitsuba nor the renderer nor the method
+    registry, and its figures are those ``python -m mcd.plan plan.measure=false`` prints for the config."""
+    overrides = ["data=paper", "capacity=paper", "train=paper", f"paths.data_dir={tmp_path}"]
+    cfg = compose_cfg(*overrides)
+    wk = work(cfg)
+    done = subprocess.run([sys.executable, "-c", ANNOUNCE, json.dumps(overrides), what,
+                           json.dumps(wk["train_buffers"])], capture_output=True, text=True, check=True,
+                          env={**os.environ, "PYTHONPATH": str(Path(mcd.__file__).parents[1])})
+    out = json.loads(done.stdout.splitlines()[-1])
+    assert out["heavy"] == []
+    line, plan_text = out["line"], "\n".join(lines(plan(cfg, measure=False)))
+    figures = ["19 scenes x 500 frames at 1920x1080", _gb(wk["exr_bytes"]), _range(*wk["samples"]),
+               ",".join(wk["render_buffers"])]
+    if what == "mcd.run":
+        figures += [_gb(wk["train_store_bytes"]["float32"]), f"{wk['run_steps']} steps"]
+    else:
+        assert "training store" not in line
+    for figure in figures:
+        assert figure in line and figure in plan_text, (figure, line, plan_text)
+    assert line.startswith(f"{what}: profile paper: ") and "0.25 of them in this process" in line
+    assert line.endswith("python -m mcd.plan measures them")
+
+
+def test_run_and_render_log_the_counts_before_their_work(cbox_store, tmp_path, caplog):
+    """``mcd.render`` and ``mcd.run``'s build on a complete store: the announce's line comes before the store
+    is checked, nothing is rendered, and the run's line has its steps and training store."""
+    from mcd.render import main as render
+    from mcd.run import build
+
+    cfg, store = cbox_store
+    caplog.set_level(logging.INFO)
+    report = render(cfg)
+    messages = [r.getMessage() for r in caplog.records]
+    (line,) = [m for m in messages if m.startswith("mcd.render: profile test32: 1 scenes x 12 frames")]
+    assert messages.index(line) < min(i for i, m in enumerate(messages) if m.startswith("rendering profile"))
+    assert report["msamples"] == 0 and not any(report["rendered"].values())
+    caplog.clear()
+    run_cfg = compose_cfg(*store32_overrides(store.data_dir), "train.max_steps=7", "train.max_minutes=null")
+    job = build(run_cfg, tmp_path / "run")
+    messages = [r.getMessage() for r in caplog.records]
+    (line,) = [m for m in messages if m.startswith("mcd.run: profile test32: ")]
+    assert "; training: 7 steps of batch" in line and "training store " in line
+    assert messages.index(line) < min(i for i, m in enumerate(messages) if m.startswith("store test32"))
+    assert job.data_report["msamples"] == 0
 
 
 def test_render_prints_a_progress_line_per_scene_and_frame(tmp_path, caplog):

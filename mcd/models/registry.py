@@ -19,6 +19,7 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
+from mcd.models.margin import set_margin
 from mcd.models.output_steps import attach_output_steps
 from mcd.registry import Registry
 
@@ -28,9 +29,10 @@ Factory = Callable[..., nn.Module]
 METHODS: Registry[Factory] = Registry("method", ("mcd.models.two_stage", "mcd.models.baselines"))
 register = METHODS.register
 
-#: Keys of a method's section that the run reads, not its factory: its name, whether it trains, and the
-#: output steps :func:`build` adds (mcd/models/output_steps.py).
-RUN_KEYS = ("name", "trainable", "mean_match", "pass_misses")
+#: Keys of a method's section that the run reads, not its factory: its name, whether it trains, and what
+#: :func:`build` adds to every method: the output steps (mcd/models/output_steps.py) and the denoiser's margin
+#: outside training (mcd/models/margin.py).
+RUN_KEYS = ("name", "trainable", "mean_match", "pass_misses", "denoiser_margin")
 #: The capacity profile's entry a method reads where it is not its own name: the U-Net is row A, the
 #: two-stage model's ``F_d`` (docs/baselines.md "U-Net").
 CAPACITY_ENTRY = {"unet": "two_stage"}
@@ -79,10 +81,11 @@ def check_call(name: str, factory: Factory, kwargs: dict[str, Any]) -> None:
 
 def build(cfg: DictConfig) -> nn.Module:
     """The model named by ``cfg.method.name``: its factory called with :func:`factory_kwargs`, with the
-    output steps its method sets (``method.mean_match``, ``method.pass_misses``:
-    :func:`mcd.models.output_steps.attach_output_steps`; docs/method.md "Output")."""
+    denoiser's margin outside training (``method.denoiser_margin``, :func:`mcd.models.margin.set_margin`;
+    docs/method.md "Frame edges") and the output steps its method sets (``method.mean_match``,
+    ``method.pass_misses``: :func:`mcd.models.output_steps.attach_output_steps`; docs/method.md "Output")."""
     name = str(cfg.method.name)
     factory = METHODS.get(name)
     kwargs = factory_kwargs(cfg)
     check_call(name, factory, kwargs)
-    return attach_output_steps(factory(**kwargs), cfg.method, float(cfg.budget))
+    return attach_output_steps(set_margin(factory(**kwargs), cfg.method), cfg.method, float(cfg.budget))

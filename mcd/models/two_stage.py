@@ -16,17 +16,17 @@ predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output"); the o
 (``method.mean_match``, ``method.pass_misses``) are every method's (mcd.models.output_steps), against the
 render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 ``method.denoiser_margin`` reflects ``F_d``'s input by that many pixels on every side outside training and
-crops its output back (docs/method.md "Frame edges"). ``method.warp_previous`` (not the paper's; a diagnostic,
-docs/method.md "Diagnostics") also feeds ``F_d`` its previous output, warped to this frame by the motion
-vectors as NTASAD's is (on a sequence's first frame, its own colour input). The stages run under
-:func:`mcd.core.stages.stage` labels (:data:`STAGES`, ``F_d``'s levels ``L0``..., ``PP``, ``SA``,
-``Ghost conv``), which ``python -m mcd.bench profile`` reads (docs/inference.md "Stage profile").
+crops its output back (every method's denoiser: mcd.models.margin; docs/method.md "Frame edges").
+``method.warp_previous`` (not the paper's; a diagnostic, docs/method.md "Diagnostics") also feeds ``F_d`` its
+previous output, warped to this frame by the motion vectors as NTASAD's is (on a sequence's first frame, its
+own colour input). The stages run under :func:`mcd.core.stages.stage` labels (:data:`STAGES`, ``F_d``'s
+levels ``L0``..., ``PP``, ``SA``, ``Ghost conv``), which ``python -m mcd.bench profile`` reads
+(docs/inference.md "Stage profile").
 """
 
 from __future__ import annotations
 
 import torch
-import torch.nn.functional as F
 from torch import Tensor, nn
 
 from mcd.core.stages import stage
@@ -35,6 +35,7 @@ from mcd.models.denoiser import Denoiser
 from mcd.models.init import initialise
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import kp_options_of, pool_picture
+from mcd.models.margin import with_margin
 from mcd.models.misses import miss_mask
 from mcd.models.registry import register
 from mcd.models.sampler import SamplingNetwork
@@ -55,10 +56,13 @@ class TwoStage(nn.Module):
     """Rows A-M of the component study; see the module docstring."""
 
     window = (0, 0)
+    #: ``method.denoiser_margin``: pixels of reflection around ``F_d``'s input outside training (set by
+    #: :func:`mcd.models.margin.set_margin`)
+    denoiser_margin = 0
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
-                 sampler_padding: str = "zeros", denoiser_margin: int = 0, reads_map: bool = True,
+                 sampler_padding: str = "zeros", reads_map: bool = True,
                  warp_previous: bool = False, init: str = "torch") -> None:
         super().__init__()
         #: ``method.warp_previous``: ``F_d`` also reads its previous output warped by the motion vectors
@@ -66,10 +70,6 @@ class TwoStage(nn.Module):
         self.prev: Tensor | None = None
         #: ``method.denoiser_reads_map``: ``F_d`` reads the normalised sampling map ``m / (s - 1)`` (with AS)
         self.reads_map = bool(reads_map)
-        if denoiser_margin < 0:
-            raise ValueError(f"method.denoiser_margin={denoiser_margin}: give 0 (off) or a number of pixels")
-        #: ``method.denoiser_margin``: pixels of reflection around ``F_d``'s input outside training
-        self.denoiser_margin = int(denoiser_margin)
         self.sw = dict(switches)
         self.budget, self.levels, self.colour = float(budget), levels, colour
         if denoiser_output not in DENOISER_OUTPUTS:
@@ -149,12 +149,9 @@ class TwoStage(nn.Module):
     def denoise(self, z: Tensor) -> Tensor:
         """``F_d`` on its input ``z`` ``[B, C, H, W]``; outside training on ``z`` reflected by
         ``denoiser_margin`` pixels (at most ``H - 1`` and ``W - 1``) on every side, the output cropped back,
-        so no pixel of the frame lies on the network's zero-padded edge (docs/method.md "Frame edges")."""
-        margin = 0 if self.training else min(self.denoiser_margin, z.shape[-2] - 1, z.shape[-1] - 1)
-        if margin == 0:
-            return self.denoiser(z)
-        y = self.denoiser(F.pad(z, (margin, margin, margin, margin), mode="reflect"))
-        return y[..., margin:-margin, margin:-margin]
+        so no pixel of the frame lies on the network's zero-padded edge
+        (:func:`mcd.models.margin.with_margin`, docs/method.md "Frame edges")."""
+        return with_margin(self, self.denoiser, z)
 
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         who = "two_stage"
@@ -207,24 +204,24 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
                     attention: dict,
                     sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
                     denoiser_output: str = "direct", sampler_padding: str = "zeros",
-                    denoiser_margin: int = 0, denoiser_reads_map: bool = True,
+                    denoiser_reads_map: bool = True,
                     warp_previous: bool = False, init: str = "torch") -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
     ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions: ``replicate`` in the config, ``zeros``
-    for a config from before the key), ``denoiser_margin`` (``F_d``'s reflected margin outside training: 16
-    in the config, 0 for a config from before the key), ``denoiser_reads_map`` (``F_d`` reads the normalised
+    for a config from before the key), ``denoiser_reads_map`` (``F_d`` reads the normalised
     sampling map with AS: this project's default; false: the paper's list of ``F_d``'s inputs),
     ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output),
     ``init`` (the convolutions' initialisation, :mod:`mcd.models.init`); and its
     widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
     ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio),
-    ``pooling``, ``attention`` (docs/method.md). The output steps are :func:`mcd.models.registry.build`'s."""
+    ``pooling``, ``attention`` (docs/method.md). The output steps and ``F_d``'s margin outside training
+    (``method.denoiser_margin``) are :func:`mcd.models.registry.build`'s."""
     switches = check_switches({"UN": UN, "AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}, complete=True)
     sizes = {"denoiser": denoiser, "sampler": sampler, "kernel_pool": kernel_pool, "ghost": ghost,
              "pooling": pooling, "attention": attention}
     return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
                     kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding),
-                    denoiser_margin=int(denoiser_margin), reads_map=bool(denoiser_reads_map),
+                    reads_map=bool(denoiser_reads_map),
                     warp_previous=bool(warp_previous), init=str(init))

@@ -22,6 +22,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.rae import RAEUNet
 from mcd.models.inputs import compress, crop, expand, gbuffers, grey, need, pad_to_multiple
+from mcd.models.margin import with_margin
 from mcd.models.registry import register
 from mcd.sampling import adaptive_render, stack_buffers, stack_names
 
@@ -31,6 +32,9 @@ class DASR(nn.Module):
 
     window = (0, 0)
     temporal_state = False  # single-frame
+    #: ``method.denoiser_margin`` (mcd.models.margin): the denoiser (not the sampler) reads the adaptive image
+    #: reflected outside training
+    denoiser_margin = 0
 
     def __init__(self, budget: float, encoder: Sequence[int], bottleneck: int, last: Sequence[int],
                  levels: int = 5) -> None:
@@ -55,8 +59,11 @@ class DASR(nn.Module):
         logits = crop(self.sampler(pad_to_multiple(s_in, self.sampler.stride)), (h, w))
         i, m = adaptive_render(logits, c1, stack_buffers(x, self.levels), x.get("ref"), self.budget)
         d_in = torch.cat([compress(i.to(c1.dtype)), g], 1)
-        y = crop(self.denoiser(pad_to_multiple(d_in, self.denoiser.stride)), (h, w))
-        return {"output": expand(y), "sampling_map": m, "adaptive": i}
+        return {"output": expand(with_margin(self, self.denoise, d_in)), "sampling_map": m, "adaptive": i}
+
+    def denoise(self, d_in: Tensor) -> Tensor:
+        """The denoiser on ``d_in`` ``[B, 10, H, W]`` of any size (padded to its stride, cropped back)."""
+        return crop(self.denoiser(pad_to_multiple(d_in, self.denoiser.stride)), d_in.shape[-2:])
 
 
 @register("dasr")

@@ -17,6 +17,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
+from mcd.models.margin import with_margin
 from mcd.models.registry import register
 
 FRAMES = 3  # frames per block
@@ -61,6 +62,9 @@ class FastDVDnet(nn.Module):
 
     window = (2, 2)
     temporal_state = False  # each output depends only on its window
+    #: ``method.denoiser_margin`` (mcd.models.margin): every frame of the window is read reflected outside
+    #: training
+    denoiser_margin = 0
 
     def __init__(self, budget: int, widths: tuple[int, int, int], interm: int) -> None:
         super().__init__()
@@ -82,16 +86,21 @@ class FastDVDnet(nn.Module):
         if noisy.ndim != 5 or noisy.shape[1] != 5:
             raise ValueError(f"fastdvdnet needs 5-frame windows [B, 5, C, H, W] (window=(2, 2)), got "
                              f"{tuple(noisy.shape)} for {self.key!r}")
-        b, t, _, h, w = noisy.shape
-        frames = {k: pad_to_multiple(need(x, k, "fastdvdnet").flatten(0, 1), 4)
-                  for k in self.required_buffers()}
+        b, t = noisy.shape[:2]
+        frames = {k: need(x, k, "fastdvdnet").flatten(0, 1) for k in self.required_buffers()}
         g = gbuffers(frames, "fastdvdnet").unflatten(0, (b, t))
         c = compress(frames[self.key]).unflatten(0, (b, t))
+        return {"output": expand(with_margin(self, self.denoise, c, g))}
+
+    def denoise(self, c: Tensor, g: Tensor) -> Tensor:
+        """The two stages on a window's colour ``c`` ``[B, 5, 3, H, W]`` (compressed) and G-buffers ``g``
+        ``[B, 5, 7, H, W]`` of any size (padded to a multiple of 4, cropped back) -> ``[B, 3, H, W]``."""
+        b, t, _, h, w = c.shape
+        c, g = (pad_to_multiple(v.flatten(0, 1), 4).unflatten(0, (b, t)) for v in (c, g))
         per_frame = torch.cat([c, g], 2)  # [B, 5, 10, H', W']
         stage1 = [self.stage1(per_frame[:, i:i + 3].flatten(1, 2), c[:, i + 1]) for i in range(3)]
         second = torch.cat([torch.cat([s, g[:, i + 1]], 1) for i, s in enumerate(stage1)], 1)
-        y = self.stage2(second, stage1[1])
-        return {"output": expand(crop(y, (h, w)))}
+        return crop(self.stage2(second, stage1[1]), (h, w))
 
 
 @register("fastdvdnet")

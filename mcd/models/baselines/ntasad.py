@@ -35,6 +35,7 @@ from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, gbuffers, grey, need, pad_to_multiple
 from mcd.models.kernel_pool import apply_pixel_kernels
+from mcd.models.margin import with_margin
 from mcd.models.registry import register
 from mcd.models.warp import warp
 from mcd.sampling import adaptive_render, stack_buffers, stack_names
@@ -107,6 +108,10 @@ class NTASAD(nn.Module):
 
     window = (0, 0)
     temporal_state = True  # the previous output, warped
+    #: ``method.denoiser_margin`` (mcd.models.margin): the denoiser and its kernels read the adaptive image,
+    #: G-buffers and warped previous output reflected outside training; the sampler, the warp and the fed-back
+    #: output stay at the frame's size
+    denoiser_margin = 0
 
     def __init__(self, budget: int, enc: int, dec: int, full: int, levels: int = 5, warp: bool = True,
                  previous_output: bool = True) -> None:
@@ -155,9 +160,17 @@ class NTASAD(nn.Module):
         logits = crop(self.sampler(pad_to_multiple(s_in, self.sampler.stride))[1], (h, w))
         i, m = adaptive_render(logits, c1, stack_buffers(x, self.levels), x.get("ref"), float(self.budget))
         i = i.to(c1.dtype)
-        d_in = pad_to_multiple(torch.cat([compress(i), g, compress(prev)], 1), self.denoiser.stride)
-        heads = self.denoiser(d_in)
+        o = with_margin(self, self.denoise, i, g, prev).clamp_min(0)
+        self.prev = o
+        return {"output": o, "sampling_map": m, "adaptive": i}
+
+    def denoise(self, i: Tensor, g: Tensor, prev: Tensor) -> Tensor:
+        """The hierarchical kernels (module docstring) predicted from the adaptive image ``i``, the G-buffers
+        ``g`` and the warped previous output ``prev`` (``[B, C, H, W]`` of any size: padded to the denoiser's
+        stride, cropped back), applied to ``i`` and ``prev``."""
+        h, w = i.shape[-2:]
         stride = self.denoiser.stride
+        heads = self.denoiser(pad_to_multiple(torch.cat([compress(i), g, compress(prev)], 1), stride))
         img, prev_p = pad_to_multiple(i, stride), pad_to_multiple(prev, stride)
         taps = K * K
         o = apply_pixel_kernels(F.avg_pool2d(img, 4), torch.softmax(heads[4], 1))
@@ -165,9 +178,7 @@ class NTASAD(nn.Module):
         o = combine(f2, o, torch.sigmoid(heads[2][:, taps:]))
         k1 = torch.softmax(heads[1][:, : 2 * taps], 1)
         f1 = apply_pixel_kernels(img, k1[:, :taps]) + apply_pixel_kernels(prev_p, k1[:, taps:])
-        o = crop(combine(f1, o, torch.sigmoid(heads[1][:, 2 * taps:])), (h, w)).clamp_min(0)
-        self.prev = o
-        return {"output": o, "sampling_map": m, "adaptive": i}
+        return crop(combine(f1, o, torch.sigmoid(heads[1][:, 2 * taps:])), (h, w))
 
 
 @register("ntasad")

@@ -18,6 +18,7 @@ from torch import Tensor, nn
 from mcd.data.buffers import GBUFFERS
 from mcd.models.baselines.uniform import uniform_key
 from mcd.models.inputs import compress, crop, expand, gbuffers, need, pad_to_multiple
+from mcd.models.margin import with_margin
 from mcd.models.registry import register
 
 #: Albedo offset of the demodulation ``c / (albedo + eps)`` (black albedo stays finite).
@@ -141,6 +142,9 @@ class RAE(nn.Module):
 
     window = (0, 0)
     temporal_state = True  # recurrent blocks
+    #: ``method.denoiser_margin`` (mcd.models.margin): the network reads the frame reflected outside training;
+    #: its hidden states are then at the reflected size on every frame of a sequence
+    denoiser_margin = 0
 
     def __init__(self, budget: int, encoder: Sequence[int], bottleneck: int, last: Sequence[int]) -> None:
         super().__init__()
@@ -156,10 +160,13 @@ class RAE(nn.Module):
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
         noisy = need(x, self.key, "rae")
         divisor = demodulation(need(x, "albedo", "rae"))
-        h, w = noisy.shape[-2:]
         inp = torch.cat([compress(noisy / divisor), gbuffers(x, "rae")], 1)
-        y = crop(self.net(pad_to_multiple(inp, self.net.stride)), (h, w))
-        return {"output": expand(y) * divisor}
+        return {"output": expand(with_margin(self, self.denoise, inp)) * divisor}
+
+    def denoise(self, inp: Tensor) -> Tensor:
+        """The recurrent U-Net on ``inp`` ``[B, 10, H, W]`` of any size (padded to its stride, cropped
+        back)."""
+        return crop(self.net(pad_to_multiple(inp, self.net.stride)), inp.shape[-2:])
 
 
 @register("rae")
