@@ -117,6 +117,10 @@ RULES: dict[str, Rule] = {
     "plan.pilot_scale": _whole(1, 1024, "the pilot renders 1/pilot_scale of data.width x data.height"),
     "plan.pilot_spp": _whole(1, 4096, "samples per pixel of the pilot render"),
     "plan.pilot_frames": _whole(1, 64, "frames of the pilot render"),
+    "sweep_plan.cpu_hours_limit": _number(0, about="a scaling grid planned above this many CPU-hours is "
+                                          "refused without sweep_plan.allow_large=true", above=True),
+    "sweep_plan.seeds_only_where.train.max_steps": _whole(1, each=True, about="budgets whose cells run every "
+                                                          "seed (+sweep=scaling)"),
     "plan.step_crop": _whole(16, 4096, "the CPU training step is measured at this crop and half of it"),
     # data: the frames, the renders
     "data.width": _whole(1, MAX_SIDE, "frame width in pixels"),
