@@ -30,7 +30,7 @@ register = METHODS.register
 
 #: Keys of a method's section that the run reads, not its factory: its name, whether it trains, and the
 #: output steps :func:`build` adds (mcd/models/output_steps.py).
-RUN_KEYS = ("name", "trainable", "mean_match", "pass_misses")
+RUN_KEYS = ("name", "trainable", "mean_match", "output_bound", "pass_misses")
 #: The capacity profile's entry a method reads where it is not its own name: the U-Net is row A, the
 #: two-stage model's ``F_d`` (docs/baselines.md "U-Net").
 CAPACITY_ENTRY = {"unet": "two_stage"}
@@ -79,7 +79,7 @@ def check_call(name: str, factory: Factory, kwargs: dict[str, Any]) -> None:
 
 def build(cfg: DictConfig) -> nn.Module:
     """The model named by ``cfg.method.name``: its factory called with :func:`factory_kwargs`, with the
-    output steps its method sets (``method.mean_match``, ``method.pass_misses``:
+    output steps its method sets (``method.mean_match``, ``method.output_bound``, ``method.pass_misses``:
     :func:`mcd.models.output_steps.attach_output_steps`; docs/method.md "Output")."""
     name = str(cfg.method.name)
     factory = METHODS.get(name)
