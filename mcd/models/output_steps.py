@@ -1,7 +1,8 @@
 """The output steps after a method's network (docs/method.md "Output", docs/baselines.md "Output"; not in
 the paper), the same for every method that sets them: ``method.mean_match``
-(:func:`mcd.models.mean_match.match_frame_mean`), then ``method.pass_misses``
-(:func:`mcd.models.misses.pass_misses`), both against the render the method denoised
+(:func:`mcd.models.mean_match.match_frame_mean`), then ``method.output_bound``
+(:func:`mcd.models.output_bound.clamp_output`; outside training only), then ``method.pass_misses``
+(:func:`mcd.models.misses.pass_misses`), all against the render the method denoised
 (:func:`denoised_render`). :func:`mcd.models.registry.build` adds them to every model it builds as one
 forward hook, so a model's parameters and checkpoints are the same with them and without them.
 """
@@ -17,6 +18,7 @@ from mcd.core.stages import stage
 from mcd.data.buffers import uniform_buffer
 from mcd.models.mean_match import match_frame_mean
 from mcd.models.misses import pass_misses
+from mcd.models.output_bound import clamp_output
 
 
 def current_frame(buffer: Tensor, past: int) -> Tensor:
@@ -44,12 +46,26 @@ def mean_match_mode(method: DictConfig) -> bool | str:
                      "only) or false (docs/method.md \"Output\")")
 
 
+def output_bound_on(method: DictConfig) -> bool:
+    """``method.output_bound``, checked: ``true`` or ``false``; when the key is absent (a config from before
+    it, such as a bundled checkpoint's), ``true`` for a method with weights (``method.trainable``, default
+    true) and ``false`` for one without (OIDN, the noisy input). ValueError naming the key otherwise."""
+    value = method.get("output_bound", bool(method.get("trainable", True)))
+    if isinstance(value, bool):
+        return value
+    raise ValueError(f"method.output_bound={value!r}: use true (outside training, the default of every "
+                     "learned method) or false (docs/method.md \"Output\")")
+
+
 def attach_output_steps(module: nn.Module, method: DictConfig, budget: float) -> nn.Module:
     """``module`` (a method's model: ``forward(x) -> {"output", ...}``) with the output steps ``method``
     sets, applied to its ``output`` by one forward hook; ``module`` as it is when it sets none. With
-    ``method.mean_match=test`` the hook skips the mean match while ``module`` is in training mode."""
+    ``method.mean_match=test`` the hook skips the mean match while ``module`` is in training mode; the
+    output bound always does (a clamp would zero the gradients of the pixels it holds:
+    mcd/models/output_bound.py)."""
     mean, misses = mean_match_mode(method), bool(method.get("pass_misses", False))
-    if not (mean or misses):
+    bound = output_bound_on(method)
+    if not (mean or misses or bound):
         return module
     past = int(getattr(module, "window", (0, 0))[0])
 
@@ -59,6 +75,8 @@ def attach_output_steps(module: nn.Module, method: DictConfig, budget: float) ->
             render = denoised_render(out, x, budget, past)
             if mean is True or (mean == "test" and not model.training):
                 out["output"] = match_frame_mean(out["output"], render)
+            if bound and not model.training:
+                out["output"] = clamp_output(out["output"], render)
             if misses:
                 out["output"] = pass_misses(out["output"], render, current_frame(x["normal"], past))
         return out

@@ -32,7 +32,7 @@ register = METHODS.register
 #: Keys of a method's section that the run reads, not its factory: its name, whether it trains, and what
 #: :func:`build` adds to every method: the output steps (mcd/models/output_steps.py) and the denoiser's margin
 #: outside training (mcd/models/margin.py).
-RUN_KEYS = ("name", "trainable", "mean_match", "pass_misses", "denoiser_margin")
+RUN_KEYS = ("name", "trainable", "mean_match", "output_bound", "pass_misses", "denoiser_margin")
 #: The capacity profile's entry a method reads where it is not its own name: the U-Net is row A, the
 #: two-stage model's ``F_d`` (docs/baselines.md "U-Net").
 CAPACITY_ENTRY = {"unet": "two_stage"}
@@ -83,7 +83,8 @@ def build(cfg: DictConfig) -> nn.Module:
     """The model named by ``cfg.method.name``: its factory called with :func:`factory_kwargs`, with the
     denoiser's margin outside training (``method.denoiser_margin``, :func:`mcd.models.margin.set_margin`;
     docs/method.md "Frame edges") and the output steps its method sets (``method.mean_match``,
-    ``method.pass_misses``: :func:`mcd.models.output_steps.attach_output_steps`; docs/method.md "Output")."""
+    ``method.output_bound``, ``method.pass_misses``: :func:`mcd.models.output_steps.attach_output_steps`;
+    docs/method.md "Output")."""
     name = str(cfg.method.name)
     factory = METHODS.get(name)
     kwargs = factory_kwargs(cfg)
