@@ -1,6 +1,6 @@
 """A short real training of row F on a 64x64 Cornell box (the ``tiny`` profile's scene, light and size): F's
 output beats its noisy input on rMSE, and its sampling map's border ring is not brighter than the content
-explains (docs/method.md "Dark regions"; issue 34, item 3).
+explains (docs/method.md "Adaptive sampling" step 6, "Kernel pool"; the runs: notes/dark_regions.md).
 
 Before the fixes F's output had 2-4x the input's rMSE on this scene from the first steps on (a bright ring
 around the ceiling light: the kernel pool's blur of the light, the residual F_d's correction of it and the
@@ -62,7 +62,7 @@ def f_run(tmp_path_factory):
 def test_f_beats_its_noisy_input_on_rmse(f_run):
     """rMSE, on every test frame. FLIP is not asserted: at this budget F's output is smoother than the
     reference on the flat walls and the boxes' edges, which FLIP weighs more than the input's fine noise; the
-    README's full training is measured against the input's FLIP in docs/method.md "Dark regions"."""
+    README's full training is measured against the input's FLIP in notes/dark_regions.md."""
     run, _ = f_run
     frames = pd.read_csv(run / "frames.csv")
     assert len(frames) == 3

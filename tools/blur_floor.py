@@ -1,5 +1,5 @@
 """``python tools/blur_floor.py``: how much blur a scene's noisy input allows before FLIP says the blur is
-worse (docs/method.md, "Dark regions").
+worse (notes/dark_regions.md, "How much blur the input's FLIP allows").
 
 FLIP (``mcd.metrics.flip``) weighs edges and discounts fine-grained noise, so on a small, lightly noisy frame
 the noisy input can score a FLIP that only a sharp denoiser beats. For each test scene of a data profile this

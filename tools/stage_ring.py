@@ -1,5 +1,5 @@
 """Where a two-stage run's error lies, stage by stage, on the frame's outer ring and inside it
-(docs/method.md "Where F loses cbox's FLIP").
+(notes/dark_regions.md "Where F loses cbox's FLIP").
 
 For a finished run of a row with the kernel pool (its ``resolved_config.yaml`` and the checkpoint it tested,
 from its ``metrics.json``), every test frame of one scene is denoised again, in sequence, keeping each stage:

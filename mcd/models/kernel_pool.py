@@ -87,7 +87,7 @@ def filter_below(image: Tensor, kernels: Tensor, ceiling: float | None, hits: Te
     :func:`mcd.models.misses.miss_mask`) the pixel keeps ``image``, and no kernel reads it: each kernel's taps
     on such pixels are dropped and the rest renormalised (a normalised convolution). Such a pixel is already
     noise-free (:mod:`mcd.models.misses`); blurred, it put light into the Cornell box's black frame and
-    darkened the rows beside it (docs/method.md "Dark regions").
+    darkened the rows beside it (docs/method.md "Kernel pool").
     """
     below = image if ceiling is None else image.clamp_max(ceiling)
     if hits is None:
@@ -182,8 +182,8 @@ REMOVED_OPTIONS = {"denoiser_reads_adaptive": False, "temperature": 1.0, "pool_i
 def kp_options_of(options: dict | None) -> dict[str, Any]:
     """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ..., "skip_misses":
     ...}`` (defaults ``rms_centred``, None and False: a config from before ``highlight`` filters every value,
-    one from before ``skip_misses`` filters across pixels that saw no geometry; conf/method sets 4.0 and
-    false, docs/method.md "Dark regions" measures true).
+    one from before ``skip_misses`` filters across pixels that saw no geometry; conf/method/two_stage.yaml
+    sets 1.0 and false, and docs/method.md "Kernel pool" says why ``skip_misses`` stays off).
 
     A removed option (:data:`REMOVED_OPTIONS`) is accepted at its remaining value and refused otherwise,
     naming the key; an unknown key is refused too.

@@ -19,7 +19,7 @@ validation and test only, so that the training loss sees the network's own outpu
 ``true`` in training too, with gradients through the gains, which leave the network's scale free: a trained
 F's raw output drifted 1.4-3x too bright, and its brightness along the frame's edges drifted apart from the
 interior's, which one gain per band cannot undo (on ``tiny``'s cbox a ring too bright by 0.03 in display
-values, which put its FLIP above the noisy input's; docs/method.md "Output", "Where F loses cbox's FLIP").
+values, which put its FLIP above the noisy input's; docs/method.md "Output").
 
 Every method that sets ``method.mean_match`` gets it, matched to the render it denoised
 (:mod:`mcd.models.output_steps`), so every learned method of Table 1 ends in the same output step

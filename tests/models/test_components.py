@@ -290,7 +290,7 @@ def test_the_pool_neither_reads_nor_changes_pixels_that_saw_no_geometry(skip):
     Cornell box), noisy, blurred by the 5x5 box: with ``method.kp.skip_misses`` the frame stays exactly 0
     and the wall beside it keeps the wall's level (a normalised convolution over the hit pixels); filtering
     across it put light into the frame and darkened the wall's outer row by half (docs/method.md
-    "Dark regions")."""
+    "Kernel pool")."""
     from mcd.models.inputs import compress, expand
     from mcd.models.kernel_pool import filter_below
     from mcd.models.misses import miss_mask

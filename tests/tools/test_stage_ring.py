@@ -1,5 +1,5 @@
-"""The ring-against-interior measure of ``python tools/stage_ring.py`` (docs/method.md "Where F loses
-cbox's FLIP"): a bias put on a known side of the frame's ring is found there, and nowhere else."""
+"""The ring-against-interior measure of ``python tools/stage_ring.py`` (notes/dark_regions.md "Where F
+loses cbox's FLIP"): a bias put on a known side of the frame's ring is found there, and nowhere else."""
 
 from __future__ import annotations
 
