@@ -1,5 +1,6 @@
-"""``python tools/blur_floor.py`` (notes/dark_regions.md, "How much blur the input's FLIP allows"): the blur a scene's noisy input allows
-before FLIP calls the blur worse, on a real 32x32 store, and the table written between the markers."""
+"""``python tools/blur_floor.py`` (notes/dark_regions.md, "How much blur the input's FLIP allows"): the blur a
+scene's noisy input allows before FLIP calls the blur worse, on a real 32x32 store, and the table written
+between the markers."""
 
 from __future__ import annotations
 
