@@ -1,5 +1,5 @@
 """``python -m mcd.plan data=<profile> capacity=<capacity> [+experiment=X]``: what a run will cost, printed
-before anything is rendered or trained (docs/scale.md, "Plan"; issue 30, part 5).
+before anything is rendered or trained (docs/scale.md, "Plan").
 
 The plan counts, from the config alone:
 

@@ -1,4 +1,4 @@
-"""The config group ``model`` is now ``capacity`` (issue 31; mcd/config.py, docs/architecture.md "Config"):
+"""The config group ``model`` is now ``capacity`` (mcd/config.py, docs/architecture.md "Config"):
 the old override is refused before any work, naming the new group, and configs saved before the rename (a
 bundle's JSON, a run's checkpoint, a run directory's ``.hydra/`` choices, a bench row) still load."""
 

@@ -1,4 +1,4 @@
-"""No docstring or comment in ``mcd/`` names a machine or carries a measured or dated figure (issue 31; the
+"""No docstring or comment in ``mcd/`` names a machine or carries a measured or dated figure (the
 project's standards): measured facts live in docs and reports' notes with the command, the commit and the
 machine, where they can be dated and rerun; code says what it does and cites them."""
 

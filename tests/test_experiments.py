@@ -1,4 +1,4 @@
-"""Rows A-M of the component study have one source, the table of :mod:`mcd.methods` (issue 31): no
+"""Rows A-M of the component study have one source, the table of :mod:`mcd.methods`: no
 ``conf/experiment/<row>.yaml`` repeats a row's switches; :mod:`mcd.config` registers each row in Hydra's
 ConfigStore, and every way a config is composed (``compose``, ``python -m mcd.run``/``mcd.render``/
 ``mcd.plan``, a multirun on the joblib launcher, ``mcd-denoise --experiment``) takes the switches from the

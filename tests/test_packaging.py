@@ -1,4 +1,4 @@
-"""The wheel carries what an installed ``mcd`` reads at run time (issue 31 step 2; docs/architecture.md,
+"""The wheel carries what an installed ``mcd`` reads at run time (docs/architecture.md,
 "Layers"): the Hydra configs, the vendored scenes and the bundled checkpoints, so that ``mcd-denoise`` and
 ``python -m mcd.run`` work from any directory after ``pip install .``; and none of the lab (``tools/``,
 tools/README.md)."""

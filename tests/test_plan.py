@@ -1,4 +1,4 @@
-"""``python -m mcd.plan`` (issue 30, part 5; mcd/plan.py, docs/scale.md "Plan"): the counts of a profile, the
+"""``python -m mcd.plan`` (mcd/plan.py, docs/scale.md "Plan"): the counts of a profile, the
 measured figures; the line of counts ``mcd.run`` / ``mcd.render`` log before their work (no render, no model);
 the render's progress lines."""
 

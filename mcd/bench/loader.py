@@ -1,6 +1,6 @@
 """``python -m mcd.bench loader [--json]`` (or ``--loader``): clips/s of one training-loader worker at the
 paper's shapes, the EXR path and the training store measured in one run, warm and cold page cache, with the
-worker's memory (docs/training_store.md; issue 30, part 3). The measurement is
+worker's memory (docs/training_store.md). The measurement is
 :func:`mcd.data.loader_rate.measure`; this command picks the shapes and the buffers, and prints.
 
 Defaults: 1920x1080 frames, 256x256 crops, 5-frame clips, the buffers of ``+experiment=F capacity=paper``

@@ -410,7 +410,7 @@ def write_csv(rows: list[Row], path: Path) -> None:
             writer.writerow(d)
 
 
-#: The most resident memory a method may need at 1080p (benchmark issue 16; docs/inference.md).
+#: The most resident memory a method may need at 1080p (docs/inference.md).
 MEMORY_LIMIT_GB = 8.0
 
 

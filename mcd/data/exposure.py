@@ -32,7 +32,7 @@ def auto_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> f
 
     The mean is accumulated in float64 over values clamped to :data:`EXPOSURE_CLAMP`; how many were clamped
     is logged, naming ``name`` (the file or frame). A float32 mean of a frame holding values near 3e38
-    overflowed to inf and gave an exposure of 0 (issue 33, defect 15).
+    would overflow to inf and give an exposure of 0.
     """
     clean, _ = sanitise(np.asarray(frame0, dtype=np.float32), allow_negative=False)
     clamped = int(np.count_nonzero(clean > EXPOSURE_CLAMP))

@@ -1,5 +1,5 @@
 """How fast one loader worker makes training clips, from the EXR store and from the training store
-(docs/training_store.md; issue 30, part 3). The core of ``python -m mcd.bench --loader`` and of the loader
+(docs/training_store.md). The core of ``python -m mcd.bench --loader`` and of the loader
 line of ``mcd.plan``; it imports neither Lightning nor Hydra.
 
 :func:`measure` writes a synthetic EXR store of the given shape in a folder (:mod:`mcd.data.synthetic_store`;

@@ -1,5 +1,5 @@
 """``python -m mcd.data.pack data=<profile> [+experiment=X]``: pack the EXR store's training and validation
-frames into the training store (:mod:`mcd.data.train_store`, docs/training_store.md; issue 30, part 1).
+frames into the training store (:mod:`mcd.data.train_store`, docs/training_store.md).
 
 Which buffers: ``render.buffers`` as for ``python -m mcd.render`` (default ``method``: those the configured
 method reads, plus ``ref`` and the uniform render at the budget). Which scenes: ``data.train_scenes`` (the

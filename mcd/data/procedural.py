@@ -1,4 +1,4 @@
-"""Procedural interiors (issue 2: rooms that look like the paper's data, docs/benchmark.md "Data protocol").
+"""Procedural interiors: rooms that look like the paper's data (docs/benchmark.md "Data protocol").
 
 ``build_room(seed, params, segments, max_depth)`` returns a Mitsuba scene dict, ``segments + 1`` camera key
 nodes and the horizontal field of view. A room (Y up, metres) has a floor, a ceiling and four walls; furniture

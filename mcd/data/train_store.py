@@ -1,6 +1,6 @@
 """The training store: the EXR store's training and validation frames packed into one memory-mapped,
 channel-first array per scene, from which a crop of a clip reads only the bytes it covers
-(docs/training_store.md; issue 30, part 1).
+(docs/training_store.md).
 
 Why: a training clip of row F reads 12 buffers x 5 frames; from EXR each is a whole-frame 1920x1080 decode
 to keep a 256x256 crop (docs/training_store.md measures what that costs). Here a crop is ``clip_len x

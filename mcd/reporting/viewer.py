@@ -1,4 +1,4 @@
-"""The comparison viewer of a report (issue 34 item 5; docs/benchmark.md "Viewer"): ``<report>/viewer/``, a
+"""The comparison viewer of a report (docs/benchmark.md "Viewer"): ``<report>/viewer/``, a
 static page that opens from disk (``file://``, no server, nothing from the network) and shows, for each test
 scene and frame that the runs saved samples of (``train.sample_frames``, ``mcd.lit.samples``):
 
@@ -55,7 +55,7 @@ VIEWER_DIR = "viewer"
 #: The page's static files, copied into each report's viewer.
 PAGE_DIR = Path(__file__).with_name("viewer_page")
 #: Exposure stops (EV) of the colour pictures: as scored, then 4x and 16x brighter for the dark regions where
-#: the denoisers' defects hide (issue 34 item 3). None below 0: Reinhard's curve already keeps highlights
+#: the denoisers' defects hide. None below 0: Reinhard's curve already keeps highlights
 #: below white.
 STOPS = (0, 2, 4)
 #: The largest side of a picture in pixels; a larger frame is cut to its noisiest square of this side.

@@ -12,7 +12,7 @@ so a new method only needs its config (and its paper numbers in :mod:`mcd.method
 Below the table it prints the shares (``--shares cpu``, the default; ``--shares none`` skips them): each
 trained Table 1 method's MACs in that profile over its MACs in the ``paper`` profile, both counted from the
 built models, and each share's ratio to F's. The ``cpu`` profile keeps every ratio within
-:data:`SHARE_BAND` of 1 (issue 34: Table 1 compares designs, not budgets; docs/training.md "Capacity
+:data:`SHARE_BAND` of 1 (Table 1 compares designs, not budgets; docs/training.md "Capacity
 profiles"). ``--shares-out PATH`` also writes them as CSV (``name, gmacs_1080p, paper_profile_gmacs_1080p,
 share, ratio_to_F``).
 """
@@ -31,7 +31,7 @@ from mcd.config import compose, experiment_names
 from mcd.methods import CATALOGUE, paper_complexity
 from mcd.models.complexity import complexity
 
-#: How far each trained method's share of its paper-size MACs may be from F's, relative (issue 34).
+#: How far each trained method's share of its paper-size MACs may be from F's, relative.
 SHARE_BAND = 0.15
 #: The method every share is compared with: the paper's own (row F).
 SHARE_REFERENCE = "F"

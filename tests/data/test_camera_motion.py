@@ -1,4 +1,4 @@
-"""Camera paths and motion vectors (issue 2): slerp paths, Mitsuba's pixel convention, motion against known
+"""Camera paths and motion vectors: slerp paths, Mitsuba's pixel convention, motion against known
 moves.
 """
 

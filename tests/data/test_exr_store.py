@@ -1,4 +1,4 @@
-"""The EXR store (issue 2): atomic writes, corrupt files named with their fix, resume, only what is asked."""
+"""The EXR store: atomic writes, corrupt files named with their fix, resume, only what is asked."""
 
 from __future__ import annotations
 

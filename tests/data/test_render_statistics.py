@@ -1,4 +1,4 @@
-"""Statistics of real tiny renders (issue 2, "What it must show"), on the 32x32 Cornell box.
+"""Statistics of real tiny renders, on the 32x32 Cornell box.
 
 Tolerances. With R independent realisations per pixel, the per-pixel z-score of a difference of means, ``(a -
 b) / sqrt(var_a / R + var_b / R)``, is close to a t variable with 2R - 2 degrees of freedom (mean 0, variance

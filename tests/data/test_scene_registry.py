@@ -1,4 +1,4 @@
-"""Scene configs, profiles, procedural rooms and variant selection (issue 2)."""
+"""Scene configs, profiles, procedural rooms and variant selection."""
 
 from __future__ import annotations
 

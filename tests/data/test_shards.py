@@ -1,4 +1,4 @@
-"""Sharded rendering (issue 30, part 4): ``render.shard`` / ``render.scenes`` / ``render.frames`` pick
+"""Sharded rendering: ``render.shard`` / ``render.scenes`` / ``render.frames`` pick
 disjoint parts of a profile (mcd/data/shards.py); shards rendered by several processes at once into one store
 end with the store one process renders, and a killed shard resumes (docs/scale.md, "Render in shards")."""
 

@@ -1,4 +1,4 @@
-"""Configs written before the config groups mirrored the code (issue 15, docs/architecture.md "Config") still
+"""Configs written before the config groups mirrored the code (docs/architecture.md "Config") still
 load: the bundled checkpoints' JSON configs (no ``method.colour`` / ``method.sampling``) and a run
 checkpoint whose config names ``loss.module`` and ``trainer.limit_train_batches``."""
 

@@ -52,7 +52,7 @@ def test_command_writes_the_csv(tmp_path, capsys):
 
 
 def test_command_writes_nothing_without_out(tmp_path, monkeypatch, capsys):
-    """A measuring command changes no file unless asked (issue 32 item 8): without ``-o`` the table is only
+    """A measuring command changes no file unless asked: without ``-o`` the table is only
     printed, so a run from the repository leaves the tracked reports/complexity.csv alone."""
     monkeypatch.chdir(tmp_path)
     main(["--experiments", "A", "--height", "32", "--width", "32"])

@@ -1,6 +1,6 @@
 """``trainer=ddp`` with two CPU processes (gloo): every test frame is tested once, by rank 0; both ranks agree
 on one best checkpoint (validation metrics averaged over them); one ``metrics.json`` whose metrics equal a
-single-process test of that checkpoint; the logged training loss is the mean over the ranks (issue 15)."""
+single-process test of that checkpoint; the logged training loss is the mean over the ranks."""
 
 from __future__ import annotations
 

@@ -59,7 +59,7 @@ def test_bench_cpu_writes_the_interface_columns(tmp_path):
 
 
 def test_bench_without_out_writes_under_outputs_not_reports(tmp_path, monkeypatch):
-    """A measurement changes no tracked file unless asked (issue 32 item 8): without ``--out`` the CSV and
+    """A measurement changes no tracked file unless asked: without ``--out`` the CSV and
     its README go to ``outputs/bench/`` under the working directory."""
     monkeypatch.chdir(tmp_path)
     bench.main(["--methods", "noisy", "--sizes", "16x16", "--devices", "cpu", "--warmup", "0", "--reps", "1",

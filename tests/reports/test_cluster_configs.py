@@ -1,5 +1,5 @@
 """`trainer=ddp` and `hydra/launcher=slurm` compose with a sweep, and what they compose to is accepted by
-Lightning and by hydra-submitit-launcher (issue 5, "Beyond one machine"); the seeds sweep's job dirs."""
+Lightning and by hydra-submitit-launcher; the seeds sweep's job dirs."""
 
 from __future__ import annotations
 

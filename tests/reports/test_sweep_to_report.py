@@ -1,4 +1,4 @@
-"""End to end on 32x32 renders (issue 5, "What it must show"): a two-job sweep (rows A and F, real Mitsuba
+"""End to end on 32x32 renders: a two-job sweep (rows A and F, real Mitsuba
 renders, real training steps), a failing job recorded without stopping anything, a rerun that skips the
 finished jobs, F transferred to a held-out scene, the bench on the same methods, F's edge effect measured
 after the run, and `python -m mcd.report` producing every table and figure with its provenance."""

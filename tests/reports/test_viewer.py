@@ -1,4 +1,4 @@
-"""The report's comparison viewer (issue 34 item 5; mcd/reporting/viewer.py, docs/benchmark.md "Viewer"), on a
+"""The report's comparison viewer (mcd/reporting/viewer.py, docs/benchmark.md "Viewer"), on a
 real report: rows A and F trained a few steps on 32x32 Mitsuba renders, then ``mcd.report``. Its data against
 the runs' records, and the page in a real headless Chromium (Debian's ``chromium``, installed by
 ``scripts/setup.sh``, driven by Playwright): no console error, every picture resolves, only the shown stop's

@@ -1,4 +1,4 @@
-"""The paper's training path at the paper's shapes, on CPU, in CI (issue 30, part 6): ``capacity=paper`` row F
+"""The paper's training path at the paper's shapes, on CPU, in CI: ``capacity=paper`` row F
 on a 1920x1080 store, packed into the training store, 256x256 crops read by two loader workers, two DDP
 processes on gloo, a few real steps (tests/scale/paper_smoke_run.py trains; this test writes the store and
 checks)."""
