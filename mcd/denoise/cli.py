@@ -224,7 +224,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
                             references=refs)
     bad = sum(report["sanitised"].values())
     if bad:
-        print(f"sanitised: {bad} NaN/Inf/negative input values replaced by 0 "
+        print(f"sanitised: {bad} NaN/Inf/negative input or reference values replaced by 0 "
               f"({', '.join(f'{k} {v}' for k, v in report['sanitised'].items())})")
     if "scores" in report:
         for row in report["scores"]["frames"]:

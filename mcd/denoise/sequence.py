@@ -96,7 +96,7 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
     t0 = time.perf_counter()
     stateful = bool(getattr(model, "temporal_state", True))
     resumed: list[str] = []
-    scorer = Scorer(references, seq.exposure) if references else None
+    scorer = Scorer(references, seq.exposure, seq.bad) if references else None
 
     def summary() -> dict[str, Any]:
         return {**(meta or {}), "frames": len(seq), "tiles": len(tiled), "size": [h, w],
