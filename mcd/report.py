@@ -243,12 +243,12 @@ def make_report(
     writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``)."""
     from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
     from mcd.reporting.provenance import Provenance
-    from mcd.reporting.runs import find_runs, find_sweeps
+    from mcd.reporting.runs import NoRunsError, find_runs, find_sweeps
 
     started = time.perf_counter()
     runs = find_runs(dirs)
     if not runs:
-        raise FileNotFoundError(
+        raise NoRunsError(
             f"no run directories (metrics.json / error.json / .hydra) under "
             f"{', '.join(map(str, dirs))}: pass the multirun dirs of `mcd.run -m`"
         )
@@ -356,12 +356,14 @@ def main(argv: list[str] | None = None) -> None:
             sys.exit(f"error: {err}")
         print(f"index written to {index.write_index(args.out, current)}; results of {current} in {readme}")
         return
+    from mcd.reporting.runs import NoRunsError
+
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     try:
         out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
                               not args.no_viewer)
-    except UnsafeNameError as err:  # a name that would leave the output root: nothing was written
-        sys.exit(f"error: {err}")
+    except (UnsafeNameError, NoRunsError) as err:  # a name leaving the output root, or nothing to report on:
+        sys.exit(f"error: {err}")  # one line, and nothing was written
     print(f"report written to {out_dir}/README.md")
     print(f"index written to {index.write_index(args.out, current)}")
     if out_dir.name == current:

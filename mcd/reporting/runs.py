@@ -260,12 +260,17 @@ def _is_run_dir(path: Path) -> bool:
     )
 
 
+class NoRunsError(FileNotFoundError):
+    """A folder given to report on is missing or holds no run directory (``mcd.report``: one line)."""
+
+
 def find_runs(roots: list[Path]) -> list[Run]:
-    """Every run directory under `roots` (each a multirun dir, a sweep dir or one run dir), sorted by path."""
+    """Every run directory under `roots` (each a multirun dir, a sweep dir or one run dir), sorted by path;
+    NoRunsError naming a root that does not exist."""
     found: set[Path] = set()
     for root in roots:
         if not root.exists():
-            raise FileNotFoundError(f"{root}: no such directory (pass multirun dirs written by mcd.run -m)")
+            raise NoRunsError(f"{root}: no such directory (pass multirun dirs written by mcd.run -m)")
         candidates = [root, *(p for p in root.rglob("*") if p.is_dir() and p.name != ".hydra")]
         found.update(p.resolve() for p in candidates if _is_run_dir(p))
     return [load_run(p) for p in sorted(found)]
