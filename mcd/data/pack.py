@@ -20,7 +20,6 @@ store that lacks a file, naming the render command. One packer per scene at a ti
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 import time
@@ -47,6 +46,7 @@ from mcd.data.train_store import (
     check_meta,
     frame_digest,
     pack_command,
+    read_meta,
     tile_grid,
     to_tiles,
 )
@@ -85,8 +85,8 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
             "channels": {b: list(r) for b, r in channel_ranges(buffers).items()}}
     meta_path = settings.dir / "store.json"
     if meta_path.is_file():
-        check_meta(json.loads(meta_path.read_text()), settings, cfg.data, buffers, meta_path)
-        meta = json.loads(meta_path.read_text())
+        meta = read_meta(meta_path, command)
+        check_meta(meta, settings, cfg.data, buffers, meta_path)
     else:
         atomic_write_json(meta_path, meta)
     store = TrainStore(settings.dir, meta, command)
