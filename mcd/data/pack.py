@@ -16,6 +16,8 @@ deleted, truncated or overwritten file is packed again), and packs the rest. A s
 config is refused before any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR
 store that lacks a file, naming the render command. One packer per scene at a time (``<scene>.lock``,
 :func:`mcd.file_lock.exclusive`): a second one (another DDP rank) waits, then reuses the first one's frames.
+A scene whose every frame is packed and intact is found so by reading alone and reused without the lock, so
+a fully packed store on a read-only mount is trained from as it is.
 """
 
 from __future__ import annotations
@@ -92,9 +94,13 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
     store = TrainStore(settings.dir, meta, command)
     t0 = time.perf_counter()
     report = {"root": str(settings.dir), "packed": 0, "reused": 0, "clamped": 0}
+    size = (int(cfg.data.height), int(cfg.data.width))
     for scene, frames in todo.items():
+        if _packed_already(store, reader, scene, frames, size):  # read only: no lock, nothing written
+            report["reused"] += len(frames)
+            continue
         with file_lock.exclusive(settings.dir / f"{scene}.lock"):  # one packer per scene: others wait
-            got = _pack_scene(store, reader, scene, frames, (int(cfg.data.height), int(cfg.data.width)))
+            got = _pack_scene(store, reader, scene, frames, size)
         for k in ("packed", "reused", "clamped"):
             report[k] += got[k]
     report["seconds"] = time.perf_counter() - t0
@@ -104,13 +110,37 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
     return report
 
 
+def _scene_shape(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> tuple:
+    """The shape of the scene's array: frames, tile rows and columns, channels, tile, tile."""
+    n_channels = max(end for _, end in store.ranges.values())
+    return (reader.frame_count(scene), *tile_grid(*size, store.tile), n_channels, store.tile, store.tile)
+
+
+def _packed_already(store: TrainStore, reader: StoreReader, scene: str, frames: list[int],
+                    size: tuple[int, int]) -> bool:
+    """Whether every one of ``frames`` is recorded as packed from the EXR files the manifest lists now and
+    its bytes still have their CRC-32, found by reading alone: such a scene is reused without taking
+    ``<scene>.lock`` or opening anything for writing, so a fully packed store on a read-only mount trains
+    (a packer beside it only ever adds frames, each recorded after its bytes are written)."""
+    path = store.scene_path(scene)
+    if not path.is_file():
+        return False
+    done, man = store.record(scene)["frames"], reader.manifest(scene)
+    if any(done.get(str(f), {}).get("sources") != frame_digest(man, f, store.packed) for f in frames):
+        return False
+    mm = np.load(path, mmap_mode="r")
+    if mm.shape != _scene_shape(store, reader, scene, size) or mm.dtype != store.dtype:
+        return False
+    with open(path, "rb") as fh:
+        return all(_bytes_intact(fh, mm, f, done[str(f)].get("crc32")) for f in frames)
+
+
 def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> np.memmap:
     """The scene's ``.npy`` opened for writing; created (sparse, at a temp name, then renamed) when absent or
     shaped for another frame count (the EXR store was re-rendered with another sequence: every frame is
     packed again)."""
     path = store.scene_path(scene)
-    n_channels = max(end for _, end in store.ranges.values())
-    shape = (reader.frame_count(scene), *tile_grid(*size, store.tile), n_channels, store.tile, store.tile)
+    shape = _scene_shape(store, reader, scene, size)
     if path.is_file():
         mm = np.load(path, mmap_mode="r+")
         if mm.shape == shape and mm.dtype == store.dtype:

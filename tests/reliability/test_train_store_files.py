@@ -5,7 +5,12 @@ KeyError traceback; it is named with its fix, and following the fix packs again.
 from __future__ import annotations
 
 import json
+import os
+import shlex
 import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +19,8 @@ from mcd.data import BUFFERS
 from mcd.data.pack import pack
 from mcd.data.train_store import TrainStore, TrainStoreError, TrainStoreSettings
 from tests.conftest import compose_cfg, store32_overrides
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _cfg(data_dir, folder, *more):
@@ -56,3 +63,39 @@ def test_defect19_a_corrupt_store_or_scene_record_is_named_with_its_fix(cbox_sto
         assert "delete it and pack again" in message
         path.unlink()
     assert pack(cfg, store, BUFFERS)["packed"] == 10  # the fix, followed
+
+
+def _in_read_only_mount(folder, argv, cwd):
+    """Run ``argv`` where ``folder`` is a read-only bind mount (a private mount namespace: ``unshare -rm``,
+    no privilege needed where user namespaces are on); None where this machine cannot make one."""
+    probe = subprocess.run(["unshare", "-rm", "true"], capture_output=True)
+    if probe.returncode != 0:
+        return None
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    where = shlex.quote(str(folder))
+    script = f"mount --bind -o ro {where} {where} && exec {shlex.join(argv)}"
+    return subprocess.run(["unshare", "-rm", "sh", "-c", script], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=600)
+
+
+@pytest.mark.parametrize("command", ["mcd.data.pack", "mcd.run"])
+def test_defect20_a_fully_packed_read_only_store_is_trained_from(cbox_store, tmp_path, command):
+    _, store = cbox_store
+    folder = tmp_path / "ts"
+    overrides = [*store32_overrides(store.data_dir), "data.train_store.format=array",
+                 f"data.train_store.dir={folder}", "+experiment=unet", "capacity=cpu"]
+    cfg = compose_cfg(*overrides)
+    assert pack(cfg, store, BUFFERS)["packed"] == 10
+    (folder / "cbox.lock").unlink()  # as a store copied onto a read-only mount may come: no lock file
+    before = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+    more = ["render.buffers=all"] if command == "mcd.data.pack" else [
+        "train.max_steps=2", "train.batch_size=1", f"hydra.run.dir={tmp_path / 'run'}"]
+    proc = _in_read_only_mount(folder, [sys.executable, "-m", command, *overrides, *more], tmp_path)
+    if proc is None:
+        pytest.skip("no unprivileged mount namespace here (unshare -rm) to make a read-only mount")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr and "Read-only file system" not in proc.stderr
+    assert "packed 0 frame(s), reused 10" in proc.stdout + proc.stderr
+    assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == before
+    if command == "mcd.run":  # trained and tested from the read-only store
+        assert json.loads((tmp_path / "run" / "metrics.json").read_text())["train_steps"] == 2
