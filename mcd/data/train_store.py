@@ -56,6 +56,7 @@ from omegaconf import DictConfig
 
 from mcd.allocator import keep_freed_memory
 from mcd.data.buffers import BUFFERS, CHANNELS
+from mcd.paths import folder_to_be
 
 #: ``store.json``'s format; a store of another version is refused (pack it again)
 VERSION = 2
@@ -109,8 +110,9 @@ class TrainStoreSettings:
 
     @classmethod
     def from_cfg(cls, cfg: DictConfig) -> Self:
-        """The settings of a full config; ValueError naming the key for an unknown format or dtype. A config
-        without ``data.train_store`` reads EXR (the behaviour before the key existed)."""
+        """The settings of a full config; ValueError naming the key for an unknown format or dtype, or, with
+        ``format=array``, a folder that is a file or lies below one (:func:`mcd.paths.folder_to_be`). A
+        config without ``data.train_store`` reads EXR (the behaviour before the key existed)."""
         ts = cfg.data.get("train_store") or {}
         fmt, dtype = str(ts.get("format", "exr")), str(ts.get("dtype", "float32"))
         if fmt not in FORMATS:
@@ -121,6 +123,8 @@ class TrainStoreSettings:
                              "(docs/training_store.md)")
         folder = ts.get("dir")
         root = Path(folder) if folder else Path(cfg.paths.data_dir) / str(cfg.data.name) / f".train_{dtype}"
+        if fmt == "array":
+            folder_to_be("data.train_store.dir", root)
         return cls(fmt, dtype, root)
 
 

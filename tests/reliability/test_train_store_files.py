@@ -10,6 +10,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -99,3 +100,19 @@ def test_defect20_a_fully_packed_read_only_store_is_trained_from(cbox_store, tmp
     assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == before
     if command == "mcd.run":  # trained and tested from the read-only store
         assert json.loads((tmp_path / "run" / "metrics.json").read_text())["train_steps"] == 2
+
+
+@pytest.mark.parametrize("where", ["a_file", "below_a_file"])
+def test_defect21_a_store_dir_that_is_or_lies_below_a_file_is_named_before_rendering(tmp_path, where):
+    from mcd.run import train_and_test
+
+    (tmp_path / "file").write_text("not a folder")
+    given = tmp_path / "file" if where == "a_file" else tmp_path / "file" / "ts"
+    cfg = _cfg(tmp_path / "data", given, "+experiment=unet", "capacity=cpu")
+    why = "is a file" if where == "a_file" else f"lies below {tmp_path / 'file'}, which is a file"
+    with pytest.raises(ValueError, match=f"^data.train_store.dir={given} {why}, not a folder"):
+        train_and_test(cfg, tmp_path / "run", {}, time.perf_counter())
+    with pytest.raises(ValueError, match="^data.train_store.dir="):  # and the pack command's first step
+        TrainStoreSettings.from_cfg(cfg)
+    assert not (tmp_path / "data").exists()  # nothing rendered
+    assert (tmp_path / "file").read_text() == "not a folder"
