@@ -1,6 +1,8 @@
-"""Defect 25 of issue 48: an ``mcd-denoise`` rerun into a folder whose ``denoise.json`` has a ``settings``
-that is a list gave an AttributeError traceback. A damaged record is refused before any frame is denoised,
-naming the file and the fix, and the outputs stay as they were. ``mcd-denoise`` runs for real."""
+"""Defects 25 and 26 of issue 48. Defect 25: an ``mcd-denoise`` rerun into a folder whose ``denoise.json``
+has a ``settings`` that is a list gave an AttributeError traceback. A damaged record is refused before any
+frame is denoised, naming the file and the fix, and the outputs stay as they were. Defect 26:
+``--checkpoint /dev/zero`` or a FIFO was reported as "no such file or folder"; it is named as not a regular
+file. ``mcd-denoise`` runs for real."""
 
 from __future__ import annotations
 
@@ -44,3 +46,21 @@ def test_defect25_a_damaged_denoise_json_is_named_with_its_fix(tmp_path, damage,
     assert (f"mcd-denoise: error: {record}: not a record of mcd-denoise ({why}); delete it to denoise every "
             "frame again, or give another -o") in proc.stderr
     assert snapshot(out) == before
+
+
+@pytest.mark.parametrize("kind", ["dev_zero", "fifo"])
+def test_defect26_a_checkpoint_that_is_not_a_regular_file_is_named_so(tmp_path, kind):
+    write_frames(tmp_path / "in", n=1)
+    if kind == "fifo":
+        given = tmp_path / "weights.ckpt"
+        os.mkfifo(given)
+    else:
+        given = "/dev/zero"
+    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([sys.executable, "-m", "mcd.denoise", str(tmp_path / "in"), "-o",
+                           str(tmp_path / "out"), "--checkpoint", str(given), "--no-progress"], env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr and "no such file" not in proc.stderr, proc.stderr
+    assert (f"mcd-denoise: error: --checkpoint={given}: not a regular file or a folder (a device, FIFO or "
+            "socket)") in proc.stderr
