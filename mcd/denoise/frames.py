@@ -239,6 +239,8 @@ class FrameSequence:
     want: set[str]
     colour_key: str
     exposure_target: float
+    #: ``--exposure``: the sequence's exposure as given (None: from frame 0, :func:`input_exposure`)
+    given_exposure: float | None = None
     exposure: float = 1.0
     depth_scale: float = 1.0
     size: tuple[int, int] = (0, 0)
@@ -247,7 +249,11 @@ class FrameSequence:
     def __post_init__(self) -> None:
         first = read_frame(self.paths[0], self.want)
         self.size = first["colour"].shape[:2]
-        exposure = input_exposure(first["colour"], self.exposure_target, str(self.paths[0]))
+        if self.given_exposure is not None:
+            exposure = self.given_exposure
+            log.info("exposure x%.4g for every frame and score (--exposure)", exposure)
+        else:
+            exposure = input_exposure(first["colour"], self.exposure_target, str(self.paths[0]))
         if exposure is None:
             log.warning("%s: frame 0 is black; exposure left at 1", self.paths[0])
         self.exposure = exposure or 1.0
