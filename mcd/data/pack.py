@@ -128,7 +128,10 @@ def _packed_already(store: TrainStore, reader: StoreReader, scene: str, frames: 
     done, man = store.record(scene)["frames"], reader.manifest(scene)
     if any(done.get(str(f), {}).get("sources") != frame_digest(man, f, store.packed) for f in frames):
         return False
-    mm = np.load(path, mmap_mode="r")
+    try:
+        mm = np.load(path, mmap_mode="r")
+    except (OSError, ValueError):  # truncated below its header's shape: _pack_scene packs it again
+        return False
     if mm.shape != _scene_shape(store, reader, scene, size) or mm.dtype != store.dtype:
         return False
     with open(path, "rb") as fh:
