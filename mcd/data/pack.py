@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 import os
+import shutil
 import time
 import zlib
 from collections.abc import Iterable
@@ -46,6 +47,7 @@ from mcd.data.train_store import (
     TrainStoreSettings,
     channel_ranges,
     check_meta,
+    frame_bytes,
     frame_digest,
     pack_command,
     read_meta,
@@ -89,9 +91,10 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
     if meta_path.is_file():
         meta = read_meta(meta_path, command)
         check_meta(meta, settings, cfg.data, buffers, meta_path)
-    else:
-        atomic_write_json(meta_path, meta)
     store = TrainStore(settings.dir, meta, command)
+    check_free_space(store, reader, todo)  # a memory-mapped write past a full disk dies of SIGBUS, unlogged
+    if not meta_path.is_file():
+        atomic_write_json(meta_path, meta)
     t0 = time.perf_counter()
     report = {"root": str(settings.dir), "packed": 0, "reused": 0, "clamped": 0}
     size = (int(cfg.data.height), int(cfg.data.width))
@@ -108,6 +111,35 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
              "range, in %.1f s", settings.dir, settings.dtype, report["packed"], report["reused"],
              report["clamped"], report["seconds"])
     return report
+
+
+#: Room left on the store's disk beyond the frames themselves (the pack records, the store's own JSON).
+SPACE_MARGIN = 1 << 20
+
+
+def check_free_space(store: TrainStore, reader: StoreReader, todo: dict[str, list[int]]) -> None:
+    """OSError naming ``data.train_store.dir``, the bytes needed and free, and what to do, when the disk of
+    the store holds less free space than the frames of ``todo`` not yet recorded take (:func:`frame_bytes`
+    each, plus :data:`SPACE_MARGIN`). Checked before the first byte is written: the scene arrays are memory
+    maps, and a write into one past a full disk kills the process with SIGBUS and no message."""
+    n_channels = max(end for _, end in store.ranges.values())
+    per_frame = frame_bytes(store.height, store.width, n_channels, store.dtype, store.tile)
+    count = 0
+    for scene, frames in todo.items():
+        done = store.record(scene)["frames"] if store.scene_path(scene).is_file() else {}
+        man = reader.manifest(scene)
+        count += sum(done.get(str(f), {}).get("sources") != frame_digest(man, f, store.packed)
+                     for f in frames)
+    if not count:
+        return
+    need = count * per_frame + SPACE_MARGIN
+    where = next(p for p in (store.root, *store.root.parents) if p.exists())
+    free = shutil.disk_usage(where).free
+    if free < need:
+        raise OSError(f"data.train_store.dir={store.root}: packing {count} frame(s) needs "
+                      f"{need / 1e6:.1f} MB and its disk ({where}) has {free / 1e6:.1f} MB free; free space "
+                      "there, give a data.train_store.dir on a disk with room, or "
+                      "data.train_store.dtype=float16 (half the bytes)")
 
 
 def _scene_shape(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> tuple:
