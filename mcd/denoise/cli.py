@@ -224,10 +224,12 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     report = denoise_frames(loaded, paths, args.output, device, args.max_memory_mb, args.overlap,
                             progress=not args.no_progress, dtype=dtype, record=record, meta=meta,
                             references=refs, exposure=args.exposure)
-    bad = sum(report["sanitised"].values())
-    if bad:
-        print(f"sanitised: {bad} NaN/Inf/negative input or reference values replaced by 0 "
-              f"({', '.join(f'{k} {v}' for k, v in report['sanitised'].items())})")
+    for what in ("input", "reference"):  # a reference's counts are keyed <file>:reference
+        counts = {k: v for k, v in report["sanitised"].items()
+                  if k.endswith(":reference") == (what == "reference")}
+        if counts:
+            print(f"sanitised: {sum(counts.values())} NaN/Inf/negative {what} values replaced by 0 "
+                  f"({', '.join(f'{k} {v}' for k, v in counts.items())})")
     if "scores" in report:
         for row in report["scores"]["frames"]:
             print(f"frame {row['frame']}: {score_text(row)}")

@@ -42,4 +42,5 @@ def test_a_non_finite_reference_is_refused_or_counted(tmp_path, capsys, damage):
     assert rows["f0001"]["reference_sanitised"] == 21 and "reference_sanitised" not in rows["f0000"]
     out = capsys.readouterr().out
     assert "frame f0001: input PSNR" in out and "(reference: 21 NaN/Inf/negative values replaced by 0)" in out
-    assert "sanitised: 21 NaN/Inf/negative input or reference values replaced by 0" in out
+    assert "sanitised: 21 NaN/Inf/negative reference values replaced by 0 (f0001.exr:reference 21)" in out
+    assert "input values replaced" not in out
