@@ -43,6 +43,20 @@ def data_dir(value: str | Path | None) -> Path:
     return path
 
 
+def folder_to_be(key: str, path: Path) -> Path:
+    """``path``, a folder that ``key`` names and a command may make: ValueError naming the key and the file
+    when ``path`` or a folder above it is a file (its ``mkdir`` would fail with a bare FileExistsError or
+    NotADirectoryError), before any work starts."""
+    for at in (path, *path.parents):
+        if at.exists() or at.is_symlink():
+            if not at.is_dir():
+                where = "is a file" if at == path else f"lies below {at}, which is a file"
+                raise ValueError(f"{key}={path} {where}, not a folder: give a folder (one that does not "
+                                 "exist yet is made)")
+            return path
+    return path
+
+
 def scenes_dir(value: str | Path | None) -> Path | None:
     """The folder of the scenes not vendored in ``scenes/`` from ``paths.scenes_dir`` (env ``MCD_SCENES_DIR``;
     docs/scenes.md), or ``None`` when unset (then only those scenes fail, each naming the key).

@@ -61,7 +61,7 @@ def _failures(runs: list[Run], root: Path) -> pd.DataFrame:
                 "run": where,
                 "status": r.status,
                 "overrides": " ".join(r.overrides),
-                "error": r.error_message.replace("|", "\\|"),
+                "error": r.error_message,
             }
         )
     return pd.DataFrame(rows, columns=["run", "status", "overrides", "error"])
@@ -91,8 +91,10 @@ def write_readme(
     found: list[Finding],
     viewer: Path | None = None,
 ) -> Path:
-    """The report's README: provenance, findings (the prose of ``found``), failures, index."""
+    """The report's README: provenance, findings (the prose of ``found``), failures, index. Text from the
+    runs' records passes :func:`mcd.reporting.markdown_text.escape`."""
     from mcd.reporting import finding, records
+    from mcd.reporting.markdown_text import escape as esc
     from mcd.reporting.select import to_markdown
 
     n_ok = sum(r.status == "ok" for r in runs)
@@ -114,20 +116,21 @@ def write_readme(
         "",
         f"- Sweep commands ({len(sweeps)}):",
         *[
-            f"  - `{s.command}` → `{s.path.relative_to(root) if s.path.is_relative_to(root) else s.path}` "
-            f"(data profile `{s.data_profile}`)"
+            f"  - `{esc(s.command)}` → "
+            f"`{s.path.relative_to(root) if s.path.is_relative_to(root) else s.path}` "
+            f"(data profile `{esc(s.data_profile)}`)"
             for s in sweeps
         ],
-        f"- Data profile(s): {prov.data_profiles}",
+        f"- Data profile(s): {esc(prov.data_profiles)}",
         f"- Reference quality of the test frames (estimated PSNR of each reference, docs/data.md): "
-        f"{prov.reference_quality}",
-        f"- Config: {prov.config_groups}; each job's full config is in `<run>/.hydra/config.yaml` "
+        f"{esc(prov.reference_quality)}",
+        f"- Config: {esc(prov.config_groups)}; each job's full config is in `<run>/.hydra/config.yaml` "
         "(and `resolved_config.yaml`)",
-        f"- Training: {prov.training}",
-        f"- Commit(s) of the runs: {prov.commits}",
-        f"- Device(s): {prov.devices}",
+        f"- Training: {esc(prov.training)}",
+        f"- Commit(s) of the runs: {esc(prov.commits)}",
+        f"- Device(s): {esc(prov.devices)}",
         f"- Resumed runs (trained in more than one process; metrics.json `segments`, else the excess of "
-        f"curve.csv's clock over the last process's training time): {prov.resumed}",
+        f"curve.csv's clock over the last process's training time): {esc(prov.resumed)}",
         f"- Wall time: {prov.wall_s / 60:.1f} min summed over {n_ok} finished runs (each run's `wall_s`, "
         f"plus {prov.earlier_s / 60:.1f} min of resumed runs' earlier processes); this report took "
         f"{report_s:.1f} s",
@@ -141,8 +144,8 @@ def write_readme(
         "",
         f"## Findings (generated from the tables below; as data in [{finding.FILE}]({finding.FILE}))",
         "",
-        *[f"- {finding.render(f)}" for f in found],
-        *([f"- {mixed}"] if (mixed := mixed_profiles_note(runs)) is not None else []),
+        *[f"- {esc(finding.render(f))}" for f in found],
+        *([f"- {esc(mixed)}"] if (mixed := mixed_profiles_note(runs)) is not None else []),
         "",
         "## Table 1 (4 spp)",
         "",
@@ -240,12 +243,12 @@ def make_report(
     writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``)."""
     from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
     from mcd.reporting.provenance import Provenance
-    from mcd.reporting.runs import find_runs, find_sweeps
+    from mcd.reporting.runs import NoRunsError, find_runs, find_sweeps
 
     started = time.perf_counter()
     runs = find_runs(dirs)
     if not runs:
-        raise FileNotFoundError(
+        raise NoRunsError(
             f"no run directories (metrics.json / error.json / .hydra) under "
             f"{', '.join(map(str, dirs))}: pass the multirun dirs of `mcd.run -m`"
         )
@@ -353,12 +356,14 @@ def main(argv: list[str] | None = None) -> None:
             sys.exit(f"error: {err}")
         print(f"index written to {index.write_index(args.out, current)}; results of {current} in {readme}")
         return
+    from mcd.reporting.runs import NoRunsError
+
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     try:
         out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
                               not args.no_viewer)
-    except UnsafeNameError as err:  # a name that would leave the output root: nothing was written
-        sys.exit(f"error: {err}")
+    except (UnsafeNameError, NoRunsError) as err:  # a name leaving the output root, or nothing to report on:
+        sys.exit(f"error: {err}")  # one line, and nothing was written
     print(f"report written to {out_dir}/README.md")
     print(f"index written to {index.write_index(args.out, current)}")
     if out_dir.name == current:

@@ -16,13 +16,15 @@ deleted, truncated or overwritten file is packed again), and packs the rest. A s
 config is refused before any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR
 store that lacks a file, naming the render command. One packer per scene at a time (``<scene>.lock``,
 :func:`mcd.file_lock.exclusive`): a second one (another DDP rank) waits, then reuses the first one's frames.
+A scene whose every frame is packed and intact is found so by reading alone and reused without the lock, so
+a fully packed store on a read-only mount is trained from as it is.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import os
+import shutil
 import time
 import zlib
 from collections.abc import Iterable
@@ -45,8 +47,10 @@ from mcd.data.train_store import (
     TrainStoreSettings,
     channel_ranges,
     check_meta,
+    frame_bytes,
     frame_digest,
     pack_command,
+    read_meta,
     tile_grid,
     to_tiles,
 )
@@ -85,16 +89,21 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
             "channels": {b: list(r) for b, r in channel_ranges(buffers).items()}}
     meta_path = settings.dir / "store.json"
     if meta_path.is_file():
-        check_meta(json.loads(meta_path.read_text()), settings, cfg.data, buffers, meta_path)
-        meta = json.loads(meta_path.read_text())
-    else:
-        atomic_write_json(meta_path, meta)
+        meta = read_meta(meta_path, command)
+        check_meta(meta, settings, cfg.data, buffers, meta_path)
     store = TrainStore(settings.dir, meta, command)
+    check_free_space(store, reader, todo)  # a memory-mapped write past a full disk dies of SIGBUS, unlogged
+    if not meta_path.is_file():
+        atomic_write_json(meta_path, meta)
     t0 = time.perf_counter()
     report = {"root": str(settings.dir), "packed": 0, "reused": 0, "clamped": 0}
+    size = (int(cfg.data.height), int(cfg.data.width))
     for scene, frames in todo.items():
+        if _packed_already(store, reader, scene, frames, size):  # read only: no lock, nothing written
+            report["reused"] += len(frames)
+            continue
         with file_lock.exclusive(settings.dir / f"{scene}.lock"):  # one packer per scene: others wait
-            got = _pack_scene(store, reader, scene, frames, (int(cfg.data.height), int(cfg.data.width)))
+            got = _pack_scene(store, reader, scene, frames, size)
         for k in ("packed", "reused", "clamped"):
             report[k] += got[k]
     report["seconds"] = time.perf_counter() - t0
@@ -104,13 +113,69 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
     return report
 
 
+#: Room left on the store's disk beyond the frames themselves (the pack records, the store's own JSON).
+SPACE_MARGIN = 1 << 20
+
+
+def check_free_space(store: TrainStore, reader: StoreReader, todo: dict[str, list[int]]) -> None:
+    """OSError naming ``data.train_store.dir``, the bytes needed and free, and what to do, when the disk of
+    the store holds less free space than the frames of ``todo`` not yet recorded take (:func:`frame_bytes`
+    each, plus :data:`SPACE_MARGIN`). Checked before the first byte is written: the scene arrays are memory
+    maps, and a write into one past a full disk kills the process with SIGBUS and no message."""
+    n_channels = max(end for _, end in store.ranges.values())
+    per_frame = frame_bytes(store.height, store.width, n_channels, store.dtype, store.tile)
+    count = 0
+    for scene, frames in todo.items():
+        done = store.record(scene)["frames"] if store.scene_path(scene).is_file() else {}
+        man = reader.manifest(scene)
+        count += sum(done.get(str(f), {}).get("sources") != frame_digest(man, f, store.packed)
+                     for f in frames)
+    if not count:
+        return
+    need = count * per_frame + SPACE_MARGIN
+    where = next(p for p in (store.root, *store.root.parents) if p.exists())
+    free = shutil.disk_usage(where).free
+    if free < need:
+        raise OSError(f"data.train_store.dir={store.root}: packing {count} frame(s) needs "
+                      f"{need / 1e6:.1f} MB and its disk ({where}) has {free / 1e6:.1f} MB free; free space "
+                      "there, give a data.train_store.dir on a disk with room, or "
+                      "data.train_store.dtype=float16 (half the bytes)")
+
+
+def _scene_shape(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> tuple:
+    """The shape of the scene's array: frames, tile rows and columns, channels, tile, tile."""
+    n_channels = max(end for _, end in store.ranges.values())
+    return (reader.frame_count(scene), *tile_grid(*size, store.tile), n_channels, store.tile, store.tile)
+
+
+def _packed_already(store: TrainStore, reader: StoreReader, scene: str, frames: list[int],
+                    size: tuple[int, int]) -> bool:
+    """Whether every one of ``frames`` is recorded as packed from the EXR files the manifest lists now and
+    its bytes still have their CRC-32, found by reading alone: such a scene is reused without taking
+    ``<scene>.lock`` or opening anything for writing, so a fully packed store on a read-only mount trains
+    (a packer beside it only ever adds frames, each recorded after its bytes are written)."""
+    path = store.scene_path(scene)
+    if not path.is_file():
+        return False
+    done, man = store.record(scene)["frames"], reader.manifest(scene)
+    if any(done.get(str(f), {}).get("sources") != frame_digest(man, f, store.packed) for f in frames):
+        return False
+    try:
+        mm = np.load(path, mmap_mode="r")
+    except (OSError, ValueError):  # truncated below its header's shape: _pack_scene packs it again
+        return False
+    if mm.shape != _scene_shape(store, reader, scene, size) or mm.dtype != store.dtype:
+        return False
+    with open(path, "rb") as fh:
+        return all(_bytes_intact(fh, mm, f, done[str(f)].get("crc32")) for f in frames)
+
+
 def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> np.memmap:
     """The scene's ``.npy`` opened for writing; created (sparse, at a temp name, then renamed) when absent or
     shaped for another frame count (the EXR store was re-rendered with another sequence: every frame is
     packed again)."""
     path = store.scene_path(scene)
-    n_channels = max(end for _, end in store.ranges.values())
-    shape = (reader.frame_count(scene), *tile_grid(*size, store.tile), n_channels, store.tile, store.tile)
+    shape = _scene_shape(store, reader, scene, size)
     if path.is_file():
         mm = np.load(path, mmap_mode="r+")
         if mm.shape == shape and mm.dtype == store.dtype:

@@ -337,6 +337,7 @@ class StoreBuilder(StoreReader):
         force = bool(self.render_cfg.get("force", False))
         verify = bool(self.render_cfg.get("verify", False))
         state: dict[str, Any] = {}
+        self._check_frame_folders(name, frames)
 
         def loader() -> Any:
             if "loaded" not in state:
@@ -420,6 +421,20 @@ class StoreBuilder(StoreReader):
             for stale in folder.glob(".*.tmp*"):  # of a killed run
                 stale.unlink(missing_ok=True)
             yield
+
+    def _check_frame_folders(self, scene: str, frames: list[int]) -> None:
+        """RuntimeError naming the path and its fix, before anything is rendered, when a frame's folder
+        (``<scene>/<frame>``) is not a folder or its lock (``<scene>/<frame>/.lock``) is not a regular file:
+        the frame could be neither locked nor written."""
+        for f in frames:
+            folder = self.root / scene / f"{f:04d}"
+            if (folder.exists() or folder.is_symlink()) and not folder.is_dir():
+                raise RuntimeError(f"{folder}: frame {f}'s folder is a file, not a folder; move it away (or "
+                                   f"`rm {folder}`, after checking it holds nothing you need) and run again")
+            lock = folder / ".lock"
+            if (lock.exists() or lock.is_symlink()) and not lock.is_file():
+                raise RuntimeError(f"{lock}: frame {f}'s lock file is not a regular file; remove it (`rm -r "
+                                   f"{lock}`, after checking it holds nothing you need) and run again")
 
     @contextlib.contextmanager
     def _frame_lock(self, scene: str, frame: int, blocking: bool) -> Iterator[bool]:

@@ -56,6 +56,7 @@ from omegaconf import DictConfig
 
 from mcd.allocator import keep_freed_memory
 from mcd.data.buffers import BUFFERS, CHANNELS
+from mcd.paths import folder_to_be
 
 #: ``store.json``'s format; a store of another version is refused (pack it again)
 VERSION = 2
@@ -109,8 +110,9 @@ class TrainStoreSettings:
 
     @classmethod
     def from_cfg(cls, cfg: DictConfig) -> Self:
-        """The settings of a full config; ValueError naming the key for an unknown format or dtype. A config
-        without ``data.train_store`` reads EXR (the behaviour before the key existed)."""
+        """The settings of a full config; ValueError naming the key for an unknown format or dtype, or, with
+        ``format=array``, a folder that is a file or lies below one (:func:`mcd.paths.folder_to_be`). A
+        config without ``data.train_store`` reads EXR (the behaviour before the key existed)."""
         ts = cfg.data.get("train_store") or {}
         fmt, dtype = str(ts.get("format", "exr")), str(ts.get("dtype", "float32"))
         if fmt not in FORMATS:
@@ -121,6 +123,8 @@ class TrainStoreSettings:
                              "(docs/training_store.md)")
         folder = ts.get("dir")
         root = Path(folder) if folder else Path(cfg.paths.data_dir) / str(cfg.data.name) / f".train_{dtype}"
+        if fmt == "array":
+            folder_to_be("data.train_store.dir", root)
         return cls(fmt, dtype, root)
 
 
@@ -177,7 +181,7 @@ class TrainStore:
         if not path.is_file():
             raise TrainStoreError(f"{settings.dir}: no training store (data.train_store.format=array); pack "
                                   f"it first: {pack_command}")
-        meta = json.loads(path.read_text())
+        meta = read_meta(path, pack_command)
         check_meta(meta, settings, data_cfg, buffers, path)
         return cls(settings.dir, meta, pack_command, buffers)
 
@@ -188,9 +192,21 @@ class TrainStore:
         return self.root / f"{scene}.json"
 
     def record(self, scene: str) -> dict:
-        """The scene's pack record (``{"frames": {...}}``; empty if nothing was packed)."""
+        """The scene's pack record (``{"frames": {...}}``; empty if nothing was packed); TrainStoreError
+        naming the file and its fix when it is not a record (:func:`record_problem`)."""
         p = self.record_path(scene)
-        return json.loads(p.read_text()) if p.is_file() else {"frames": {}}
+        if not p.is_file():
+            return {"frames": {}}
+        try:
+            record = json.loads(p.read_text())
+        except (OSError, ValueError) as err:
+            record, why = None, f"not readable JSON: {type(err).__name__}"
+        else:
+            why = record_problem(record)
+        if why:
+            raise TrainStoreError(f"{p} is corrupt ({why}); delete it and pack again, which packs the "
+                                  f"scene's frames again: {self.pack_command}")
+        return record
 
     def check_frames(self, scene: str, frames: Iterable[int], manifest: dict) -> None:
         """TrainStoreError naming the pack command unless every frame is packed from the EXR files the
@@ -286,6 +302,50 @@ def _spans(start: int, size: int, tile: int) -> list[tuple[int, int, int]]:
     """``(tile index, first, end)`` in pixels of each tile that ``[start, start + size)`` covers, clipped."""
     return [(i, max(start, i * tile), min(start + size, (i + 1) * tile))
             for i in range(start // tile, -(-(start + size) // tile))]
+
+
+#: The keys of ``store.json`` and the type of each value (``channels``: ``{buffer: [first, end]}``).
+META_TYPES = {"version": int, "dtype": str, "tile": int, "width": int, "height": int, "profile": str,
+              "channels": dict}
+
+
+def meta_problem(meta: Any) -> str | None:
+    """What is wrong with a parsed ``store.json`` (None: it has every key of :data:`META_TYPES` with its
+    type, and channel ranges of two integers)."""
+    if not isinstance(meta, dict):
+        return f"a JSON {type(meta).__name__}, not an object"
+    bad = [k for k, t in META_TYPES.items()
+           if not isinstance(meta.get(k), t) or isinstance(meta.get(k), bool)]
+    if bad:
+        return f"missing or mistyped: {', '.join(bad)}"
+    ranges = [b for b, r in meta["channels"].items()
+              if not (isinstance(r, list) and len(r) == 2 and all(isinstance(c, int) for c in r))]
+    return f"channels of {', '.join(ranges)} are not [first, end]" if ranges else None
+
+
+def read_meta(path: Path, pack_command: str) -> dict:
+    """The ``store.json`` at ``path``; TrainStoreError naming the file and its fix when it is corrupt (not
+    JSON, or :func:`meta_problem`)."""
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        meta, why = None, f"not readable JSON: {type(err).__name__}"
+    else:
+        why = meta_problem(meta)
+    if why:
+        raise TrainStoreError(f"{path} is corrupt ({why}); delete {path.parent} and pack it again: "
+                              f"{pack_command}")
+    return meta
+
+
+def record_problem(record: Any) -> str | None:
+    """What is wrong with a parsed ``<scene>.json`` pack record (None: ``{"frames": {frame: {"sources":
+    str, ...}}}``)."""
+    frames = record.get("frames") if isinstance(record, dict) else None
+    if not isinstance(frames, dict):
+        return "no object 'frames'"
+    bad = [f for f, e in frames.items() if not (isinstance(e, dict) and isinstance(e.get("sources"), str))]
+    return f"frame(s) {', '.join(bad[:3])} without their sources" if bad else None
 
 
 def check_meta(meta: dict, settings: TrainStoreSettings, data_cfg: DictConfig, buffers: Iterable[str],

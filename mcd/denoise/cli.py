@@ -60,8 +60,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--reference-max-spp", type=arguments.int_in(2, 2**20), default=MAX_SPP,
                    help="cap of the reference's spp (input b)")
     p.add_argument("--exposure", type=arguments.float_in(0, 1e12, lo_open=True), default=None,
-                   help="one exposure for the network and every score (input b; default: the network's from "
-                   "frame 0's input, the scores' from frame 0's reference, each mean brought to 0.5)")
+                   help="one exposure for the network and every score (frames and scene; default: the "
+                   "network's from frame 0's input, the scores' from frame 0's reference in a scene, from "
+                   "frame 0's input on frames, each mean brought to 0.5)")
     p.add_argument("--seed", type=arguments.int_in(0, 2**32 - 1), default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
@@ -217,15 +218,18 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
         check_references(refs, size)
     settings = {"inputs": file_stamps(inputs), "weights_sha256": weights_digest(loaded.model),
                 "experiment": loaded.experiment, "budget": loaded.cfg.budget, "precision": args.precision,
-                "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap}
+                "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap,
+                "exposure": args.exposure}
     record = Record(args.output, settings)
     report = denoise_frames(loaded, paths, args.output, device, args.max_memory_mb, args.overlap,
                             progress=not args.no_progress, dtype=dtype, record=record, meta=meta,
-                            references=refs)
-    bad = sum(report["sanitised"].values())
-    if bad:
-        print(f"sanitised: {bad} NaN/Inf/negative input values replaced by 0 "
-              f"({', '.join(f'{k} {v}' for k, v in report['sanitised'].items())})")
+                            references=refs, exposure=args.exposure)
+    for what in ("input", "reference"):  # a reference's counts are keyed <file>:reference
+        counts = {k: v for k, v in report["sanitised"].items()
+                  if k.endswith(":reference") == (what == "reference")}
+        if counts:
+            print(f"sanitised: {sum(counts.values())} NaN/Inf/negative {what} values replaced by 0 "
+                  f"({', '.join(f'{k} {v}' for k, v in counts.items())})")
     if "scores" in report:
         for row in report["scores"]["frames"]:
             print(f"frame {row['frame']}: {score_text(row)}")

@@ -4,7 +4,10 @@ A frame's reference is the file of the same name in ``--reference DIR``, or, wit
 ``reference/`` beside the frame (where ``python -m mcd.denoise.render_frames --reference-spp N`` writes
 them): with the flag every frame must have one; without it, references are used only when every frame has
 one (otherwise nothing is scored, and the log says how many were missing). A reference is checked as a frame
-is, before any work (readable, colour channels ``R, G, B``, the frames' size).
+is, before any work (readable, colour channels ``R, G, B``, the frames' size); one whose every colour value is
+NaN or Inf is refused then (there is nothing to score against). A reference's NaN/Inf/negative values that
+remain are replaced by 0 as the input's are, counted in ``sanitised`` (``<file>:reference``) with a warning
+naming the file, and the frame's score line says how many (``reference_sanitised``).
 
 Input (the noisy colour as the network reads it), output and reference are compared in one exposure, the
 sequence's (frame 0's mean scaled to the checkpoint's target, :mod:`mcd.data.exposure`), sanitised alike,
@@ -64,20 +67,29 @@ def check_references(refs: list[Path], size: tuple[int, int]) -> None:
         raise FrameError(f"{refs[0]}: frames of {size[1]}x{size[0]} are below the SSIM window "
                          f"({SSIM_WINDOW}x{SSIM_WINDOW}) and cannot be scored; drop the references")
     for ref in refs:
-        read_frame(ref, set(), size)
+        colour = read_frame(ref, set(), size)["colour"]
+        if not np.isfinite(colour).any():
+            raise FrameError(f"{ref}: every value of the reference is NaN or Inf, so there is nothing to "
+                             "score against; render the reference again, or give no references")
 
 
 class Scorer:
     """Scores of each frame against its reference, in the sequence's exposure (module docstring)."""
 
-    def __init__(self, refs: list[Path], exposure: float):
-        self.refs, self.exposure = refs, exposure
+    def __init__(self, refs: list[Path], exposure: float, sanitised: dict[str, int]):
+        self.refs, self.exposure, self.sanitised = refs, exposure, sanitised
         self.rows: list[dict[str, Any]] = []
 
     def score(self, i: int, stem: str, noisy: np.ndarray, output: np.ndarray) -> dict[str, Any]:
         """Score frame ``i`` (``noisy`` and ``output``: ``(H, W, 3)`` in the sequence's exposure)."""
-        ref = normalise(read_frame(self.refs[i], set())["colour"], "ref", self.exposure, 1.0, colour=True)[0]
+        colour = read_frame(self.refs[i], set())["colour"]
+        ref, n_bad = normalise(colour, "ref", self.exposure, 1.0, colour=True)
         row: dict[str, Any] = {"frame": stem, "reference": str(self.refs[i])}
+        if n_bad:
+            self.sanitised[f"{self.refs[i].name}:reference"] = n_bad
+            row["reference_sanitised"] = n_bad
+            log.warning("%s: %d NaN/Inf/negative values of the reference replaced by 0; the scores of %s are "
+                        "against what remains", self.refs[i], n_bad, stem)
         for name, img in (("input", noisy), ("output", output)):
             row.update({f"psnr_{name}": psnr(img, ref), f"ssim_{name}": ssim(img, ref),
                         f"flip_{name}": flip(img, ref)})
@@ -95,6 +107,9 @@ class Scorer:
 
 
 def score_text(row: dict[str, Any]) -> str:
-    """``input PSNR .. dB, SSIM .., FLIP .. -> output PSNR ..``: one line's scores."""
-    return " -> ".join(f"{w} PSNR {row[f'psnr_{w}']:.2f} dB, SSIM {row[f'ssim_{w}']:.4f}, FLIP "
+    """``input PSNR .. dB, SSIM .., FLIP .. -> output PSNR ..``: one line's scores, and how many of the
+    reference's values were replaced by 0 where some were."""
+    text = " -> ".join(f"{w} PSNR {row[f'psnr_{w}']:.2f} dB, SSIM {row[f'ssim_{w}']:.4f}, FLIP "
                        f"{row[f'flip_{w}']:.4f}" for w in ("input", "output"))
+    bad = row.get("reference_sanitised")
+    return f"{text} (reference: {bad} NaN/Inf/negative values replaced by 0)" if bad else text

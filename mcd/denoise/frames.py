@@ -113,21 +113,35 @@ def _is_frame(path: Path) -> bool:
     return not path.name.startswith(".") and not is_sibling(path)
 
 
+def _frames_among(paths: Iterable[Path]) -> list[Path]:
+    """The colour frames among ``paths`` (:func:`_is_frame`), sorted. A sibling layer file whose frame is not
+    there (``x.albedo.exr`` without ``x.exr``) is left out with a warning naming it, never silently."""
+    paths = sorted(paths)
+    for p in paths:
+        frame = p.with_name(f"{Path(p.stem).stem}.exr")
+        if not p.name.startswith(".") and is_sibling(p) and not frame.exists():
+            log.warning("%s: named as a sibling layer file (<stem>.%s.exr) of %s, which is not there: not "
+                        "denoised; rename it (no layer name before .exr) to denoise it as a frame", p,
+                        Path(p.stem).suffix.lstrip("."), frame.name)
+    return [p for p in paths if _is_frame(p)]
+
+
 def find_frames(inputs: list[str]) -> list[Path]:
     """The colour frames named by ``inputs`` (folders, files, glob patterns), in order.
 
-    A folder gives its ``*.exr`` that are frames (:func:`_is_frame`). FrameError if none, or if two frames
-    share a name (their outputs would overwrite each other in ``-o``), naming both.
+    A folder gives its ``*.exr`` that are frames (:func:`_frames_among`: a sibling layer file without its
+    frame is named in a warning). FrameError if none, or if two frames share a name (their outputs would
+    overwrite each other in ``-o``), naming both.
     """
     frames: list[Path] = []
     for item in inputs:
         p = Path(item).expanduser()
         if p.is_dir():
-            frames += sorted(f for f in p.glob("*.exr") if _is_frame(f))
+            frames += _frames_among(p.glob("*.exr"))
         elif p.is_file():
             frames.append(p)
         else:
-            hits = sorted(Path(h) for h in glob.glob(str(p)) if _is_frame(Path(h)))
+            hits = _frames_among(Path(h) for h in glob.glob(str(p)))
             if not hits:
                 raise FrameError(f"{item}: no such file or folder, and no EXR file matches it as a pattern")
             frames += hits
@@ -225,6 +239,8 @@ class FrameSequence:
     want: set[str]
     colour_key: str
     exposure_target: float
+    #: ``--exposure``: the sequence's exposure as given (None: from frame 0, :func:`input_exposure`)
+    given_exposure: float | None = None
     exposure: float = 1.0
     depth_scale: float = 1.0
     size: tuple[int, int] = (0, 0)
@@ -233,7 +249,11 @@ class FrameSequence:
     def __post_init__(self) -> None:
         first = read_frame(self.paths[0], self.want)
         self.size = first["colour"].shape[:2]
-        exposure = input_exposure(first["colour"], self.exposure_target, str(self.paths[0]))
+        if self.given_exposure is not None:
+            exposure = self.given_exposure
+            log.info("exposure x%.4g for every frame and score (--exposure)", exposure)
+        else:
+            exposure = input_exposure(first["colour"], self.exposure_target, str(self.paths[0]))
         if exposure is None:
             log.warning("%s: frame 0 is black; exposure left at 1", self.paths[0])
         self.exposure = exposure or 1.0

@@ -7,7 +7,9 @@ precision, device, tile cap and overlap), ``finished`` (the stems whose every fi
 ``checksums`` (the SHA-256 of each of those files). A rerun with equal ``settings`` skips a finished frame
 whose files are all there with their recorded SHA-256 (one emptied or replaced since is denoised again); any
 other difference (or no record) denoises every frame again, naming the settings that changed. A method with
-temporal state still runs every frame (its state needs them), writing only the missing ones.
+temporal state still runs every frame (its state needs them), writing only the missing ones. A record that
+is damaged (not a JSON object, or ``settings``, ``finished`` or ``checksums`` of another type) is refused
+before any frame is denoised, naming the file and the fix (:class:`RecordError`).
 """
 
 from __future__ import annotations
@@ -45,6 +47,32 @@ def file_stamps(paths: list[Path]) -> list[list[Any]]:
     return out
 
 
+class RecordError(ValueError):
+    """``<out>/denoise.json`` is damaged; the message names the file and what to do."""
+
+
+#: The type of each field of ``denoise.json`` that resuming reads (a field may be absent: no record).
+RECORD_TYPES = {"settings": dict, "finished": list, "checksums": dict}
+
+
+def read_record(path: Path) -> dict[str, Any]:
+    """The previous run's ``denoise.json`` at ``path``; RecordError naming it and the fix when it is not a
+    JSON object or a field of :data:`RECORD_TYPES` has another type."""
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        why = f"not readable JSON: {type(err).__name__}"
+    else:
+        bad = ([f"{k} is a JSON {type(old[k]).__name__}, not {t.__name__}" for k, t in RECORD_TYPES.items()
+                if k in old and not isinstance(old[k], t)] if isinstance(old, dict)
+               else [f"a JSON {type(old).__name__}, not an object"])
+        if not bad:
+            return old
+        why = "; ".join(bad)
+    raise RecordError(f"{path}: not a record of mcd-denoise ({why}); delete it to denoise every frame again, "
+                      "or give another -o")
+
+
 class Record:
     """The finished frames of this run in ``<out>/denoise.json``, and those a previous run left (module
     docstring)."""
@@ -58,16 +86,13 @@ class Record:
         self.checksums: dict[str, dict[str, str]] = {}
         self.previous: dict[str, dict[str, str]] = {}
         if self.path.is_file():
-            try:
-                old = json.loads(self.path.read_text())
-            except (OSError, ValueError):
-                old = {}
-            old_settings = old.get("settings") if isinstance(old, dict) else None
+            old = read_record(self.path)
+            old_settings = old.get("settings")
             if old_settings == self.settings:
                 sums = old.get("checksums")
                 sums = sums if isinstance(sums, dict) else {}
-                self.previous = {str(s): sums[s] for s in old.get("finished", [])
-                                 if isinstance(sums.get(s), dict) and sums[s]}
+                self.previous = {s: sums[s] for s in old.get("finished", [])
+                                 if isinstance(s, str) and isinstance(sums.get(s), dict) and sums[s]}
             else:
                 changed = sorted(k for k in {*self.settings, *(old_settings or {})}
                                  if (old_settings or {}).get(k) != self.settings.get(k))

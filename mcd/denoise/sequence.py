@@ -59,16 +59,17 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
                    max_memory_mb: float, overlap: int, progress: bool = True,
                    dtype: torch.dtype | None = None, record: Record | None = None,
                    meta: dict[str, Any] | None = None,
-                   references: list[Path] | None = None) -> dict[str, Any]:
+                   references: list[Path] | None = None, exposure: float | None = None) -> dict[str, Any]:
     """Denoise ``paths`` (one sequence, checked by :func:`mcd.denoise.frames.check_frames`) into ``out_dir``
     with autocast to ``dtype`` (None: fp32; mcd/denoise/precision.py); returns a summary (frames, tiles,
     sanitised, s, resumed). ``record``: resume and record finished frames (module docstring), its JSON
     carrying ``meta`` and the summary so far. ``references``: one per frame, scored
-    (:mod:`mcd.denoise.frame_scores`; a frame finished before is scored from its written EXR)."""
+    (:mod:`mcd.denoise.frame_scores`; a frame finished before is scored from its written EXR).
+    ``exposure``: ``--exposure``, the one exposure of the network's input and the scores (None: frame 0's)."""
     model = prepare(loaded.model.to(device), dtype)
     key = colour_key(loaded)
     want = wanted_layers(loaded)
-    seq = FrameSequence(paths, want, key, float(loaded.cfg.data.get("exposure_target", 0.5)))
+    seq = FrameSequence(paths, want, key, float(loaded.cfg.data.get("exposure_target", 0.5)), exposure)
     past, future = (int(v) for v in model.window)
     cache: dict[int, dict[str, torch.Tensor]] = {}
 
@@ -96,7 +97,7 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
     t0 = time.perf_counter()
     stateful = bool(getattr(model, "temporal_state", True))
     resumed: list[str] = []
-    scorer = Scorer(references, seq.exposure) if references else None
+    scorer = Scorer(references, seq.exposure, seq.bad) if references else None
 
     def summary() -> dict[str, Any]:
         return {**(meta or {}), "frames": len(seq), "tiles": len(tiled), "size": [h, w],

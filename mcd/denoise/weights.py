@@ -131,6 +131,10 @@ def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]
                 f"({', '.join(bundled_names()) or 'none installed'})") from None
         cfg, weights, prov = _from_run_ckpt(ckpt)
         return cfg, weights, prov, str(ckpt)
+    if path.exists():  # a device (/dev/zero), a FIFO, a socket: read whole, it could never end or block
+        raise ValueError(f"--checkpoint={spec}: not a regular file or a folder (a device, FIFO or "
+                         "socket); give a run directory of python -m mcd.run, a .ckpt file, or one of the "
+                         "bundled names")
     raise FileNotFoundError(
         f"--checkpoint={spec}: no such file or folder, and not a bundled checkpoint (bundled: "
         f"{', '.join(bundled_names()) or 'none installed'}); give a run directory of python -m mcd.run, a "

@@ -20,6 +20,8 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from mcd.reporting.markdown_text import escape
+
 #: The current report: the folder under ``reports/`` that README.md's results and the index's "current" mark
 #: come from (scripts/current_report.sh writes it).
 CURRENT_REPORT = "small_current"
@@ -105,10 +107,6 @@ def describe(folder: Path) -> ReportInfo:
     )
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
-
-
 def index_text(root: Path, current: str = CURRENT_REPORT) -> str:
     """The markdown of ``<root>/README.md``: one row per folder of ``root``, the current report first."""
     folders = sorted((p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")),
@@ -119,8 +117,9 @@ def index_text(root: Path, current: str = CURRENT_REPORT) -> str:
         name = f"**{info.name}** (current)" if info.name == current else info.name
         links = [f"[README]({info.name}/{info.readme})" if info.readme else "",
                  f"[viewer]({info.name}/{info.viewer})" if info.viewer else ""]
-        rows.append(f"| {name} | {_cell(info.what)} | {info.data} | {info.capacity} | {info.commits} | "
-                    f"{_cell(info.budget)} | {info.date} | {' · '.join(x for x in links if x) or '—'} |")
+        rows.append(f"| {name} | {escape(info.what)} | {escape(info.data)} | {escape(info.capacity)} | "
+                    f"{escape(info.commits)} | "
+                    f"{escape(info.budget)} | {info.date} | {' · '.join(x for x in links if x) or '—'} |")
     state = ("" if (root / current).is_dir() else
              " It has not been generated here yet (scripts/current_report.sh writes it).")
     return "\n".join([
@@ -175,7 +174,7 @@ def results_block(report: Path, readme_dir: Path) -> str:
     if viewer:
         links.append(f"[viewer]({rel}/{viewer})")
     links.append(f"[all reports]({index})")
-    head = "| " + " | ".join([f"{', '.join(links)}: Table 1, 4 spp", *map(_cell, t1["method"])]) + " |"
+    head = "| " + " | ".join([f"{', '.join(links)}: Table 1, 4 spp", *map(escape, t1["method"])]) + " |"
     cells = [" · ".join(_number(t1[c].iloc[i]) if c in t1 else "—" for c, _ in HEADLINE)
              for i in range(len(t1))]
     row = "| " + " · ".join(label for _, label in HEADLINE) + " | " + " | ".join(cells) + " |"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -20,6 +21,7 @@ import yaml
 from omegaconf import OmegaConf
 
 from mcd.config import upgrade_saved
+from mcd.metrics import FRAME_METRICS, PSNR_CAP_DB
 
 log = logging.getLogger(__name__)
 
@@ -192,9 +194,22 @@ class Run:
         return ""
 
 
+#: The plausible range of each score a run records (``mcd.metrics``): PSNR of display images in [0, the cap],
+#: SSIM in [-1, 1], FLIP in [0, 1], errors at least 0. A score outside it is damage, not a result.
+SCORE_RANGES = {
+    **{k: (0.0, PSNR_CAP_DB) for k in ("psnr", "input_psnr", "tpsnr", "input_tpsnr")},
+    **{k: (-1.0, 1.0) for k in ("ssim", "input_ssim")},
+    **{k: (0.0, 1.0) for k in ("flip", "input_flip")},
+    **{k: (0.0, math.inf) for k in ("rmse", "input_rmse", "lt")},
+}
+#: The columns every ``frames.csv`` has (``mcd.lit.test_recorder``).
+FRAMES_COLUMNS = ("scene", "frame", "psnr")
+
+
 def metrics_problem(path: Path) -> str | None:
     """What is wrong with the ``metrics.json`` at ``path`` (None: absent or sound): not readable JSON, not an
-    object, or a score (``mcd.metrics.FRAME_METRICS``) that is not a number or null (``"psnr": "NaN"``).
+    object, or a score (``mcd.metrics.FRAME_METRICS``) that is not a number or null (``"psnr": "NaN"``), or
+    one outside its range (:data:`SCORE_RANGES`: ``"psnr": 1e308``, ``"ssim": -5``).
     mcd.run writes it atomically (mcd/run_record.py), so a damaged one is not a run still writing it."""
     if not path.exists():
         return None
@@ -204,11 +219,32 @@ def metrics_problem(path: Path) -> str | None:
         return f"{path} is corrupt (not readable JSON: {err})"
     if not isinstance(data, dict):
         return f"{path} is corrupt (a JSON {type(data).__name__}, not an object)"
-    from mcd.metrics import FRAME_METRICS  # here: mcd.metrics imports the metric libraries
-
     bad = [f"{k}={data[k]!r}" for k in FRAME_METRICS if k in data and not _is_score(data[k])]
     if bad:
         return f"{path} is corrupt (not a number: {', '.join(bad)})"
+    out = [f"{k}={data[k]!r} outside [{lo:g}, {hi:g}]" for k, (lo, hi) in SCORE_RANGES.items()
+           if data.get(k) is not None and not lo <= data[k] <= hi]
+    if out:
+        return f"{path} is corrupt (a score out of range: {', '.join(out)})"
+    return None
+
+
+def frames_problem(path: Path) -> str | None:
+    """What is wrong with the ``frames.csv`` at ``path`` (None: absent or sound): not a readable CSV, without
+    the columns :data:`FRAMES_COLUMNS`, or with a PSNR that is not a number in its range."""
+    if not path.exists():
+        return None
+    try:
+        df = pd.read_csv(path)
+    except (OSError, ValueError) as err:
+        return f"{path} is corrupt (not a readable CSV: {type(err).__name__})"
+    missing = [c for c in FRAMES_COLUMNS if c not in df.columns]
+    if missing:
+        return f"{path} is corrupt (no column {', '.join(missing)})"
+    psnr = pd.to_numeric(df["psnr"], errors="coerce")
+    lo, hi = SCORE_RANGES["psnr"]
+    if not psnr.between(lo, hi).all():
+        return f"{path} is corrupt (a psnr that is not a number in [{lo:g}, {hi:g}])"
     return None
 
 
@@ -217,10 +253,27 @@ def _is_score(value: object) -> bool:
     return value is None or (isinstance(value, int | float) and not isinstance(value, bool))
 
 
+def _read_yaml(path: Path, read) -> tuple[Any, str | None]:
+    """``read(path)`` of a run's Hydra record, or ``(None, the problem naming the file)`` when it is not
+    readable YAML of the expected shape."""
+    try:
+        return read(path), None
+    except Exception as err:  # yaml, OmegaConf and shape errors alike: the run's damage, not the report's
+        return None, f"{path} is corrupt (not a readable Hydra record: {type(err).__name__})"
+
+
+def _choices(hydra_file: Path) -> Any:
+    """The config groups' choices Hydra recorded in ``hydra_file`` (None without one)."""
+    if not hydra_file.is_file():
+        return None
+    return OmegaConf.select(OmegaConf.load(hydra_file), "hydra.runtime.choices", default=None)
+
+
 def load_run(path: Path) -> Run:
-    """Read one run directory. A corrupt ``metrics.json`` (:func:`metrics_problem`) makes the job failed, the
-    file named in its error; one without ``psnr`` is incomplete (mcd.run reruns it)."""
-    problem = metrics_problem(path / "metrics.json")
+    """Read one run directory. A corrupt record (``metrics.json``: :func:`metrics_problem`; ``frames.csv``:
+    :func:`frames_problem`; a ``.hydra/`` file that is not readable YAML) makes the job failed, the file
+    named in its error; one without ``psnr`` is incomplete (mcd.run reruns it)."""
+    problem = metrics_problem(path / "metrics.json") or frames_problem(path / "frames.csv")
     metrics = None if problem else _load_json(path / "metrics.json")
     if metrics is not None and "psnr" not in metrics:
         metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
@@ -230,26 +283,26 @@ def load_run(path: Path) -> Run:
     error = _load_json(path / "error.json")
     if error is None and (path / "error.json").exists():
         error = {"error": f"{path / 'error.json'} exists but is not readable JSON"}
-    if problem:
-        error = {**(error or {}), "error": problem, "corrupt": problem}
     overrides_file = path / ".hydra" / "overrides.yaml"
-    overrides = [str(o) for o in OmegaConf.load(overrides_file)] if overrides_file.is_file() else []
+    overrides, bad = _read_yaml(overrides_file, lambda f: [str(o) for o in OmegaConf.load(f)]
+                                if f.is_file() else [])
+    problem = problem or bad
     if not overrides and error is not None and isinstance(error.get("overrides"), list):
         overrides = [str(o) for o in error["overrides"]]
-    config = _load_yaml(path / ".hydra" / "config.yaml")
+    config, bad = _read_yaml(path / ".hydra" / "config.yaml", lambda f: dict(_load_yaml(f)))
+    problem = problem or bad
     if not config and error is not None and isinstance(error.get("config"), dict):
         config = error["config"]
-    config = upgrade_saved(config)  # a run from before a group's rename reads as today's (mcd/config.py)
-    hydra_file = path / ".hydra" / "hydra.yaml"
-    choices = (
-        OmegaConf.select(OmegaConf.load(hydra_file), "hydra.runtime.choices", default=None)
-        if (hydra_file.is_file())
-        else None
-    )
+    config = upgrade_saved(config or {})  # a run from before a group's rename reads as today's (mcd.config)
+    choices, bad = _read_yaml(path / ".hydra" / "hydra.yaml", _choices)
+    problem = problem or bad
     choices = upgrade_saved(
         {str(k): str(v) for k, v in choices.items() if not str(k).startswith("hydra")} if choices else {}
     )
-    return Run(path=path, config=config, overrides=overrides, choices=choices, metrics=metrics, error=error)
+    if problem:
+        metrics, error = None, {**(error or {}), "error": problem, "corrupt": problem}
+    return Run(path=path, config=config, overrides=overrides or [], choices=choices, metrics=metrics,
+               error=error)
 
 
 def _is_run_dir(path: Path) -> bool:
@@ -260,12 +313,17 @@ def _is_run_dir(path: Path) -> bool:
     )
 
 
+class NoRunsError(FileNotFoundError):
+    """A folder given to report on is missing or holds no run directory (``mcd.report``: one line)."""
+
+
 def find_runs(roots: list[Path]) -> list[Run]:
-    """Every run directory under `roots` (each a multirun dir, a sweep dir or one run dir), sorted by path."""
+    """Every run directory under `roots` (each a multirun dir, a sweep dir or one run dir), sorted by path;
+    NoRunsError naming a root that does not exist."""
     found: set[Path] = set()
     for root in roots:
         if not root.exists():
-            raise FileNotFoundError(f"{root}: no such directory (pass multirun dirs written by mcd.run -m)")
+            raise NoRunsError(f"{root}: no such directory (pass multirun dirs written by mcd.run -m)")
         candidates = [root, *(p for p in root.rglob("*") if p.is_dir() and p.name != ".hydra")]
         found.update(p.resolve() for p in candidates if _is_run_dir(p))
     return [load_run(p) for p in sorted(found)]

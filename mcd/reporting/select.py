@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from mcd.reporting.markdown_text import escape
 from mcd.reporting.runs import Run
 
 
@@ -79,12 +80,13 @@ def run_label(run: Run | None, root: Path | None = None) -> str:
 def _cell(value: object, digits: int) -> str:
     if isinstance(value, float):
         return "—" if math.isnan(value) else f"{value:.{digits}f}"
-    return str(value)
+    return escape(value)
 
 
 def to_markdown(df: pd.DataFrame, digits: int = 2) -> str:
-    """A GitHub-markdown table of `df` (floats to `digits` decimals, NaN as an em dash)."""
-    header = "| " + " | ".join(str(c) for c in df.columns) + " |"
+    """A GitHub-markdown table of `df` (floats to `digits` decimals, NaN as an em dash, text escaped by
+    :func:`mcd.reporting.markdown_text.escape`)."""
+    header = "| " + " | ".join(escape(c) for c in df.columns) + " |"
     rule = "|" + "|".join("---" for _ in df.columns) + "|"
     rows = ["| " + " | ".join(_cell(v, digits) for v in row) + " |" for row in df.itertuples(index=False)]
     return "\n".join([header, rule, *rows]) + "\n"

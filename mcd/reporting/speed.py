@@ -5,9 +5,11 @@ at the resolution of that run's test frames.
 - ``speed_vs_error.csv/.png``: for each run, its model is built again from the run's own config
   (``resolved_config.yaml``, else ``.hydra/config.yaml``: method, capacity profile, budget) and timed by
   :func:`mcd.models.latency.latency_ms` (CPU, fp32, eager, batch 1, the test frames' ``data.width`` x
-  ``data.height``), in this process, one run after the other, so every point's time comes from one machine
-  and one load; PSNR and rMSE are the run's own. The CSV and the figure's title state the capacity
-  profile(s), the resolution, the path and the machine. The noisy input has no network and no point.
+  ``data.height``, scaled down, aspect kept, to at most :data:`MAX_TIMED_SIDE` pixels a side, which bounds
+  the memory timing takes), in this process, one run after the other, so every point's time comes from one
+  machine and one load; PSNR and rMSE are the run's own. The CSV (``height`` and ``width`` timed,
+  ``test_size`` the run's own) and the figure's title state the capacity profile(s), the resolution timed,
+  any cap, the path and the machine. The noisy input has no network and no point.
 - ``speed_bench.csv`` (when a bench CSV of ``python -m mcd.bench`` is given): that CSV's fastest path per
   method and device at its largest resolution, under the bench's own capacity profile and resolution (often
   the paper's capacity): a separate latency table, not paired with this report's errors.
@@ -23,6 +25,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
+from omegaconf import OmegaConf  # noqa: E402
 
 from mcd.config import upgrade_saved  # noqa: E402
 from mcd.methods import BY_EXPERIMENT, display_name  # noqa: E402
@@ -35,6 +38,14 @@ from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, table1_experimen
 PATH = "CPU fp32 eager"
 #: Experiments without a network to time.
 NO_NETWORK = ("noisy",)
+#: The largest side a run's model is timed at; a larger test frame is timed scaled down to it.
+MAX_TIMED_SIDE = 1024
+
+
+def timed_size(height: int, width: int) -> tuple[int, int]:
+    """``(height, width)`` scaled down, aspect kept, so that neither side exceeds :data:`MAX_TIMED_SIDE`."""
+    scale = min(1.0, MAX_TIMED_SIDE / max(height, width))
+    return max(1, round(height * scale)), max(1, round(width * scale))
 
 
 def best_paths(bench: pd.DataFrame) -> pd.DataFrame:
@@ -51,8 +62,6 @@ def best_paths(bench: pd.DataFrame) -> pd.DataFrame:
 def run_config(run: Run) -> dict:
     """The run's composed config: ``resolved_config.yaml`` where the run has one, else its
     ``.hydra/config.yaml``."""
-    from omegaconf import OmegaConf
-
     resolved = run.path / "resolved_config.yaml"
     if resolved.is_file():  # a run from before a group's rename reads as today's (mcd.config.upgrade_saved)
         return upgrade_saved(OmegaConf.to_container(OmegaConf.load(resolved), resolve=False))
@@ -64,18 +73,23 @@ def capacity(run: Run) -> str:
     return run.choices.get("capacity") or "?"  # mcd.reporting.runs.load_run reads an older run's `model`
 
 
-def run_latency(run: Run) -> tuple[float, int, int, str]:
-    """``(ms, height, width, status)``: the latency of the run's own model at its test frames' resolution
-    (NaN and the reason in ``status`` where the model cannot be built or timed, e.g. OIDN without pyoidn)."""
-    from omegaconf import OmegaConf
+def config_size(cfg) -> tuple[int, int]:
+    """``(data.height, data.width)`` of a run's config (0 where it has none)."""
+    return tuple(int(OmegaConf.select(cfg, f"data.{k}", default=0) or 0) for k in ("height", "width"))
 
+
+def run_latency(run: Run) -> tuple[float, int, int, str]:
+    """``(ms, height, width, status)``: the latency of the run's own model at its test frames' resolution,
+    capped by :func:`timed_size` (``height`` and ``width`` are the size timed; NaN and the reason in
+    ``status`` where the model cannot be built or timed, e.g. OIDN without pyoidn)."""
     from mcd.models import build
     from mcd.models.latency import latency_ms
 
     cfg = OmegaConf.create(run_config(run))
-    height, width = (int(OmegaConf.select(cfg, f"data.{k}", default=0) or 0) for k in ("height", "width"))
+    height, width = config_size(cfg)
     if not height or not width:
         return math.nan, height, width, "not timed: the run's config has no data.height and data.width"
+    height, width = timed_size(height, width)
     try:
         model = build(cfg)
         return latency_ms(model, height, width), height, width, "ok"
@@ -105,6 +119,7 @@ def speed_frame(runs: list[Run]) -> pd.DataFrame:
         if run is None or run.status != "ok":
             continue
         ms, height, width, status = run_latency(run)
+        run_h, run_w = config_size(OmegaConf.create(run_config(run)))
         rows.append(
             {
                 "method": label,
@@ -112,6 +127,7 @@ def speed_frame(runs: list[Run]) -> pd.DataFrame:
                 "capacity": capacity(run),
                 "height": height,
                 "width": width,
+                "test_size": f"{run_w}x{run_h}",
                 "path": PATH,
                 "ms_median": ms,
                 "psnr": metric(run, "psnr"),
@@ -130,8 +146,12 @@ def _title(df: pd.DataFrame, prov: Provenance) -> str:
         return "Speed against error: nothing to plot (no finished 4-spp run whose model could be timed)"
     caps = ", ".join(sorted(set(timed["capacity"])))
     sizes = ", ".join(sorted({f"{w}x{h}" for w, h in zip(timed["width"], timed["height"], strict=True)}))
-    return (f"Speed against error, each point one run's own model: capacity {caps}, {sizes} (its test "
-            f"frames), {PATH}, {timed['device_name'].iloc[0]}; error: 4-spp runs ({prov.config_groups})")
+    capped = sorted(set(timed["test_size"]) - {f"{w}x{h}" for w, h in zip(timed["width"], timed["height"],
+                                                                             strict=True)})
+    where = (f" (its test frames; {', '.join(capped)} timed scaled down to at most {MAX_TIMED_SIDE} pixels "
+             "a side)") if capped else " (its test frames)"
+    return (f"Speed against error, each point one run's own model: capacity {caps}, {sizes}{where}, {PATH}, "
+            f"{timed['device_name'].iloc[0]}; error: 4-spp runs ({prov.config_groups})")
 
 
 def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenance) -> pd.DataFrame:
