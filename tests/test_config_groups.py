@@ -97,6 +97,7 @@ def test_one_registry_type_for_methods_and_losses() -> None:
     cfg = compose_cfg("+experiment=A")
     with open_dict(cfg):
         cfg.method.name = "test_only_identity"
+        cfg.method.denoiser_margin = 0  # an identity has no denoiser to reflect the input for
     with pytest.raises(UnknownName, match="unknown method.name='test_only_identity'.*two_stage"):
         build(cfg)
 
