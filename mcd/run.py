@@ -38,7 +38,7 @@ from mcd import allocator, run_dir
 from mcd.config import hydra_main
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
-from mcd.preflight import check_augment, check_motion, check_run
+from mcd.preflight import check_augment, check_motion, check_run, check_train_store
 from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
 from mcd.run_summary import summary
@@ -131,7 +131,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.data.pack import pack
-    from mcd.data.train_store import TrainStoreSettings
+    from mcd.data.train_store import TrainStoreSettings, pack_command
     from mcd.lit import DenoiseModule, budget, checkpoint, progress, transfer
     from mcd.lit.segments import TrainingSegments
     from mcd.lit.test_recorder import TestRecorder
@@ -163,6 +163,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     check_augment(cfg, buffers)  # data.augment.reverse with a motion buffer, before anything is rendered
     announce(cfg, "mcd.run", buffers, train=bool(cfg.method.get("trainable", True)))  # counts, no measuring
     store = StoreBuilder.from_cfg(cfg)
+    # a packed training store of another config, or without a buffer of this run, before anything is rendered
+    check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     if train_store.format == "array":  # training clips from the packed store
