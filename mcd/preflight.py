@@ -5,7 +5,8 @@ budget that is not a number or has no stored uniform render, a warm-up that is n
 images smaller than the SSIM window, training crops the frames cannot hold, a training-clip stride outside
 1 to ``data.clip_len``, a malformed ``data.augment`` block and a diagnostic switch on a method without
 that input (:func:`check_diagnostics`); :func:`check_motion` refuses a run that reads the motion buffer where
-the training data cannot hold it (docs/reliability.md); the store checks every scene file before its first
+the training data cannot hold it, :func:`check_train_store` a packed training store of another config or
+without a buffer of the run (docs/reliability.md); the store checks every scene file before its first
 render (:meth:`mcd.data.store_builder.StoreBuilder.ensure`), and the model its own budget rule when it is
 built (row F's adaptive sampling needs ``1 < s``; a method without it reads ``c_s``).
 """
@@ -112,6 +113,22 @@ def check_motion(cfg: DictConfig, buffers: Iterable[str]) -> None:
         raise ValueError(f"{why} the motion buffer, and the training store {settings.dir} holds {packed} "
                          f"only ({meta}): give another data.train_store.dir, or delete {settings.dir} "
                          "and let mcd.run pack it again with the motion buffer")
+
+
+def check_train_store(cfg: DictConfig, buffers: Iterable[str], pack_command: str) -> None:
+    """TrainStoreError (before anything is rendered) when the run trains from a packed training store
+    (``data.train_store.format=array``) whose ``store.json`` says it was packed with another dtype, frame
+    size or profile, or without a buffer of ``buffers`` (:func:`mcd.data.train_store.check_meta`: the
+    message names the store, the key or the buffers it lacks, and the fix). A store with no ``store.json``
+    is not packed yet, and the run packs it (docs/training_store.md); ``pack_command`` packs the store (a
+    corrupt ``store.json`` is named with it, :func:`mcd.data.train_store.read_meta`)."""
+    from mcd.data.train_store import TrainStoreSettings, check_meta, read_meta
+
+    settings = TrainStoreSettings.from_cfg(cfg)
+    meta_path = settings.dir / "store.json"
+    if settings.format != "array" or not meta_path.is_file():
+        return
+    check_meta(read_meta(meta_path, pack_command), settings, cfg.data, buffers, meta_path)
 
 
 def check_run(cfg: DictConfig) -> None:

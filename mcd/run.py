@@ -38,7 +38,7 @@ from mcd import allocator, run_dir
 from mcd.config import hydra_main
 from mcd.machine import device_name
 from mcd.models.switches import check_switches, switch_row
-from mcd.preflight import check_augment, check_motion, check_run
+from mcd.preflight import check_augment, check_motion, check_run, check_train_store
 from mcd.provenance import git_commit
 from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
 from mcd.run_summary import summary
@@ -88,6 +88,7 @@ class Job:
     resume: str | None  # ckpt_path: the checkpoint training resumes from
     transfer: dict[str, Any] | None
     data_report: dict[str, Any]  # the store's report (what it rendered, what it reused)
+    data_settings: dict[str, Any]  # what determines the data, as the job's identity has it (before transfer)
     data_s: float
     precision: str  # the Lightning precision the trainer runs in (mcd.lit.precision)
 
@@ -131,7 +132,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.data.pack import pack
-    from mcd.data.train_store import TrainStoreSettings
+    from mcd.data.store import store_settings
+    from mcd.data.train_store import TrainStoreSettings, pack_command
     from mcd.lit import DenoiseModule, budget, checkpoint, progress, transfer
     from mcd.lit.segments import TrainingSegments
     from mcd.lit.test_recorder import TestRecorder
@@ -147,6 +149,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
         raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
                                 "(give a run's checkpoints/last.ckpt)")
     claim_run_dir(out_dir, cfg, choices or {})  # refuses an interrupted run of another job; writes job.json
+    data_settings = store_settings(cfg.data)
     L.seed_everything(int(cfg.seed), workers=True)
     cfg, transfer_info = transfer.prepare(cfg)  # held-out scenes from trained weights (mcd/lit/transfer.py)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -163,6 +166,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     check_augment(cfg, buffers)  # data.augment.reverse with a motion buffer, before anything is rendered
     announce(cfg, "mcd.run", buffers, train=bool(cfg.method.get("trainable", True)))  # counts, no measuring
     store = StoreBuilder.from_cfg(cfg)
+    # a packed training store of another config, or without a buffer of this run, before anything is rendered
+    check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     if train_store.format == "array":  # training clips from the packed store
@@ -193,8 +198,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
                          "method.trainable=false to test it without training")
     return Job(cfg=cfg, out_dir=out_dir, model=model, datamodule=datamodule, module=module, trainer=trainer,
                best=best, curve=curve, segments=segments, recorder=recorder, trainable=trainable,
-               resume=resume or None, transfer=transfer_info, data_report=report, data_s=data_s,
-               precision=str(trainer_kwargs["precision"]))
+               resume=resume or None, transfer=transfer_info, data_report=report, data_settings=data_settings,
+               data_s=data_s, precision=str(trainer_kwargs["precision"]))
 
 
 def agreed_best(trainer: L.Trainer, best: ModelCheckpoint) -> tuple[str, float | None]:
@@ -293,6 +298,7 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
         data_profile=choices.get("data"),
         capacity_profile=choices.get("capacity"),
         train_profile=choices.get("train"),
+        data_settings=job.data_settings,
         per_scene=averages["per_scene"],  # type: ignore[arg-type]
         scenes_test=list(averages["frames"]),  # type: ignore[call-overload]
         test_frames=averages["frames"],  # type: ignore[arg-type]

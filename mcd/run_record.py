@@ -21,6 +21,7 @@ from typing import Any
 from omegaconf import DictConfig
 
 from mcd.core.atomic_write import atomic_write_json
+from mcd.data.store import store_settings
 from mcd.metrics import FRAME_METRICS, MODEL_METRICS, PAPER_METRICS
 from mcd.models.switches import switch_row
 
@@ -48,6 +49,8 @@ class RunRecord:
     data_profile: str | None  # the Hydra choices of the config groups data, capacity, train
     capacity_profile: str | None
     train_profile: str | None
+    #: what determines the data (mcd.data.store.store_settings), part of the job's identity
+    data_settings: dict[str, Any]
     per_scene: dict[str, dict[str, float | None]]  # per-scene averages of every score
     scenes_test: list[str]
     test_frames: dict[str, int]  # frames tested per scene
@@ -117,12 +120,25 @@ def is_complete(path: Path) -> bool:
 def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
     """What makes two runs the same job: the values a :class:`RunRecord` of ``cfg`` holds under these keys.
 
-    Settings a rerun may change without making it another job (epochs, capacity, ...) are left out
-    (sweeps/_sweep_dirs.yaml: such a rerun goes to another ``sweep_tag``).
+    ``data_settings`` is what determines the data (:func:`mcd.data.store.store_settings`: ``data.name``, the
+    frames' size and count, the samples, the data seed, the exposure, the scene lists), so that a run is not
+    resumed, or skipped as finished, on other data under the same profile. Settings a rerun may change
+    without making it another job (epochs, capacity, ...) are left out (sweeps/_sweep_dirs.yaml: such a rerun
+    goes to another ``sweep_tag``).
     """
     return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
-            "data_profile": choices.get("data"),
+            "data_profile": choices.get("data"), "data_settings": store_settings(cfg.data),
             "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None}
+
+
+def _flat(identity: dict[str, Any]) -> dict[str, Any]:
+    """``identity`` with ``data_settings`` spread into one ``data.<key>`` entry per setting (older records,
+    without it, compare the other keys only)."""
+    settings = identity.get("data_settings")
+    flat = {k: v for k, v in identity.items() if k != "data_settings"}
+    if isinstance(settings, dict):
+        flat.update({f"data.{k}": v for k, v in settings.items()})
+    return flat
 
 
 def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
@@ -137,9 +153,9 @@ JOB_FILE = "job.json"
 def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
     """Record this job's identity in ``run_dir/job.json``, after refusing a directory that holds an
     interrupted run (``checkpoints/last.ckpt``, no ``metrics.json``) of another job: resuming it with another
-    budget, seed, experiment, switches or data profile would test a checkpoint trained under the old settings
-    and label it with the new ones (docs/reliability.md). FileExistsError names the keys that differ; a
-    ``job.json`` that is not a JSON object is named too (ValueError)."""
+    budget, seed, experiment, switches, data profile or data settings (another store) would test a checkpoint
+    trained under the old settings and label it with the new ones (docs/reliability.md). FileExistsError names
+    the keys that differ; a ``job.json`` that is not a JSON object is named too (ValueError)."""
     path = run_dir / JOB_FILE
     if (run_dir / "checkpoints" / "last.ckpt").is_file() and path.is_file():
         try:
@@ -155,8 +171,10 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
 
 def _refuse_another_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], run_dir: Path,
                         what: str) -> None:
-    """FileExistsError naming each key of :func:`job_identity` whose value in ``recorded`` differs."""
-    differs = {k: (recorded[k], v) for k, v in job_identity(cfg, choices).items()
+    """FileExistsError naming each key of :func:`job_identity` (each ``data.<key>`` of its data settings)
+    whose value in ``recorded`` differs."""
+    recorded = _flat(recorded)
+    differs = {k: (recorded[k], v) for k, v in _flat(job_identity(cfg, choices)).items()
                if k in recorded and recorded[k] != v}
     if differs:
         detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())

@@ -132,7 +132,7 @@ def test_multirun_records_a_failed_job_and_goes_on(f_run, tmp_path):
     (sweep / "1").mkdir(parents=True)
     # job 1 finished earlier: F's metrics relabelled as job 1's
     metrics = json.loads((root / "F" / "metrics.json").read_text())
-    metrics.update(job_identity(compose_cfg("+experiment=A", "method.FG=false"), {"data": "tiny"}))
+    metrics.update(job_identity(compose_cfg("+experiment=A", "method.FG=false", *TINY), {"data": "tiny"}))
     (sweep / "1" / "metrics.json").write_text(json.dumps(metrics))
     proc = mcd_run("-m", "+experiment=A", "method.AS=false", "method.FG=true,false", *TINY,
                    f"paths.data_dir={root / 'data'}", f"hydra.sweep.dir={sweep}",

@@ -31,7 +31,7 @@ from mcd.data.buffers import CHANNELS, COLOUR_BUFFERS
 from mcd.data.camera import Camera
 from mcd.data.exposure import normalise
 from mcd.data.exr import CorruptEXRError, read_exr, sha256
-from mcd.data.scenes import SceneSpec
+from mcd.data.scenes import SCENE_LISTS, SceneSpec, path_scene_name
 from mcd.paths import check_folder_name
 from mcd.paths import data_dir as resolve_data_dir
 from mcd.paths import scenes_dir as resolve_scenes_dir
@@ -42,6 +42,23 @@ log = logging.getLogger(__name__)
 #: ``paths.*``).
 STORE_OVERRIDE = re.compile(r"[+~]*(data[.=]|scene@data\.|paths\.)")
 _MISSING = object()
+
+
+#: Keys of ``data`` that shape the store's files (besides ``name`` and the scene lists,
+#: :func:`store_settings`): the frames' size, the camera path's frames, the samples, the data seed, the
+#: exposure.
+STORE_KEYS = ("width", "height", "segments", "frames_per_segment", "ref_spp", "ref_quality.target_db",
+              "ref_quality.max_spp", "gbuffer_spp", "max_depth", "seed", "exposure_target")
+
+
+def store_settings(data_cfg: DictConfig) -> dict[str, object]:
+    """What determines a profile's data: ``name``, each :data:`STORE_KEYS` key the config has, and the scene
+    lists (``train_scenes``, ``transfer_scenes``, ``test_scenes``), a scene given as a file named as
+    :func:`mcd.data.scenes.register_paths` names it, so the settings read the same before and after."""
+    found = {k: OmegaConf.select(data_cfg, k, default=_MISSING) for k in STORE_KEYS}
+    scenes = {k: [path_scene_name(Path(str(e)).expanduser().resolve()) if str(e).endswith(".xml") else str(e)
+                  for e in data_cfg.get(k) or []] for k in SCENE_LISTS}
+    return {"name": str(data_cfg.name), **{k: v for k, v in found.items() if v is not _MISSING}, **scenes}
 
 
 class CorruptManifestError(RuntimeError):
@@ -195,25 +212,11 @@ class StoreReader:
     def _settings_overrides(self) -> list[str]:
         """``data.*`` overrides that reproduce this store's settings and scenes (when no command line is
         known)."""
-        d = self.data_cfg
-        keys = (
-            "width",
-            "height",
-            "segments",
-            "frames_per_segment",
-            "ref_spp",
-            "ref_quality.target_db",
-            "ref_quality.max_spp",
-            "gbuffer_spp",
-            "max_depth",
-            "seed",
-            "exposure_target",
-        )
-        lists = ("train_scenes", "transfer_scenes", "test_scenes")
-        scenes = [f"data.{k}=[{','.join(d.get(k) or [])}]" for k in lists]
-        found = {k: OmegaConf.select(d, k, default=_MISSING) for k in keys}
-        values = [f"data.{k}={'null' if v is None else v}" for k, v in found.items() if v is not _MISSING]
-        return [f"data.name={self.profile}", *values, *scenes]
+        settings = store_settings(self.data_cfg)
+        values = [f"data.{k}={'null' if v is None else v}" for k, v in settings.items()
+                  if k not in SCENE_LISTS]
+        scenes = [f"data.{k}=[{','.join(self.data_cfg.get(k) or [])}]" for k in SCENE_LISTS]
+        return [*values, *scenes]
 
     # --------------------------------------------------------------------------------------------- manifest
     def manifest(self, scene: str) -> dict:
