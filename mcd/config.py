@@ -52,11 +52,7 @@ def exit_on_renamed(overrides: Iterable[str]) -> None:
     line (``error: ...``, no traceback) and exit status 2, before any work: the command-line check of the
     Hydra commands (:func:`hydra_main`) and of the tools that take Hydra overrides (``python -m mcd.bench``'s
     modes, the lab's ``tools/bundle_scores.py``); docs/architecture.md, "Config"."""
-    try:
-        check_overrides(overrides)
-    except ValueError as err:
-        print(f"error: {err}", file=sys.stderr)
-        raise SystemExit(2) from None
+    exit_2_on(ValueError, check_overrides, overrides)
 
 
 def upgrade_saved(saved: Any) -> Any:
@@ -115,9 +111,15 @@ def exit_on_invalid(cfg: DictConfig) -> None:
     status 2."""
     from mcd.config_rules import ConfigError, check_config
 
+    exit_2_on(ConfigError, check_config, cfg)
+
+
+def exit_2_on(error: type[Exception], check: Callable[[Any], object], value: Any) -> None:
+    """``check(value)``; an ``error`` it raises ends the command with its message on one line (``error: ...``,
+    no traceback) and exit status 2: the commands' pre-work refusals."""
     try:
-        check_config(cfg)
-    except ConfigError as err:
+        check(value)
+    except error as err:
         print(f"error: {err}", file=sys.stderr)
         raise SystemExit(2) from None
 

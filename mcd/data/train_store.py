@@ -44,7 +44,7 @@ import hashlib
 import json
 import mmap
 import shlex
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Self
@@ -197,12 +197,7 @@ class TrainStore:
         p = self.record_path(scene)
         if not p.is_file():
             return {"frames": {}}
-        try:
-            record = json.loads(p.read_text())
-        except (OSError, ValueError) as err:
-            record, why = None, f"not readable JSON: {type(err).__name__}"
-        else:
-            why = record_problem(record)
+        record, why = read_checked_json(p, record_problem)
         if why:
             raise TrainStoreError(f"{p} is corrupt ({why}); delete it and pack again, which packs the "
                                   f"scene's frames again: {self.pack_command}")
@@ -323,15 +318,20 @@ def meta_problem(meta: Any) -> str | None:
     return f"channels of {', '.join(ranges)} are not [first, end]" if ranges else None
 
 
+def read_checked_json(path: Path, problem: Callable[[Any], str | None]) -> tuple[Any, str | None]:
+    """``(object, why)``: the JSON at ``path`` and what ``problem`` finds wrong with it (None: nothing), or
+    ``(None, why)`` when the file is not readable JSON (the store's and the pack records' one reading)."""
+    try:
+        obj = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        return None, f"not readable JSON: {type(err).__name__}"
+    return obj, problem(obj)
+
+
 def read_meta(path: Path, pack_command: str) -> dict:
     """The ``store.json`` at ``path``; TrainStoreError naming the file and its fix when it is corrupt (not
     JSON, or :func:`meta_problem`)."""
-    try:
-        meta = json.loads(path.read_text())
-    except (OSError, ValueError) as err:
-        meta, why = None, f"not readable JSON: {type(err).__name__}"
-    else:
-        why = meta_problem(meta)
+    meta, why = read_checked_json(path, meta_problem)
     if why:
         raise TrainStoreError(f"{path} is corrupt ({why}); delete {path.parent} and pack it again: "
                               f"{pack_command}")
