@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# The scaling study's legs (docs/benchmark.md "Scaling study"; the plan and the legs kept or dropped, with their
+# CPU-hours, in notes/scaling_plan.md), in priority order, each one Hydra multirun of `+sweep=scaling` with JOBS
+# jobs at a time, one thread each:
+#   1. F and NTASAD at 1000 steps on tiny and small (the first points of both curves);
+#   2. the diagnostics of the F - NTASAD gap at tiny x 1000 steps, seeds 0-2: NTASAD without its warp, without
+#      its previous output, and F whose F_d reads the warped previous output (docs/method.md);
+#   3. F and NTASAD at 3000 steps (seed 0), then F_paper, C and A at 1000 and 3000 on tiny and small;
+#   4. seeds 1-2 of F and NTASAD at 3000 on small, then 10000 steps on small;
+#   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A and NTASAD at 10000 (the bundles'
+#      candidates, docs/denoise.md), seeds 1-2 at 3000.
+#
+#   scripts/scaling_study.sh            # every leg; a rerun skips finished jobs and resumes the rest
+#   python -m mcd.report $STUDY_DIR/*   # the report (docs/benchmark.md "Scaling study")
+#
+# Env: PY (.venv/bin/python), JOBS (2), DATA_DIR (data: the rendered profiles; a leg waits while a
+# `python -m mcd.render data=<profile>` of its profile still runs), STUDY_DIR (multirun/scaling: the job
+# directories, <STUDY_DIR>/<profile>/<experiment>_steps<steps>_seed<seed>), WAIT_PID (a process to wait for
+# before the first leg, e.g. a leg started by an earlier copy of this script). Needs MCD_SCENES_DIR for the
+# scenes that are not vendored (docs/scenes.md). The jobs resume (ckpt_path=auto), so a session that ends in
+# the middle of a leg loses at most the steps since its last checkpoint.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+PY=${PY:-.venv/bin/python}
+export OMP_NUM_THREADS=1
+COMMON=("paths.data_dir=$(realpath -m "${DATA_DIR:-data}")" "hydra.sweep.dir=$(realpath -m "${STUDY_DIR:-multirun/scaling}")"
+  hydra/launcher=joblib "hydra.launcher.n_jobs=${JOBS:-2}" sweep_plan.allow_large=true)
+
+leg() {  # leg <overrides...>: one multirun; a failed job leaves its error.json and the next leg still runs
+  echo "=== $(date -u +%FT%TZ) leg: $* (commit $(git rev-parse --short HEAD))"
+  "$PY" -m mcd.run -m +sweep=scaling "$@" "${COMMON[@]}"
+  echo "=== $(date -u +%FT%TZ) leg done: exit $?"
+}
+wait_render() {  # a profile's store is complete once its render command has finished
+  while pgrep -f "mcd.render data=$1( |$)" >/dev/null; do sleep 60; done
+}
+
+if [ -n "${WAIT_PID:-}" ]; then while kill -0 "$WAIT_PID" 2>/dev/null; do sleep 30; done; fi
+GAP='sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[1000]}'  # seeds 0-2 at the diagnostics' point
+leg data=tiny train.max_steps=1000 +experiment=F,ntasad seed=0
+wait_render small
+leg data=small train.max_steps=1000 +experiment=F,ntasad seed=0
+leg data=tiny train.max_steps=1000 +experiment=F,ntasad,ntasad_no_warp,ntasad_no_previous,F_warp_previous \
+  seed=0,1,2 "$GAP"
+leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
+leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
+leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
+leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
+leg data=small train.max_steps=3000 +experiment=F,ntasad seed=1,2
+leg data=small train.max_steps=10000 +experiment=F,ntasad seed=0
+wait_render medium
+leg data=medium train.max_steps=1000,3000 +experiment=F,ntasad seed=0
+leg data=medium train.max_steps=10000 +experiment=F,A,ntasad seed=0
+leg data=medium train.max_steps=3000 +experiment=F,ntasad seed=1,2
