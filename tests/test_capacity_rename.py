@@ -1,4 +1,4 @@
-"""The config group ``model`` is now ``capacity`` (mcd/config.py, docs/architecture.md "Config"):
+"""The config group ``model`` is now ``capacity`` (mcd/config/compose.py, docs/architecture.md "Config"):
 the old override is refused before any work, naming the new group, and configs saved before the rename (a
 bundle's JSON, a run's checkpoint, a run directory's ``.hydra/`` choices, a bench row) still load."""
 
@@ -15,7 +15,7 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
-from mcd.config import compose, upgrade_saved
+from mcd.config.compose import compose, upgrade_saved
 from mcd.denoise.weights import BUNDLED_DIR, bundled_names, load
 from mcd.models import build
 from mcd.reporting.runs import load_run
@@ -37,7 +37,7 @@ def test_the_new_group_composes():
 
 
 @pytest.mark.parametrize("command", [
-    ["mcd.run", "+experiment=F", "model=paper"],  # a Hydra command (mcd.config.hydra_main)
+    ["mcd.run", "+experiment=F", "model=paper"],  # a Hydra command (mcd.config.compose.hydra_main)
     ["mcd.run", "model.x=1"],
     ["mcd.bench", "speed", "model=cpu"],  # the tools that take Hydra overrides on an argparse line
     ["mcd.bench", "profile", "--synthetic", "model=cpu"],

@@ -37,16 +37,16 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from mcd import allocator
 from mcd.bench.speed import frame_buffers, parse_size, store_frame
-from mcd.config import compose, exit_on_renamed
+from mcd.config.compose import compose, exit_on_renamed
+from mcd.core import allocator
+from mcd.core.machine import device_name
+from mcd.core.provenance import short_commit
 from mcd.core.stages import FlopClock, StageClock
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
-from mcd.machine import device_name
 from mcd.models.complexity import dummy_batch, flop_counter_mode
 from mcd.models.latency import model_inputs, sync
 from mcd.models.two_stage import TwoStage
-from mcd.provenance import short_commit
 
 #: The name of the time inside the call outside every label.
 OTHER = "other"
@@ -222,7 +222,7 @@ def main(argv: list[str] | None = None) -> None:
         f"plain frame {plain:.2f} ms ({100 * gap:+.1f}%"
         + (", beyond the tolerance: the clock changed the frame, or the load changed between calls)"
            if abs(gap) > args.tolerance else ")"),
-        f"- Allocator: {memory} (mcd/allocator.py); page faults during the measured calls: {faults}",
+        f"- Allocator: {memory} (mcd/core/allocator.py); page faults during the measured calls: {faults}",
         "",
         *table(ms, frame, gmacs),
         "",

@@ -3,7 +3,7 @@
 ``--checkpoint`` is a run directory of ``python -m mcd.run`` (its best checkpoint, else its last: the rule of
 ``transfer.init_from``, :func:`mcd.lit.transfer.checkpoint_of`), a ``.ckpt`` file of such a run, or the name
 of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.json``, made by
-``python -m mcd.tools.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
+``python -m mcd.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
 ``weights_only=True`` (:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the
 checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
 it exactly (:func:`mcd.lit.checkpoint.check_fits`). A bundle's JSON must parse and hold its ``config``, and a
@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.config import upgrade_saved
+from mcd.config.compose import upgrade_saved
 from mcd.denoise.work import MAX_PARAMS
 from mcd.lit import checkpoint
 

@@ -9,12 +9,12 @@ import json
 import numpy as np
 import pytest
 
-from mcd.config import upgrade_saved
+from mcd.config.compose import upgrade_saved
+from mcd.core.metrics import psnr
 from mcd.data.exr import read_exr
 from mcd.denoise.cli import run
 from mcd.denoise.frames import read_channels
 from mcd.denoise.weights import BUNDLED_DIR, bundled_names
-from mcd.metrics import psnr
 from tests.denoise.helpers import console_script, render_sequence, untrained_bundle
 
 BUNDLED = ("F-cpu-small", "unet-cpu-small")

@@ -9,7 +9,7 @@ import json
 import torch
 from omegaconf import OmegaConf, open_dict
 
-from mcd.config import upgrade_saved
+from mcd.config.compose import upgrade_saved
 from mcd.denoise.weights import BUNDLED_DIR, bundled_names, load
 from mcd.losses import build_loss
 from mcd.models import build

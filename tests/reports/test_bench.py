@@ -8,10 +8,10 @@ import csv
 import pytest
 import torch
 
-from mcd import allocator
 from mcd.bench import speed as bench
 from mcd.bench.__main__ import MODES
 from mcd.bench.__main__ import main as bench_command
+from mcd.core import allocator
 
 INTERFACE = ["method", "device", "dtype", "compiled", "height", "width", "ms_median", "fps"]
 

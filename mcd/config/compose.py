@@ -1,10 +1,10 @@
 """The one place configs are composed (docs/architecture.md, "Config"): :func:`compose` for tools, the denoise
 command and tests, :func:`hydra_main` for the Hydra commands (``mcd.run``, ``mcd.render``, ``mcd.plan``,
-``mcd.data.pack``, ``mcd.tools.check_paths``), so that every one sees exactly what a run sees.
+``mcd.pack``, ``mcd.check_paths``), so that every one sees exactly what a run sees.
 
 The experiment group holds ``conf/experiment/*.yaml`` (the baselines and references) and, registered here in
-Hydra's ConfigStore from the component table (:data:`mcd.methods.COMPONENTS`), rows A-M: the table is the one
-source of each row's switches (docs/method.md, "Component study").
+Hydra's ConfigStore from the component table (:data:`mcd.config.methods.COMPONENTS`), rows A-M: the table is
+the one source of each row's switches (docs/method.md, "Component study").
 
 It is also the one place that knows the config groups renamed since (:data:`RENAMED_GROUPS`): an override
 naming an old group is refused before any work (:func:`check_overrides`, in :func:`compose`; on a command
@@ -22,14 +22,14 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-from mcd.methods import COMPONENTS, component_experiment
-from mcd.paths import CONF_DIR
+from mcd.config.methods import COMPONENTS, component_experiment
+from mcd.core.paths import CONF_DIR
 
 #: Config groups renamed, old name -> today's: ``model`` (a capacity profile) is ``capacity``
 #: (``conf/capacity/``, docs/architecture.md "Config groups").
 RENAMED_GROUPS: dict[str, str] = {"model": "capacity"}
 #: Keys a saved record holds under an old name: the groups, and the run record's choice of the capacity group
-#: (``metrics.json``, mcd/run_record.py).
+#: (``metrics.json``, mcd/lit/run_record.py).
 RENAMED_KEYS: dict[str, str] = {**RENAMED_GROUPS, "model_profile": "capacity_profile"}
 
 
@@ -107,9 +107,9 @@ def compose(overrides: Iterable[str] = ()) -> DictConfig:
 
 def exit_on_invalid(cfg: DictConfig) -> None:
     """End the command with the first value that breaks its key's rule
-    (:func:`mcd.config_rules.check_config`) on one line (``error: <key>=<value>: ...``, no traceback), exit
-    status 2."""
-    from mcd.config_rules import ConfigError, check_config
+    (:func:`mcd.core.config_rules.check_config`) on one line (``error: <key>=<value>: ...``, no traceback),
+    exit status 2."""
+    from mcd.core.config_rules import ConfigError, check_config
 
     exit_2_on(ConfigError, check_config, cfg)
 
@@ -140,12 +140,12 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
 
     - an override on the command line that names a renamed group ends the command with
       :func:`check_overrides`' message and exit status 2, before Hydra composes anything;
-    - the config is checked against every key's rule (:mod:`mcd.config_rules`): a single run composes it
+    - the config is checked against every key's rule (:mod:`mcd.core.config_rules`): a single run composes it
       first (:func:`compose`) and ends with one ``error:`` line and exit status 2 before Hydra writes its run
       directory; the task checks it again (a sweep's job, or flags that Hydra composes alone), ending a single
-      run the same way and raising :class:`mcd.config_rules.ConfigError` in a sweep's job or a direct call
-      ``main(cfg)``, except with ``job_errors=True`` (``mcd.run``, whose preflight checks it and writes the
-      job's ``error.json`` so that the sweep goes on).
+      run the same way and raising :class:`mcd.core.config_rules.ConfigError` in a sweep's job or a direct
+      call ``main(cfg)``, except with ``job_errors=True`` (``mcd.run``, whose preflight checks it and writes
+      the job's ``error.json`` so that the sweep goes on).
     """
     if task is None:
         return functools.partial(hydra_main, job_errors=job_errors)
@@ -161,7 +161,7 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
         if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.RUN:
             exit_on_invalid(cfg)
         elif not job_errors:
-            from mcd.config_rules import check_config
+            from mcd.core.config_rules import check_config
 
             check_config(cfg)
         return task(cfg)
