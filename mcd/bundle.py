@@ -22,9 +22,8 @@ import torch
 import yaml
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.config.compose import upgrade_saved
 from mcd.core.paths import check_folder_name
-from mcd.denoise.weights import BUNDLED_DIR
+from mcd.denoise.weights import BUNDLED_DIR, check_schema
 from mcd.lit import checkpoint
 from mcd.lit.transfer import checkpoint_of
 
@@ -55,7 +54,8 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     metrics = json.loads(metrics_path.read_text())
     ckpt = checkpoint_of(run_dir)
     state = checkpoint.safe_load(ckpt, "run dir")
-    cfg = upgrade_saved(OmegaConf.create(state["hyper_parameters"]["cfg"]))  # mcd/config/compose.py
+    cfg = OmegaConf.create(state["hyper_parameters"]["cfg"])
+    check_schema(cfg, f"{ckpt}: its training config")
     weights = {k: v.detach().float().contiguous() for k, v in checkpoint.model_weights(state).items()}
     checkpoint.check_fits(build(cfg), weights, "run dir", ckpt)
     overrides_file = run_dir / ".hydra" / "overrides.yaml"
@@ -64,7 +64,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
         "command": None if overrides is None else " ".join(["python -m mcd.run", *overrides]),
         "checkpoint": f"{ckpt.relative_to(run_dir)} (global step {state.get('global_step')})",
         "train": OmegaConf.to_container(cfg.train, resolve=True),
-        "metrics": {k: upgrade_saved(metrics).get(k) for k in METRICS},
+        "metrics": {k: metrics.get(k) for k in METRICS},
         **({"source_commit": source_commit} if source_commit else {}),
     }
     return write_bundle(weights, cfg, name, provenance, out_dir)

@@ -125,9 +125,8 @@ def main(argv: list[str] | None = None) -> None:
         check(args.write, args.section)  # before any rendering or scoring
     if sigmas[0] <= 0:
         p.error(f"--sigma {sigmas[0]}: a blur is a positive number of pixels")
-    from mcd.config.compose import compose, exit_on_renamed
+    from mcd.config.compose import compose
 
-    exit_on_renamed(args.overrides)
     cfg = compose([f"data={args.data}", *args.overrides])
     text = provenance(argv, cfg) + table(cfg, sigmas)
     print(text)

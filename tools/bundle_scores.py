@@ -191,9 +191,6 @@ def main(argv: list[str] | None = None) -> None:
     args = p.parse_args(argv)
     if args.write is not None:
         check(args.write, SECTION)  # before any rendering or scoring
-    from mcd.config.compose import exit_on_renamed
-
-    exit_on_renamed(args.overrides)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     from mcd.denoise.weights import bundled_names
 

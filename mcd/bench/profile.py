@@ -38,7 +38,7 @@ import torch
 from torch import nn
 
 from mcd.bench.speed import frame_buffers, parse_size, store_frame
-from mcd.config.compose import compose, exit_on_renamed
+from mcd.config.compose import compose
 from mcd.core import allocator
 from mcd.core.machine import device_name
 from mcd.core.provenance import short_commit
@@ -164,7 +164,6 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, help="also write the table (markdown) here, unless refused")
     allocator.add_option(parser)
     args = parser.parse_args(argv)
-    exit_on_renamed(args.overrides)
     if args.repeat < 1 or args.warmup < 0:
         parser.error("--repeat needs at least 1 and --warmup at least 0")
     device = torch.device(args.device)

@@ -58,7 +58,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from mcd.config.compose import compose, exit_on_renamed
+from mcd.config.compose import compose
 from mcd.config.methods import CATALOGUE, display_name
 from mcd.core import allocator
 from mcd.core.machine import device_name, restart_peak_rss, status_mb
@@ -543,7 +543,6 @@ def main(argv: list[str] | None = None) -> None:
     allocator.add_option(parser)
     args = parser.parse_args(argv)
     overrides = list(args.overrides)
-    exit_on_renamed(overrides)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     log.info("allocator: %s", allocator.apply(args.allocator))
     if not any(o.startswith("capacity=") for o in overrides):

@@ -184,9 +184,6 @@ def main(argv: list[str] | None = None) -> None:
                          "(glibc's default)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    from mcd.config.compose import exit_on_renamed
-
-    exit_on_renamed(args.overrides)
     if args.child:  # one measurement: method profile path steps warmup threads allocator, overrides
         print(json.dumps(measure(args.methods, args.profiles, args.paths, args.steps, args.warmup,
                                  args.threads, args.overrides, args.allocators)))

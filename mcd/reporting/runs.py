@@ -20,7 +20,6 @@ import pandas as pd
 import yaml
 from omegaconf import OmegaConf
 
-from mcd.config.compose import upgrade_saved
 from mcd.core.metrics import FRAME_METRICS, PSNR_CAP_DB
 
 log = logging.getLogger(__name__)
@@ -293,12 +292,10 @@ def load_run(path: Path) -> Run:
     problem = problem or bad
     if not config and error is not None and isinstance(error.get("config"), dict):
         config = error["config"]
-    config = upgrade_saved(config or {})  # a run from before a group's rename reads as today's (mcd.config)
+    config = config or {}
     choices, bad = _read_yaml(path / ".hydra" / "hydra.yaml", _choices)
     problem = problem or bad
-    choices = upgrade_saved(
-        {str(k): str(v) for k, v in choices.items() if not str(k).startswith("hydra")} if choices else {}
-    )
+    choices = {str(k): str(v) for k, v in (choices or {}).items() if not str(k).startswith("hydra")}
     if problem:
         metrics, error = None, {**(error or {}), "error": problem, "corrupt": problem}
     return Run(path=path, config=config, overrides=overrides or [], choices=choices, metrics=metrics,

@@ -27,7 +27,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
-from mcd.config.compose import upgrade_saved  # noqa: E402
 from mcd.config.methods import BY_EXPERIMENT, display_name  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
@@ -63,8 +62,8 @@ def run_config(run: Run) -> dict:
     """The run's composed config: ``resolved_config.yaml`` where the run has one, else its
     ``.hydra/config.yaml``."""
     resolved = run.path / "resolved_config.yaml"
-    if resolved.is_file():  # a run from before a group's rename reads as today's (upgrade_saved)
-        return upgrade_saved(OmegaConf.to_container(OmegaConf.load(resolved), resolve=False))
+    if resolved.is_file():
+        return OmegaConf.to_container(OmegaConf.load(resolved), resolve=False)
     return run.config
 
 
