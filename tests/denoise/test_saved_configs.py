@@ -70,7 +70,7 @@ def test_a_run_checkpoint_with_retired_keys_loads(tmp_path):
     old["loss"]["module"] = None                                   # retired: loss modules are built-in
     old["loss"].pop("vgg16_weights")                               # not written before mcd/losses/
     old["trainer"]["limit_train_batches"] = old["train"]["limit_train_batches"]  # retired: train.* owns it
-    for key in ("colour", "sampling"):                              # not written before conf/method/
+    for key in ("colour",):                                         # not written before conf/method/
         old["method"].pop(key)
     model = build(cfg)
     state = {"state_dict": {f"model.{k}": v for k, v in model.state_dict().items()},
