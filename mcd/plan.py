@@ -5,7 +5,7 @@ The plan counts, from the config alone:
 
 - the EXR store's bytes: per frame (the buffers ``mcd.render`` writes for this config: ``render.buffers``,
   default those the configured method reads plus ``ref`` and the uniform render at the budget,
-  :func:`mcd.workload.requested_buffers`; ``motion`` brings ``depth``), per scene and in all, uncompressed
+  :func:`mcd.lit.workload.requested_buffers`; ``motion`` brings ``depth``), per scene and in all, uncompressed
   float32 (G-buffers and motion are stored ZIP-compressed, so smaller: an upper bound);
 - the training store's bytes (:mod:`mcd.data.train_store`: the training and validation frames of
   ``data.train_scenes``, the run's buffers, float32 and float16), per frame as the pack writes it: square
@@ -21,7 +21,7 @@ and it measures, on the machine it runs on, in this process (``plan.measure=fals
 
 - render speed: a pilot render of one real scene of the profile (the first whose file is found),
   ``plan.pilot_frames`` frames at 1/``plan.pilot_scale`` of the size (at most 512x512 pixels,
-  :func:`mcd.workload.pilot_size`) and ``plan.pilot_spp`` spp after one
+  :func:`mcd.lit.workload.pilot_size`) and ``plan.pilot_spp`` spp after one
   warm-up frame; seconds per sample
   = seconds / (pixels x spp x frames), times the profile's samples gives the render time here;
 - training memory and time per step: one real forward and backward of the configured method and loss on a
@@ -37,12 +37,12 @@ and it measures, on the machine it runs on, in this process (``plan.measure=fals
 
 GPU figures: where CUDA is present the pilot runs on the CUDA variant and the step on the GPU, and the figures
 are measured. Elsewhere they are derived: render time from the reference GPU's seconds per sample
-(:data:`mcd.workload.GPU_S_PER_SAMPLE`, measured by scripts/device_check.sh on the pilot scene: docs/scale.md
-"Measured on a GPU"); a training step as the local step time divided by the local render time's ratio to
-the reference GPU's (the same ratio assumed for both: a rough figure, said so in the output). GPU-hours =
-render samples x GPU seconds per sample + run steps x GPU seconds per step.
+(:data:`mcd.lit.workload.GPU_S_PER_SAMPLE`, measured by scripts/device_check.sh on the pilot scene:
+docs/scale.md "Measured on a GPU"); a training step as the local step time divided by the local render time's
+ratio to the reference GPU's (the same ratio assumed for both: a rough figure, said so in the output).
+GPU-hours = render samples x GPU seconds per sample + run steps x GPU seconds per step.
 
-``mcd.run`` and ``mcd.render`` log the counts alone before their work (:func:`mcd.workload.announce`: the
+``mcd.run`` and ``mcd.render`` log the counts alone before their work (:func:`mcd.lit.workload.announce`: the
 figures of ``plan.measure=false`` for the buffers they render; no pilot render, no training step, no model):
 the measured figures are this command's.
 """
@@ -56,8 +56,8 @@ from typing import Any
 
 from omegaconf import DictConfig
 
-from mcd.config import hydra_main
-from mcd.workload import (
+from mcd.config.compose import hydra_main
+from mcd.lit.workload import (
     GPU_S_PER_SAMPLE,
     _gb,
     _range,

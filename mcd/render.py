@@ -25,9 +25,9 @@ import sys
 
 from omegaconf import DictConfig
 
-from mcd.config import hydra_main
+from mcd.config.compose import hydra_main
 from mcd.data.shards import Selection
-from mcd.workload import requested_buffers
+from mcd.lit.workload import requested_buffers
 
 log = logging.getLogger("mcd.render")
 
@@ -36,7 +36,7 @@ log = logging.getLogger("mcd.render")
 def main(cfg: DictConfig) -> dict:
     from mcd.data.store_builder import StoreBuilder  # here, not above: a fast --help (docs/architecture.md)
     from mcd.lit.transfer import prepare
-    from mcd.workload import announce
+    from mcd.lit.workload import announce
 
     cfg, _ = prepare(cfg)  # a transfer run reads its held-out scenes only
     store = StoreBuilder.from_cfg(cfg)

@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mcd.paths import UnsafeNameError, check_folder_name
+from mcd.core.paths import UnsafeNameError, check_folder_name
 
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
     import pandas as pd
@@ -213,10 +213,11 @@ def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[F
 
 def report_name(runs: list[Run], name: str | None) -> str:
     """The report's folder name under the output root: ``name`` (``--name``), else the runs' one data profile
-    (``combined`` for several). Either must be one plain folder name (:func:`mcd.paths.check_folder_name`):
-    a profile comes from the runs' records (``data_profile`` in ``metrics.json``, or Hydra's choice of
-    ``data`` in ``.hydra/hydra.yaml``), and ``/`` or ``..`` in it would write, and delete, outside the output
-    root. UnsafeNameError naming the field and the file, or ``--name``, before anything is written."""
+    (``combined`` for several). Either must be one plain folder name
+    (:func:`mcd.core.paths.check_folder_name`): a profile comes from the runs' records (``data_profile`` in
+    ``metrics.json``, or Hydra's choice of ``data`` in ``.hydra/hydra.yaml``), and ``/`` or ``..`` in it
+    would write, and delete, outside the output root. UnsafeNameError naming the field and the file, or
+    ``--name``, before anything is written."""
     why = "the report is written to <out>/<name>/"
     if name is not None:
         return check_folder_name(name, "--name", why)

@@ -4,16 +4,16 @@ test it on whole sequences, and write the run directory (docs/architecture.md, "
 Shape: :func:`build` (check the config, render or reuse the data, build model, datamodule, module, callbacks
 and trainer), :func:`fit` (train within the budget, agree on the best checkpoint), :func:`run_test` (the test
 recorder, ``mcd.lit.test_recorder``, writes ``frames.csv`` and ``samples/``), then :func:`run_record`, the
-``metrics.json`` of ``mcd.run_record``. Under ``trainer=ddp`` every process runs all of it; validation
+``metrics.json`` of ``mcd.lit.run_record``. Under ``trainer=ddp`` every process runs all of it; validation
 metrics are averaged over the processes, rank 0 tests every frame and alone writes the run's files.
 
 Overrides: ``paths.data_dir=<dir>``, ``hydra.run.dir=<dir>``, ``ckpt_path=<file>`` (resume training from a
 checkpoint; ``auto``: from the run directory's ``last.ckpt`` if a killed run left one, as the sweeps do),
 ``trainer.precision=bf16-mixed`` (GPU), any ``train.*`` / ``data.*`` / ``method.*`` key.
 Sweeps (``-m``): a job whose output directory already holds a complete ``metrics.json`` of the same job
-(``mcd.run_record.job_identity``) is skipped, one of another job is an error; a job that raises writes
+(``mcd.lit.run_record.job_identity``) is skipped, one of another job is an error; a job that raises writes
 ``error.json`` (overrides, config, traceback) and the sweep goes on, then exits 1 naming the failed jobs
-(``mcd.hydra_callbacks.FailedJobs``). A single run re-raises.
+(``mcd.lit.hydra_callbacks.FailedJobs``). A single run re-raises.
 """
 
 from __future__ import annotations
@@ -34,15 +34,16 @@ from hydra.types import RunMode
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
-from mcd import allocator, run_dir
-from mcd.config import hydra_main
-from mcd.machine import device_name
+from mcd.config.compose import hydra_main
+from mcd.config.preflight import check_augment, check_motion, check_run, check_train_store
+from mcd.core import allocator
+from mcd.core.machine import device_name
+from mcd.core.provenance import git_commit
+from mcd.lit import run_dir
+from mcd.lit.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
+from mcd.lit.run_summary import summary
+from mcd.lit.workload import announce
 from mcd.models.switches import check_switches, switch_row
-from mcd.preflight import check_augment, check_motion, check_run, check_train_store
-from mcd.provenance import git_commit
-from mcd.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
-from mcd.run_summary import summary
-from mcd.workload import announce
 
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
     import lightning as L
@@ -122,9 +123,9 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     """Check the config, render (or reuse) the data, and build model, datamodule, module and trainer.
 
     Everything that can fail on the config alone fails before anything is rendered: impossible switches, the
-    budget and image size (mcd.preflight), a missing or unfitting ``ckpt_path``, a run directory holding an
-    interrupted run of another job (``mcd.run_record.claim_run_dir``; ``choices``: Hydra's config-group
-    choices, for the job's data profile).
+    budget and image size (mcd.config.preflight), a missing or unfitting ``ckpt_path``, a run directory
+    holding an interrupted run of another job (``mcd.lit.run_record.claim_run_dir``; ``choices``: Hydra's
+    config-group choices, for the job's data profile).
     """
     import lightning as L
     from lightning.pytorch.callbacks import ModelCheckpoint
@@ -238,7 +239,7 @@ def fit(job: Job) -> Fitted:
         return Fitted(checkpoint=None, best_val_psnr=None, stop_reason="not trained",
                       seconds=time.perf_counter() - t0, segments=[])
     if trainer.strategy.root_device.type == "cpu":
-        from mcd.cpu_threads import fit_to_load
+        from mcd.core.cpu_threads import fit_to_load
 
         fit_to_load()  # fewer threads beside other CPU-bound jobs, unless OMP_NUM_THREADS chose
     with warnings.catch_warnings():
@@ -272,7 +273,7 @@ def run_test(job: Job, checkpoint: str | None) -> float:
 
 def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str], code: dict[str, object],
                started: float) -> RunRecord:
-    """The :class:`~mcd.run_record.RunRecord` of a tested job (rank 0: it holds the test's averages)."""
+    """The :class:`~mcd.lit.run_record.RunRecord` of a tested job (rank 0: it holds the test's averages)."""
     import torch
 
     from mcd.models.complexity import complexity, count_params
@@ -364,16 +365,16 @@ def main(cfg: DictConfig) -> None:
     from lightning.pytorch.utilities import rank_zero_only
 
     started = time.perf_counter()
-    allocator.keep_freed_memory()  # training steps and full test frames reuse freed pages (mcd/allocator.py)
+    allocator.keep_freed_memory()  # training steps and full test frames reuse freed pages (core/allocator)
     hydra_cfg = HydraConfig.get()
     out_dir = Path(hydra_cfg.runtime.output_dir)
     choices = dict(hydra_cfg.runtime.choices)
-    # a finished run is never written again (mcd/run_dir.py): skipped, or refused when it is another job's,
-    # before the lock is taken and outside the try (no error.json); Hydra wrote nothing there either
+    # a finished run is never written again (mcd/lit/run_dir.py): skipped, or refused when it is another
+    # job's, before the lock is taken and outside the try (no error.json); Hydra wrote nothing there either
     if _skip_finished(out_dir, cfg, choices):
         return
-    # one owner per run directory (mcd/run_dir.py): a second process is refused here, before it touches the
-    # directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
+    # one owner per run directory (mcd/lit/run_dir.py): a second process is refused here, before it touches
+    # the directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
     owner = run_dir.hold(out_dir) if rank_zero_only.rank == 0 else contextlib.nullcontext()
     with owner:
         if _skip_finished(out_dir, cfg, choices):  # it finished while this process started

@@ -11,7 +11,7 @@
 # that the report small_converged measured at the earlier capacity cpu (git show
 # 98e0240:reports/small_converged/curves.csv: seconds over steps per method, AMD EPYC, two jobs sharing 2
 # cores, one thread each; a shared machine, so rough) scaled by each method's MACs
-# at the equal-share widths (python -m mcd.tools.complexity): A-M about 10 s (I, K, L, M taken as F's), the
+# at the equal-share widths (python -m mcd.complexity): A-M about 10 s (I, K, L, M taken as F's), the
 # five trained baselines about 9 s, spp about 11 s (F, NTASAD, A at 4 budgets), seeds about 7 s (A, B, C, F at
 # 4 seeds), transfer about 1 s: about 38 CPU-seconds per step, so at 1000 steps about 11 CPU-hours with
 # validation and testing, about 6 hours of wall time on 2 cores with JOBS=2, more than one session: the
@@ -69,12 +69,12 @@ stage() {
     seeds) one_commit; sweep seeds A,B,C,F seed=1,2,3,4 ;;           # seed 0: the ablation jobs
     transfer) one_commit; sweep transfer F,A "transfer.init_from=$ROOT/ablation/$DATA$TAG/\${experiment}_spp4" ;;
     report)
-      local todo=() d  # the edge effect of each finished job not measured since it finished (mcd/tools/edge_effect.py)
+      local todo=() d  # the edge effect of each finished job not measured since it finished (tools/edge_effect.py)
       for d in "$ROOT"/*/"$DATA$TAG"/*/; do
         if [ -f "$d/metrics.json" ] && [ "$d/metrics.json" -nt "$d/edges.json" ]; then todo+=("$d"); fi
       done
       if [ ${#todo[@]} -gt 0 ]; then  # a job it cannot measure keeps an empty cell; the report still runs
-        "$PY" -m mcd.tools.edge_effect "${todo[@]}" || echo "edge effect: some jobs not measured (above)" >&2
+        "$PY" -m tools.edge_effect "${todo[@]}" || echo "edge effect: some jobs not measured (above)" >&2
       fi
       # shellcheck disable=SC2086  # REPORT_ARGS is a list of words
       "$PY" -m mcd.report "$ROOT"/*/"$DATA$TAG" --name "$NAME" --out "$OUT" ${REPORT_ARGS:-} \

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcd.config import compose
-from mcd.paths import CONF_DIR as _CONF_DIR
+from mcd.config.compose import compose
+from mcd.core.paths import CONF_DIR as _CONF_DIR
 
 CONF_DIR = str(_CONF_DIR)
 

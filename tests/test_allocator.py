@@ -1,6 +1,6 @@
-"""mcd/allocator.py: with ``keep_freed_memory`` the full-frame tensors of later frames reuse the pages earlier
-ones freed (no page faults); with glibc's default every frame faults all of its pages in again. Each case
-runs in its own process, since the setting is process-wide."""
+"""mcd/core/allocator.py: with ``keep_freed_memory`` the full-frame tensors of later frames reuse the pages
+earlier ones freed (no page faults); with glibc's default every frame faults all of its pages in again. Each
+case runs in its own process, since the setting is process-wide."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from mcd import allocator
+from mcd.core import allocator
 
 pytestmark = pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="the setting is glibc's")
 
@@ -18,7 +18,7 @@ PROBE = """
 import sys
 from pathlib import Path
 import torch
-from mcd import allocator
+from mcd.core import allocator
 
 def minor_faults():
     return int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[7])

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf, open_dict
 
-from mcd.config import experiment_names
+from mcd.config.compose import experiment_names
+from mcd.config.methods import COMPONENTS, TABLE1_VARIANTS
 from mcd.lit import budget
 from mcd.losses import LOSSES, build_loss
-from mcd.methods import COMPONENTS, TABLE1_VARIANTS
 from mcd.models import METHODS
 from mcd.models.switches import SWITCHES
 from tests.conftest import compose_cfg
@@ -87,11 +87,11 @@ def test_every_group_file_names_a_registered_entry() -> None:
 
 
 def test_one_registry_type_for_methods_and_losses() -> None:
-    """Both registries are :class:`mcd.registry.Registry`: the same plug-in rule and the same errors."""
+    """Both registries are :class:`mcd.core.registry.Registry`: the same plug-in rule and the same errors."""
     from torch import nn
 
+    from mcd.core.registry import Registry, UnknownName
     from mcd.models import build, register
-    from mcd.registry import Registry, UnknownName
 
     assert isinstance(METHODS, Registry) and isinstance(LOSSES, Registry)
     cfg = compose_cfg("+experiment=A")

@@ -1,4 +1,4 @@
-"""A CPU training on a busy machine takes the free cores only (mcd/cpu_threads.py; docs/training.md "CPU
+"""A CPU training on a busy machine takes the free cores only (mcd/core/cpu_threads.py; docs/training.md "CPU
 threads"): the measurement sees real busy processes, and the thread count follows it unless the user chose."""
 
 import os
@@ -8,7 +8,7 @@ import sys
 import pytest
 import torch
 
-from mcd import cpu_threads
+from mcd.core import cpu_threads
 
 BUSY_LOOP = "import time\nt = time.time() + 30\nwhile time.time() < t: pass\n"
 

@@ -15,12 +15,12 @@ from pathlib import Path
 import pytest
 import torch
 
-from mcd.config import compose
+from mcd.config.compose import compose
+from mcd.config.preflight import check_augment, check_motion, check_run
 from mcd.data import BUFFERS
 from mcd.models import build
 from mcd.models.inputs import compress
 from mcd.models.warp import warp
-from mcd.preflight import check_augment, check_motion, check_run
 from tests.conftest import compose_cfg, store32_overrides
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,6 +1,6 @@
-"""Rows A-M of the component study have one source, the table of :mod:`mcd.methods`: no
-``conf/experiment/<row>.yaml`` repeats a row's switches; :mod:`mcd.config` registers each row in Hydra's
-ConfigStore, and every way a config is composed (``compose``, ``python -m mcd.run``/``mcd.render``/
+"""Rows A-M of the component study have one source, the table of :mod:`mcd.config.methods`: no
+``conf/experiment/<row>.yaml`` repeats a row's switches; :mod:`mcd.config.compose` registers each row in
+Hydra's ConfigStore, and every way a config is composed (``compose``, ``python -m mcd.run``/``mcd.render``/
 ``mcd.plan``, a multirun on the joblib launcher, ``mcd-denoise --experiment``) takes the switches from the
 table (docs/architecture.md, "Config")."""
 
@@ -14,11 +14,11 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from mcd import methods
-from mcd.config import compose, experiment_names
-from mcd.methods import COMPONENTS
+from mcd.config import methods
+from mcd.config.compose import compose, experiment_names
+from mcd.config.methods import COMPONENTS
+from mcd.core.paths import CONF_DIR
 from mcd.models.switches import SWITCHES
-from mcd.paths import CONF_DIR
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -57,7 +57,7 @@ def test_every_hydra_command_and_a_joblib_multirun_compose_rows_from_the_table(t
         saved = OmegaConf.load(tmp_path / "sw" / str(job) / ".hydra" / "config.yaml")
         assert saved.experiment == row
         assert {s: saved.method[s] for s in SWITCHES} == COMPONENTS[row]["switches"], row
-    for command in ("mcd.run", "mcd.render", "mcd.data.pack", "mcd.tools.check_paths"):
+    for command in ("mcd.run", "mcd.render", "mcd.pack", "mcd.check_paths"):
         out = subprocess.run([sys.executable, "-m", command, "+experiment=K", "--cfg", "job"], check=True,
                              cwd=tmp_path, env=env, capture_output=True, text=True).stdout
         printed = OmegaConf.create(out)

@@ -16,8 +16,8 @@ import torch
 import yaml
 from omegaconf import OmegaConf
 
-from mcd.config import compose
-from mcd.methods import BY_EXPERIMENT, TABLE1_VARIANTS
+from mcd.config.compose import compose
+from mcd.config.methods import BY_EXPERIMENT, TABLE1_VARIANTS
 from tests.conftest import compose_cfg, store32_overrides
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,6 +1,6 @@
-"""mcd/file_lock.py: the one ``flock`` helper of the run directory's lock, the EXR store's scene and frame
-locks and the training store's packer lock. ``flock`` treats two ``open`` calls of one file as two holders,
-even in one process, so these cases need no second process."""
+"""mcd/core/file_lock.py: the one ``flock`` helper of the run directory's lock, the EXR store's scene and
+frame locks and the training store's packer lock. ``flock`` treats two ``open`` calls of one file as two
+holders, even in one process, so these cases need no second process."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import threading
 
 import pytest
 
-from mcd import file_lock
-from mcd.run_dir import LOCK_NAME, RunDirInUse, hold
+from mcd.core import file_lock
+from mcd.lit.run_dir import LOCK_NAME, RunDirInUse, hold
 
 
 def test_a_non_blocking_try_on_a_held_lock_yields_none_and_leaves_the_holders_notes(tmp_path):

@@ -8,33 +8,30 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 MCD = Path(__file__).resolve().parents[1] / "mcd"
 
-#: Layer of each top-level part of ``mcd`` (a subpackage or a module), lowest first. A module may import
-#: its own layer and those below it, never one above.
+#: The layer of each folder of ``mcd``, lowest first: a module imports its own layer and those below it, never
+#: one above. The modules at ``mcd/``'s top level are the commands (``python -m mcd.<name>``), the top layer
+#: (:data:`COMMANDS`); ``mcd/__init__.py`` holds the version and imports nothing. A new folder needs its row.
 LAYERS: dict[str, int] = {
-    # plumbing: ``mcd/core/`` (the atomic write), and one home each for paths, provenance, registries,
-    # metrics, the machine, file locks, threads
-    **dict.fromkeys(("core", "__init__", "paths", "provenance", "registry", "metrics", "machine", "allocator",
-                     "file_lock", "cpu_threads"), 0),
-    # rendering, the store, sampling maps, and the checks a run's config gets before anything renders
-    **dict.fromkeys(("data", "sampling", "preflight", "config_rules"), 1),
-    # networks and losses; the methods, and config composition (which registers rows A-M from them)
-    **dict.fromkeys(("models", "losses", "methods", "config"), 2),
-    # training and testing (Lightning)
-    **dict.fromkeys(("lit", "run_record"), 3),
-    # the product's commands and what they write: train, render, denoise, report
-    **dict.fromkeys(("run", "render", "denoise", "reporting", "report", "hydra_callbacks", "sweep_plan"), 4),
-    # the product's measuring tools (complexity, edge effect, path check, bundling), and the bench command
-    "tools": 5,
-    "bench": 6,
+    "__init__": 0,
+    # plumbing and the config's rules: what every layer above may use
+    "core": 0,
+    # rendering, the stores, the datamodule; sampling maps
+    "data": 1, "sampling": 1,
+    # networks and losses
+    "models": 2, "losses": 2,
+    # what a run is asked to be: the methods' catalogue, config composition, the checks before any work
+    "config": 3,
+    # training, testing and a run's record, directory and counts
+    "lit": 4,
+    # denoising frames and scenes, reports, benchmarks
+    "denoise": 5, "reporting": 5, "bench": 5,
 }
-#: Modules that are commands kept beside their package (``python -m mcd.data.pack``, and what measures it):
-#: they sit with the product's commands, whatever their package's layer.
-COMMAND_MODULES: dict[str, int] = {"mcd.data.pack": 4, "mcd.data.loader_rate": 4}
-#: Where a part not listed above sits: with the product's commands (so it may use the whole product, and
-#: nothing below imports it unnoticed).
-NEW_PART = 4
+#: The layer of the commands, the modules at ``mcd/``'s top level.
+COMMANDS = max(LAYERS.values()) + 1
 
 
 def module_name(path: Path, root: Path = MCD) -> str:
@@ -74,6 +71,18 @@ def part(module: str) -> str:
     return pieces[1] if len(pieces) > 1 else "__init__"
 
 
+def layer(module: str, root: Path = MCD) -> int:
+    """The layer of an ``mcd`` module: its folder's (:data:`LAYERS`), or :data:`COMMANDS` for a module at the
+    package's top level; KeyError for a folder without a layer."""
+    name = part(module)
+    if name in LAYERS:
+        return LAYERS[name]
+    if (root / f"{name}.py").is_file():
+        return COMMANDS
+    raise KeyError(f"mcd/{name}/ has no layer: give it one in LAYERS (tests/test_layers.py, "
+                   "docs/architecture.md)")
+
+
 def circles(graph: dict[str, set[str]]) -> list[list[str]]:
     """The strongly connected components of more than one module (Tarjan), each sorted."""
     index: dict[str, int] = {}
@@ -109,9 +118,9 @@ def circles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
-def upward(graph: dict[str, set[str]]) -> list[str]:
+def upward(graph: dict[str, set[str]], root: Path = MCD) -> list[str]:
     """Every import from a lower layer into a higher one, as ``a (layer) -> b (layer)``."""
-    rank = {m: COMMAND_MODULES.get(m, LAYERS.get(part(m), NEW_PART)) for m in graph}
+    rank = {m: layer(m, root) for m in graph}
     return sorted(f"{a} ({rank[a]}) -> {b} ({rank[b]})" for a, deps in graph.items() for b in deps
                   if rank[b] > rank[a])
 
@@ -144,17 +153,21 @@ def test_the_product_imports_no_lab_tool(tmp_path):
 
 
 def test_the_checks_catch_a_circle_and_an_upward_import(tmp_path):
-    """The same checks on a small package with one circle and one upward import find both."""
+    """The same checks on a small package with two circles and one upward import find them, and a folder
+    without a layer is refused by name."""
     pkg = tmp_path / "mcd"
-    (pkg / "data").mkdir(parents=True)
-    (pkg / "tools").mkdir()
-    for init in (pkg, pkg / "data", pkg / "tools"):
+    for folder in ("core", "data"):
+        (pkg / folder).mkdir(parents=True)
+    for init in (pkg, pkg / "data", pkg / "core"):
         (init / "__init__.py").write_text("")
-    (pkg / "data" / "store.py").write_text("def f():\n    from mcd.tools import complexity\n")
-    (pkg / "tools" / "complexity.py").write_text("from mcd.data.store import f\n")
-    (pkg / "metrics.py").write_text("from . import paths\n")
-    (pkg / "paths.py").write_text("import mcd.metrics\n")
+    (pkg / "data" / "store.py").write_text("def f():\n    from mcd import complexity\n")
+    (pkg / "complexity.py").write_text("from mcd.data.store import f\n")
+    (pkg / "core" / "metrics.py").write_text("from . import paths\n")
+    (pkg / "core" / "paths.py").write_text("import mcd.core.metrics\n")
     graph = import_graph(pkg)
-    assert circles(graph) == [["mcd.data.store", "mcd.tools.complexity"], ["mcd.metrics", "mcd.paths"]]
-    assert upward(graph) == ["mcd.data.store (1) -> mcd.tools.complexity (5)"]
-
+    assert circles(graph) == [["mcd.complexity", "mcd.data.store"], ["mcd.core.metrics", "mcd.core.paths"]]
+    assert upward(graph, pkg) == [f"mcd.data.store (1) -> mcd.complexity ({COMMANDS})"]
+    (pkg / "tools").mkdir()
+    (pkg / "tools" / "bundle.py").write_text("")
+    with pytest.raises(KeyError, match="mcd/tools/ has no layer"):
+        upward(import_graph(pkg), pkg)

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from mcd.metrics import MAP_COLLAPSED, MAP_EDGE_BOUND, map_health, map_ring_share, map_spread
+from mcd.core.metrics import MAP_COLLAPSED, MAP_EDGE_BOUND, map_health, map_ring_share, map_spread
 from mcd.reporting import map_health as report_health
 from mcd.reporting.finding import Finding, render
 from mcd.reporting.runs import Run, find_runs

@@ -1,4 +1,4 @@
-"""Each method's display name has one definition, its entry in :mod:`mcd.methods` (issue 31,
+"""Each method's display name has one definition, its entry in :mod:`mcd.config.methods` (issue 31,
 docs/architecture.md "Methods"): no other string in ``mcd/`` spells it, so that a table, legend, label or
 printed comparison cannot drift from the catalogue. Docstrings that cite a name and error messages (inside
 ``raise``) are prose about the method, not its label, and are not counted."""
@@ -9,7 +9,7 @@ import ast
 import re
 from pathlib import Path
 
-from mcd.methods import CATALOGUE
+from mcd.config.methods import CATALOGUE
 
 MCD = Path(__file__).resolve().parents[1] / "mcd"
 #: The names tables and legends show (the component rows' one-letter names are their experiments).
@@ -36,9 +36,9 @@ def spelled_names(source: str, names: list[str] = NAMES) -> list[tuple[int, str]
 
 def test_the_catalogue_is_the_one_place_a_display_name_is_spelled():
     found = {f"{p.relative_to(MCD.parent)}:{line}": name for p in sorted(MCD.rglob("*.py"))
-             if p != MCD / "methods.py" for line, name in spelled_names(p.read_text())}
-    assert not found, f"use mcd.methods.display_name(<experiment>) instead of spelling the name: {found}"
-    in_catalogue = [name for _, name in spelled_names((MCD / "methods.py").read_text())]
+             if p != MCD / "config" / "methods.py" for line, name in spelled_names(p.read_text())}
+    assert not found, f"use mcd.config.methods.display_name(<experiment>) instead of spelling it: {found}"
+    in_catalogue = [name for _, name in spelled_names((MCD / "config" / "methods.py").read_text())]
     assert sorted(in_catalogue) == sorted(NAMES), "each name once, in its entry"
 
 

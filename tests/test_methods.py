@@ -1,4 +1,5 @@
-"""The method catalogue (mcd/methods.py) agrees with the configs and the model registry: every entry composes
+"""The method catalogue (mcd/config/methods.py) agrees with the configs and the model registry: every entry
+composes
 from its experiment to its ``method.name`` and builds, and every experiment that is not a component row has
 an entry, so tables, the bench and the reports cannot miss a method."""
 
@@ -6,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from mcd.config import compose, experiment_names
-from mcd.methods import (
+from mcd.config.compose import compose, experiment_names
+from mcd.config.methods import (
     BY_EXPERIMENT,
     CATALOGUE,
     COMPONENTS,
@@ -29,7 +30,7 @@ def test_each_entry_composes_to_its_method(entry):
 def test_every_experiment_that_is_not_a_component_row_has_an_entry():
     experiments = set(experiment_names())
     others = experiments - set(COMPONENTS)
-    assert others <= set(BY_EXPERIMENT), f"add {sorted(others - set(BY_EXPERIMENT))} to mcd/methods.py"
+    assert others <= set(BY_EXPERIMENT), f"add {sorted(others - set(BY_EXPERIMENT))} to mcd/config/methods.py"
     assert set(BY_EXPERIMENT) <= experiments
 
 

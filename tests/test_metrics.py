@@ -1,4 +1,4 @@
-"""mcd.metrics against known answers (docs/benchmark.md "Metrics")."""
+"""mcd.core.metrics against known answers (docs/benchmark.md "Metrics")."""
 
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from skimage.metrics import structural_similarity
 
-from mcd import metrics
+from mcd.core import metrics
 
 
 def from_display(d: np.ndarray) -> np.ndarray:

@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from mcd.methods import COMPONENTS
+from mcd.config.methods import COMPONENTS
+from mcd.core.paths import CONF_DIR, PACKAGE_DIR, VENDORED_SCENES_DIR
 from mcd.models.switches import SWITCHES
-from mcd.paths import CONF_DIR, PACKAGE_DIR, VENDORED_SCENES_DIR
 
 REPO = Path(__file__).resolve().parents[1]
 LAB = REPO / "tools"  # the investigation tools: not packaged (tools/README.md)
@@ -53,7 +53,7 @@ def test_the_wheel_carries_conf_scenes_and_bundles(wheel):
     assert "mcd/conf/config.yaml" in wanted and "mcd/scenes/cbox/scene.xml" in wanted
     assert wanted - names == set(), "package data missing from the wheel: pyproject.toml [tool.setuptools]"
     assert {"mcd/run.py", "mcd/denoise/cli.py", "mcd/bench/__main__.py", "mcd/bench/speed.py",
-            "mcd/tools/complexity.py"} <= names
+            "mcd/complexity.py"} <= names
     # the planned sweeper's name for Hydra (conf/hydra/sweeper/planned.yaml), outside the mcd package
     assert "hydra_plugins/mcd_sweep_plan/planned_sweeper.py" in names
 
@@ -70,9 +70,10 @@ def test_no_lab_tool_is_in_the_wheel(wheel):
 def test_the_installed_package_runs_from_another_folder(wheel, tmp_path):
     """The wheel installed (not editable) into a folder of its own and run from a folder outside the checkout,
     with nothing of the checkout on the path: ``python -m mcd.run --help`` lists the groups (``paths``) and
-    rows A-M (registered from the component table, mcd/config.py); ``+experiment=C`` composes to row C; a
-    ``paths.scenes_dir`` that names no folder is refused naming the key; ``mcd-denoise --experiment oidn``
-    denoises frames rendered by the installed ``mcd.denoise.render_frames`` from its vendored Cornell box."""
+    rows A-M (registered from the component table, mcd/config/compose.py); ``+experiment=C`` composes to row
+    C; a ``paths.scenes_dir`` that names no folder is refused naming the key; ``mcd-denoise --experiment
+    oidn`` denoises frames rendered by the installed ``mcd.denoise.render_frames`` from its vendored Cornell
+    box."""
     site = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "-q",
                     "--target", str(site), str(wheel)], check=True, capture_output=True, timeout=300)
@@ -85,7 +86,8 @@ def test_the_installed_package_runs_from_another_folder(wheel, tmp_path):
         return subprocess.run([sys.executable, *args], cwd=work, env=env, capture_output=True, text=True,
                               check=check, timeout=600)
 
-    where = mcd("-c", "import mcd, mcd.paths as p; print(mcd.__file__); print(p.CONF_DIR)").stdout.split()
+    where = mcd("-c",
+    "import mcd, mcd.core.paths as p; print(mcd.__file__); print(p.CONF_DIR)").stdout.split()
     assert all(Path(w).is_relative_to(site) for w in where), where
     groups = mcd("-m", "mcd.run", "--help").stdout
     assert "paths: default" in groups

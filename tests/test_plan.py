@@ -17,8 +17,8 @@ import pytest
 import mcd
 from mcd.data import StoreBuilder
 from mcd.data.pack import pack
+from mcd.lit.workload import _gb, _range, derive, work
 from mcd.plan import lines, main, plan
-from mcd.workload import _gb, _range, derive, work
 from tests.conftest import compose_cfg, store32_overrides
 
 
@@ -108,8 +108,8 @@ def test_a_profile_too_short_to_train_on_is_planned_without_training(tmp_path, c
 #: renderer) or a model build (the method registry, the training module) needs it imported
 ANNOUNCE = """
 import json, sys
-from mcd.config import compose
-from mcd.workload import announce
+from mcd.config.compose import compose
+from mcd.lit.workload import announce
 cfg = compose(json.loads(sys.argv[1]))
 line = announce(cfg, sys.argv[2], json.loads(sys.argv[3]), train=sys.argv[2] == "mcd.run", share=0.25)
 heavy = [m for m in sys.modules if m.split(".")[0] in ("mitsuba", "drjit")

@@ -9,8 +9,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from mcd.metrics import FRAME_METRICS
-from mcd.run_record import REQUIRED_KEYS, job_identity
+from mcd.core.metrics import FRAME_METRICS
+from mcd.lit.run_record import REQUIRED_KEYS, job_identity
 from tests.conftest import compose_cfg
 
 REPO = Path(__file__).resolve().parents[1]

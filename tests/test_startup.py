@@ -55,13 +55,14 @@ def test_help_imports_no_heavy_library(module):
 
 
 def test_a_hydra_commands_help_lists_what_hydras_own_help_lists():
-    """The fast ``--help`` of the Hydra commands (mcd.config.app_help) reads the groups from the file system;
-    they must be the ones Hydra itself finds, less Hydra's own groups and the private ``_name`` files."""
+    """The fast ``--help`` of the Hydra commands (mcd.config.compose.app_help) reads the groups from the file
+    system; they must be the ones Hydra itself finds, less Hydra's own groups and the private ``_name``
+    files."""
     from hydra._internal.config_loader_impl import ConfigLoaderImpl
     from hydra._internal.utils import create_config_search_path
     from hydra.core.object_type import ObjectType
 
-    from mcd.config import CONF_DIR, config_groups, register_experiments
+    from mcd.config.compose import CONF_DIR, config_groups, register_experiments
 
     register_experiments()
     loader = ConfigLoaderImpl(config_search_path=create_config_search_path(str(CONF_DIR)))

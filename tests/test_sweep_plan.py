@@ -1,5 +1,5 @@
 """The scaling sweep (``+sweep=scaling``, conf/sweep/scaling.yaml) and its planned sweeper
-(mcd/sweep_plan.py): the grid it runs, the plan it prints before any job, and the refusal of a grid above
+(mcd/lit/sweep_plan.py): the grid it runs, the plan it prints before any job, and the refusal of a grid above
 its CPU-hour limit without ``sweep_plan.allow_large=true``, through the real ``python -m mcd.run -m``."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from mcd.paths import CONF_DIR
-from mcd.sweep_plan import job_values, keep, plan_lines, plan_rows
+from mcd.core.paths import CONF_DIR
+from mcd.lit.sweep_plan import job_values, keep, plan_lines, plan_rows
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEP = OmegaConf.load(CONF_DIR / "sweep" / "scaling.yaml")

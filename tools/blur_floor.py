@@ -1,15 +1,15 @@
 """``python tools/blur_floor.py``: how much blur a scene's noisy input allows before FLIP says the blur is
 worse (notes/dark_regions.md, "How much blur the input's FLIP allows").
 
-FLIP (``mcd.metrics.flip``) weighs edges and discounts fine-grained noise, so on a small, lightly noisy frame
-the noisy input can score a FLIP that only a sharp denoiser beats. For each test scene of a data profile this
-tool scores, on the scene's test frames (the store's, as ``mcd.run`` tests them), the noisy uniform render at
-the budget and the reference itself blurred by a Gaussian of standard deviation ``sigma`` pixels (per
-channel, edges extended), each against the reference, and prints a Markdown table: the input's FLIP and PSNR,
-the blurred references' FLIP per ``sigma``, and the ``sigma`` at which the blurred reference's FLIP reaches
-the input's (linear between the measured ones; ``> max`` when none does). A denoiser whose output is softer
-than that ``sigma``, however clean, scores a worse FLIP than its input. OIDN's and the trained methods'
-scores are in the runs' own ``frames.csv``.
+FLIP (``mcd.core.metrics.flip``) weighs edges and discounts fine-grained noise, so on a small, lightly noisy
+frame the noisy input can score a FLIP that only a sharp denoiser beats. For each test scene of a data
+profile this tool scores, on the scene's test frames (the store's, as ``mcd.run`` tests them), the noisy
+uniform render at the budget and the reference itself blurred by a Gaussian of standard deviation ``sigma``
+pixels (per channel, edges extended), each against the reference, and prints a Markdown table: the input's
+FLIP and PSNR, the blurred references' FLIP per ``sigma``, and the ``sigma`` at which the blurred reference's
+FLIP reaches the input's (linear between the measured ones; ``> max`` when none does). A denoiser whose
+output is softer than that ``sigma``, however clean, scores a worse FLIP than its input. OIDN's and the
+trained methods' scores are in the runs' own ``frames.csv``.
 
 What the store lacks of the test frames is rendered first. ``--write FILE`` replaces the text between
 ``<!-- blur-floor -->`` and ``<!-- /blur-floor -->`` in ``FILE`` with the table (``--section NAME``: between
@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig
 
-from mcd.metrics import flip, psnr
+from mcd.core.metrics import flip, psnr
 from tools._doc_section import check, write_section
 
 #: Default standard deviations of the Gaussian blur, in pixels.
@@ -98,8 +98,8 @@ def provenance(argv: list[str], cfg: DictConfig) -> str:
     """What the table came from: command, commit, machine, data."""
     import torch
 
-    from mcd.machine import device_name
-    from mcd.provenance import short_commit
+    from mcd.core.machine import device_name
+    from mcd.core.provenance import short_commit
 
     d = cfg.data
     command = " ".join(["python tools/blur_floor.py", *map(shlex.quote, argv)])
@@ -125,9 +125,8 @@ def main(argv: list[str] | None = None) -> None:
         check(args.write, args.section)  # before any rendering or scoring
     if sigmas[0] <= 0:
         p.error(f"--sigma {sigmas[0]}: a blur is a positive number of pixels")
-    from mcd.config import compose, exit_on_renamed
+    from mcd.config.compose import compose
 
-    exit_on_renamed(args.overrides)
     cfg = compose([f"data={args.data}", *args.overrides])
     text = provenance(argv, cfg) + table(cfg, sigmas)
     print(text)

@@ -5,8 +5,8 @@ For each transfer scene of the data profile (``--data``, default ``bundle``: ``d
 scenes the bundles never trained on), each method runs on the scene's whole test sequence from the store as
 ``mcd.run``'s test does (``reset()`` at the sequence start, the frame window of the model; the adaptive
 methods build their simulated adaptive render from the stored ``c_1 .. c_32``), and each output frame is
-scored against the reference by :func:`mcd.metrics.frame_metrics`: PSNR, SSIM, rMSE and FLIP, averaged over
-the frames of a scene. The methods: the given bundles (``--bundle``, repeated: names of ``mcd/bundled``,
+scored against the reference by :func:`mcd.core.metrics.frame_metrics`: PSNR, SSIM, rMSE and FLIP, averaged
+over the frames of a scene. The methods: the given bundles (``--bundle``, repeated: names of ``mcd/bundled``,
 bundle ``.pt`` files or run directories; default every bundled checkpoint), OIDN (``+experiment=oidn``, when
 its package is installed) and the noisy uniform render at the budget. What the store lacks of the scenes' test
 frames is rendered first (only those frames: a transfer scene is never trained on).
@@ -31,14 +31,14 @@ import torch
 from omegaconf import DictConfig
 from torch import nn
 
+from mcd.config.methods import display_name
+from mcd.core.metrics import frame_metrics
+from mcd.core.paths import CONF_DIR
 from mcd.data.buffers import run_buffers, uniform_buffer
 from mcd.data.clips import ExrClips
 from mcd.data.shards import Selection
 from mcd.data.splits import test_frame_count
 from mcd.lit.test_recorder import hwc
-from mcd.methods import display_name
-from mcd.metrics import frame_metrics
-from mcd.paths import CONF_DIR
 from tools._doc_section import check, write_section
 
 log = logging.getLogger(__name__)
@@ -52,7 +52,7 @@ SECTION = "bundle-scores"  # docs/denoise.md holds the table between <!-- bundle
 
 def _methods(bundles: list[str], data_overrides: list[str]) -> list[tuple[str, nn.Module | None, DictConfig]]:
     """``(label, model, cfg)`` of each bundle, then OIDN if installed, then the noisy input (model None)."""
-    from mcd.config import compose
+    from mcd.config.compose import compose
     from mcd.denoise import weights
     from mcd.models import build
 
@@ -75,7 +75,7 @@ def trained_on(cfg: DictConfig) -> list[str]:
     """The scenes a bundle's model trained on: its recorded ``data.train_scenes``, or for a bundle written
     before they were recorded, those of the data profile it names (``data.name``, when it is one of
     ``conf/data``); empty when neither is known."""
-    from mcd.config import compose
+    from mcd.config.compose import compose
 
     recorded = cfg.data.get("train_scenes")
     if recorded is not None:
@@ -123,7 +123,7 @@ def _required(model: nn.Module | None) -> set[str]:
 def table(bundles: list[str], data_overrides: list[str]) -> tuple[str, DictConfig, list[str]]:
     """The Markdown table (module docstring), rendering what the store lacks first; with the composed
     config and the scenes. A method marked ``(trained on it)`` had the scene among its training scenes."""
-    from mcd.config import compose
+    from mcd.config.compose import compose
     from mcd.data import StoreBuilder
 
     cfg = compose(data_overrides)
@@ -165,8 +165,8 @@ def _cells(s: dict[str, float]) -> str:
 
 def provenance(argv: list[str], cfg: DictConfig, scenes: list[str], load: tuple[float, float]) -> str:
     """What the table came from: command, commit, machine, load, data."""
-    from mcd.machine import device_name
-    from mcd.provenance import short_commit
+    from mcd.core.machine import device_name
+    from mcd.core.provenance import short_commit
 
     d = cfg.data
     command = " ".join(["python tools/bundle_scores.py", *map(shlex.quote, argv)])
@@ -191,9 +191,6 @@ def main(argv: list[str] | None = None) -> None:
     args = p.parse_args(argv)
     if args.write is not None:
         check(args.write, SECTION)  # before any rendering or scoring
-    from mcd.config import exit_on_renamed
-
-    exit_on_renamed(args.overrides)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     from mcd.denoise.weights import bundled_names
 

@@ -17,7 +17,8 @@ import numpy as np
 import torch
 from omegaconf import open_dict
 
-from mcd.config import compose
+from mcd.config.compose import compose
+from mcd.core.metrics import psnr, rmse
 from mcd.data import StoreBuilder
 from mcd.data.buffers import run_buffers
 from mcd.data.clips import ExrClips
@@ -26,7 +27,6 @@ from mcd.data.shards import Selection
 from mcd.data.splits import test_frame_count
 from mcd.denoise import weights
 from mcd.lit.test_recorder import hwc
-from mcd.metrics import psnr, rmse
 from mcd.models import build
 
 

@@ -16,7 +16,7 @@ import hashlib
 import json
 import os
 
-from mcd.paths import CONF_DIR
+from mcd.core.paths import CONF_DIR
 
 
 def digest_scenes(procedural: bool = False) -> list[str]:

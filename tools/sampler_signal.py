@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
 
         model, what = weights.load(args.checkpoint).model, f"--checkpoint {args.checkpoint}"
     else:
-        from mcd.config import compose
+        from mcd.config.compose import compose
         from mcd.models.registry import build
 
         torch.manual_seed(args.seed)

@@ -7,9 +7,10 @@ the noisy render ``c_s``, the kernel pool's ``i_bar``, ``F_d``'s raw output (bef
 output after the frame-mean match (:func:`mcd.models.mean_match.match_frame_mean` against the adaptive image,
 as ``method.mean_match`` applies it in test). ``method.pass_misses`` is left out, so a frame with a black
 frame of escaped rays shows what the network put there. Per stage, over the frames: the mean bias in display
-values (:func:`mcd.metrics.to_display` of the stage minus the reference's) on the outer ``--width``-pixel ring
-and inside it, and FLIP on each; per frame, the matched output's bias on each side of the ring.
-``--all-frames`` denoises the scene's whole sequence as one test sequence (training frames included), which
+values (:func:`mcd.core.metrics.to_display` of the stage minus the reference's) on the outer
+``--width``-pixel ring and inside it, and FLIP on each; per frame, the matched output's bias on each side of
+the ring. ``--all-frames`` denoises the scene's whole sequence as one test sequence (training frames
+included), which
 tells a bias of the held-out frames from one the training frames share::
 
     python tools/stage_ring.py RUN_DIR [--scene cbox] [--width 3] [--all-frames]
@@ -39,7 +40,7 @@ def ring_mask(h: int, w: int, width: int) -> np.ndarray:
 def ring_stats(image: np.ndarray, ref: np.ndarray, width: int) -> dict[str, float]:
     """Display-value bias and FLIP of ``image`` against ``ref`` (``H x W x 3``, linear) on the ring and inside
     it, and the bias on each side of the ring (corners left out)."""
-    from mcd.metrics import flip_map, to_display
+    from mcd.core.metrics import flip_map, to_display
 
     diff = to_display(image) - to_display(ref)
     err = flip_map(image, ref)
@@ -57,7 +58,7 @@ Frames = dict[int, dict[str, dict[str, float]]]  # frame -> stage -> ring_stats
 def measure(run_dir: Path, scene: str, width: int, all_frames: bool) -> Frames:
     """Per frame and stage, :func:`ring_stats` of ``scene``'s frames as the run's tested weights denoise them
     (module docstring), stepped by :meth:`mcd.lit.module.DenoiseModule.test_step` under the run's precision
-    (bf16 autocast for a run tested in ``bf16-mixed``, as :func:`mcd.tools.edge_effect.measure` does: the
+    (bf16 autocast for a run tested in ``bf16-mixed``, as :func:`tools.edge_effect.measure` does: the
     sampling map rounds from the logits, so the precision changes the samples drawn)."""
     import torch
     from omegaconf import OmegaConf, open_dict

@@ -41,8 +41,8 @@ def main(argv: list[str] | None = None) -> None:
     """Time every command's ``--help`` ``--runs`` times and print one row per command."""
     import torch
 
-    from mcd.machine import device_name
-    from mcd.provenance import short_commit
+    from mcd.core.machine import device_name
+    from mcd.core.provenance import short_commit
 
     ap = argparse.ArgumentParser(prog="python tools/startup_bench.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=3, help="runs per command (default 3)")

@@ -1,8 +1,8 @@
-"""Hydra's entry for :class:`mcd.sweep_plan.PlannedSweeper` (``conf/hydra/sweeper/planned.yaml``;
+"""Hydra's entry for :class:`mcd.lit.sweep_plan.PlannedSweeper` (``conf/hydra/sweeper/planned.yaml``;
 docs/benchmark.md "Scaling study"). Hydra scans this package at start-up, so it holds the name only."""
 
-from mcd import sweep_plan
+from mcd.lit import sweep_plan
 
 
 class PlannedSweeper(sweep_plan.PlannedSweeper):
-    """:class:`mcd.sweep_plan.PlannedSweeper`, under the name Hydra accepts."""
+    """:class:`mcd.lit.sweep_plan.PlannedSweeper`, under the name Hydra accepts."""

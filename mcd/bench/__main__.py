@@ -3,8 +3,7 @@ speed; docs/training.md "Throughput"). Each mode is a module of :mod:`mcd.bench`
 chosen, and ``python -m mcd.bench MODE --help`` shows that module's own options.
 
 The mode is the first argument; without one (nothing, or an option or override first) the command measures
-inference speed (``speed``). A first word that names no mode is refused, listing the modes. The older flags
-``--train``, ``--profile`` and ``--loader`` anywhere on the line choose the same modes.
+inference speed (``speed``). A first word that names no mode is refused, listing the modes.
 """
 
 from __future__ import annotations
@@ -28,8 +27,7 @@ def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(prog="python -m mcd.bench",
                                   description="The measuring commands: choose a mode; MODE --help shows its "
                                               "options.",
-                                  epilog=f"Without a mode: {DEFAULT}. Old flags: --train, --profile, "
-                                         "--loader.")
+                                  epilog=f"Without a mode: {DEFAULT}.")
     modes = top.add_subparsers(dest="mode", metavar="MODE", title="modes")
     for name, (module, text) in MODES.items():
         modes.add_parser(name, help=f"{text} ({module})", add_help=False)
@@ -37,13 +35,9 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Choose the mode (first argument, an old ``--<mode>`` flag, or :data:`DEFAULT`) and run its tool."""
+    """Choose the mode (first argument, or :data:`DEFAULT`) and run its tool."""
     args = list(sys.argv[1:] if argv is None else argv)
-    flag = next((a for a in args if a.lstrip("-") in MODES and a.startswith("--")), None)
-    if flag is not None:  # the old spelling: python -m mcd.bench --train ...
-        args.remove(flag)
-        args.insert(0, flag[2:])
-    elif not args or (args[0] not in ("-h", "--help") and (args[0].startswith("-") or "=" in args[0])):
+    if not args or (args[0] not in ("-h", "--help") and (args[0].startswith("-") or "=" in args[0])):
         args.insert(0, DEFAULT)  # a word that is no mode reaches the parser, which refuses it
     chosen = parser().parse_args(args[:1])
     importlib.import_module(MODES[chosen.mode][0]).main(args[1:])

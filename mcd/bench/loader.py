@@ -24,12 +24,12 @@ from pathlib import Path
 
 import torch
 
-from mcd.config import compose
+from mcd.config.compose import compose
+from mcd.core.machine import device_name
+from mcd.core.provenance import short_commit
 from mcd.data.buffers import run_buffers
 from mcd.data.loader_rate import measure
-from mcd.machine import device_name
 from mcd.models import build
-from mcd.provenance import short_commit
 
 
 def run_buffers_of(experiment: str, capacity: str) -> list[str]:

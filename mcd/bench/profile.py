@@ -37,16 +37,16 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from mcd import allocator
 from mcd.bench.speed import frame_buffers, parse_size, store_frame
-from mcd.config import compose, exit_on_renamed
+from mcd.config.compose import compose
+from mcd.core import allocator
+from mcd.core.machine import device_name
+from mcd.core.provenance import short_commit
 from mcd.core.stages import FlopClock, StageClock
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
-from mcd.machine import device_name
 from mcd.models.complexity import dummy_batch, flop_counter_mode
 from mcd.models.latency import model_inputs, sync
 from mcd.models.two_stage import TwoStage
-from mcd.provenance import short_commit
 
 #: The name of the time inside the call outside every label.
 OTHER = "other"
@@ -164,7 +164,6 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, help="also write the table (markdown) here, unless refused")
     allocator.add_option(parser)
     args = parser.parse_args(argv)
-    exit_on_renamed(args.overrides)
     if args.repeat < 1 or args.warmup < 0:
         parser.error("--repeat needs at least 1 and --warmup at least 0")
     device = torch.device(args.device)
@@ -222,7 +221,7 @@ def main(argv: list[str] | None = None) -> None:
         f"plain frame {plain:.2f} ms ({100 * gap:+.1f}%"
         + (", beyond the tolerance: the clock changed the frame, or the load changed between calls)"
            if abs(gap) > args.tolerance else ")"),
-        f"- Allocator: {memory} (mcd/allocator.py); page faults during the measured calls: {faults}",
+        f"- Allocator: {memory} (mcd/core/allocator.py); page faults during the measured calls: {faults}",
         "",
         *table(ms, frame, gmacs),
         "",

@@ -26,8 +26,8 @@ achieved GMAC/s, the torch thread count (OIDN runs its own threads, one per core
 peak resident memory during that path's calls (``VmHWM`` of ``/proc/self/status``, reset before the path after
 handing freed heap back to the OS; it includes the Python process, the model and the inputs). The README also
 gives each device's dense matmul rate (:func:`matmul_ceilings`), the ceiling to read GMAC/s against.
-``--allocator keep`` (the default) has glibc keep freed memory for reuse (:mod:`mcd.allocator`: without it
-every full-frame tensor faults in fresh pages); ``--allocator system`` measures glibc's default; the
+``--allocator keep`` (the default) has glibc keep freed memory for reuse (:mod:`mcd.core.allocator`: without
+it every full-frame tensor faults in fresh pages); ``--allocator system`` measures glibc's default; the
 ``allocator`` column says which ran.
 
 Inputs: the first frame of a test scene read through the store (:meth:`mcd.data.store.StoreReader.load`:
@@ -58,19 +58,19 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from mcd import allocator
-from mcd.config import compose, exit_on_renamed
+from mcd.config.compose import compose
+from mcd.config.methods import CATALOGUE, display_name
+from mcd.core import allocator
+from mcd.core.machine import device_name, restart_peak_rss, status_mb
+from mcd.core.provenance import short_commit
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
-from mcd.machine import device_name, restart_peak_rss, status_mb
-from mcd.methods import CATALOGUE, display_name
 from mcd.models.latency import model_inputs, time_calls
-from mcd.provenance import short_commit
 
 log = logging.getLogger("mcd.bench")
 
-#: The methods measured by default, as the experiments that select them (mcd.methods: ``bench``).
+#: The methods measured by default, as the experiments that select them (mcd.config.methods: ``bench``).
 METHODS = tuple(m.experiment for m in CATALOGUE if m.bench)
 #: Where a measurement goes unless ``--out`` says otherwise (Hydra's ``outputs/``, not a tracked file).
 DEFAULT_OUT = Path("outputs/bench/bench.csv")
@@ -209,16 +209,16 @@ def frame_buffers(
 
 
 def reset_peak_rss() -> None:
-    """Hand freed heap back to the OS (:func:`mcd.allocator.hand_back`, so memory an earlier method freed does
-    not count) and restart the process's peak resident memory from its current size
-    (:func:`mcd.machine.restart_peak_rss`)."""
+    """Hand freed heap back to the OS (:func:`mcd.core.allocator.hand_back`, so memory an earlier method
+    freed does not count) and restart the process's peak resident memory from its current size
+    (:func:`mcd.core.machine.restart_peak_rss`)."""
     allocator.hand_back()
     restart_peak_rss()
 
 
 def peak_rss_gb() -> float | None:
-    """The process's peak resident memory (``VmHWM``, :func:`mcd.machine.status_mb`) in GB (10^9 bytes) since
-    the last :func:`reset_peak_rss`; None where ``/proc`` does not report it."""
+    """The process's peak resident memory (``VmHWM``, :func:`mcd.core.machine.status_mb`) in GB (10^9 bytes)
+    since the last :func:`reset_peak_rss`; None where ``/proc`` does not report it."""
     try:
         mb = status_mb("VmHWM")
     except OSError:
@@ -496,7 +496,7 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
         f"- Capacity profile: {', '.join(sorted({r.capacity for r in rows}))}; batch 1, one frame per call",
         f"- Inputs: {', '.join(inputs) or 'none'}",
         f"- Repetitions (median of the timed calls): {'; '.join(reps)}",
-        f"- Allocator: {', '.join(sorted({r.allocator for r in rows})) or 'none'} (mcd/allocator.py)",
+        f"- Allocator: {', '.join(sorted({r.allocator for r in rows})) or 'none'} (mcd/core/allocator.py)",
         f"- Data: [{csv_path.name}]({csv_path.name})",
         *(["- Dense matmul ceiling (torch.mm 2048x2048, best of 5, same threads): "
            + ", ".join(f"{k} {v:.1f} GMAC/s" for k, v in sorted(ceilings.items()))] if ceilings else []),
@@ -543,7 +543,6 @@ def main(argv: list[str] | None = None) -> None:
     allocator.add_option(parser)
     args = parser.parse_args(argv)
     overrides = list(args.overrides)
-    exit_on_renamed(overrides)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     log.info("allocator: %s", allocator.apply(args.allocator))
     if not any(o.startswith("capacity=") for o in overrides):

@@ -22,7 +22,7 @@ crops), with the validation cadence of the path (validation time counts: it is p
 - ``compile``: ``default`` with ``train.compile=true`` (``torch.compile``, inductor; compilation happens
   in the warm-up steps, recompilation for validation counts).
 
-``--allocators keep,system``: each path once per allocator setting (:mod:`mcd.allocator`; ``keep``, the
+``--allocators keep,system``: each path once per allocator setting (:mod:`mcd.core.allocator`; ``keep``, the
 default, is what ``mcd.run`` sets; ``system`` is glibc's default); the ``allocator`` column says which ran.
 ``--pair``: also ``fp32`` as two concurrent jobs of one thread each (``x2 jobs``; steps/s summed) beside one
 job on ``--threads`` threads, the question of docs/training.md "CPU threads".
@@ -49,14 +49,14 @@ from pathlib import Path
 
 import torch
 
-from mcd import allocator
-from mcd.machine import device_name
-from mcd.methods import CATALOGUE
-from mcd.paths import REPO_ROOT
+from mcd.config.methods import CATALOGUE
+from mcd.core import allocator
+from mcd.core.machine import device_name
+from mcd.core.paths import REPO_ROOT
 
 log = logging.getLogger("mcd.bench.train")
 
-#: The methods measured by default (mcd.methods: ``train_bench``).
+#: The methods measured by default (mcd.config.methods: ``train_bench``).
 METHODS = tuple(m.experiment for m in CATALOGUE if m.train_bench)
 PATHS = ("today", "default", "default-fp32", "fp32", "channels-last", "tbptt", "tbptt+channels-last", "bf16",
          "bf16+channels-last", "compile")
@@ -86,10 +86,10 @@ def path_overrides(path: str) -> list[str]:
 def measure(method: str, profile: str, path: str, steps: int, warmup: int, threads: int,
             extra: list[str], memory: str) -> dict[str, object]:
     """One (method, profile, path) in this process, with ``--allocator`` ``memory``
-    (:func:`mcd.allocator.apply`): steps/s of a Lightning fit after ``warmup`` steps."""
+    (:func:`mcd.core.allocator.apply`): steps/s of a Lightning fit after ``warmup`` steps."""
     import lightning as L
 
-    from mcd.config import compose
+    from mcd.config.compose import compose
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.lit import DenoiseModule, budget
@@ -142,7 +142,7 @@ def measure(method: str, profile: str, path: str, steps: int, warmup: int, threa
 
 def applicable(method: str, path: str) -> str | None:
     """Why ``path`` does not apply to ``method`` (None: it does)."""
-    from mcd.config import compose
+    from mcd.config.compose import compose
     from mcd.lit.precision import cpu_bf16_supported
     from mcd.models import build
 
@@ -180,13 +180,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--out", type=Path, default=Path("outputs/bench/train.csv"),
                     help="CSV to write (default: outputs/bench/train.csv)")
     ap.add_argument("--allocators", default="keep",
-                    help="comma-separated: keep (mcd.run's setting, mcd/allocator.py) and/or system "
+                    help="comma-separated: keep (mcd.run's setting, mcd/core/allocator.py) and/or system "
                          "(glibc's default)")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    from mcd.config import exit_on_renamed
-
-    exit_on_renamed(args.overrides)
     if args.child:  # one measurement: method profile path steps warmup threads allocator, overrides
         print(json.dumps(measure(args.methods, args.profiles, args.paths, args.steps, args.warmup,
                                  args.threads, args.overrides, args.allocators)))

@@ -1,8 +1,8 @@
 """One atomic write of a file, for every writer whose file must be whole or absent under its final name: the
 EXR store's frames and manifests (:mod:`mcd.data.exr`, :mod:`mcd.data.store_builder`), the training store's
 arrays, records and ``store.json`` (:mod:`mcd.data.pack`), a run's ``metrics.json`` and ``job.json``
-(:mod:`mcd.run_record`), its trimmed ``metrics.csv`` (:mod:`mcd.lit.csv_log`) and ``mcd-denoise``'s outputs
-(:mod:`mcd.denoise.output`); docs/reliability.md.
+(:mod:`mcd.lit.run_record`), its trimmed ``metrics.csv`` (:mod:`mcd.lit.csv_log`) and ``mcd-denoise``'s
+outputs (:mod:`mcd.denoise.output`); docs/reliability.md.
 
 The guarantee: the content is written to a hidden temporary file in the final name's folder
 (``.<name>.<random>.tmp<suffix>``, created exclusively, so concurrent writers never share one), then renamed

@@ -40,7 +40,7 @@ from typing import Any
 import torch
 from omegaconf import DictConfig
 
-from mcd.config_rules import checked
+from mcd.core.config_rules import checked
 from mcd.data.buffers import COLOUR_BUFFERS
 
 #: The largest absolute value the exposure scale may produce: far above any radiance, far below float32's
@@ -101,7 +101,7 @@ class Augment:
         for key in ("flips", "transpose", "channels", "reverse"):
             if not isinstance(v[key], bool):
                 raise ValueError(f"data.augment.{key}={v[key]!r}: give true or false")
-        p = float(checked("data.augment.zero_pad", v["zero_pad"]))  # the ranges: mcd/config_rules.py
+        p = float(checked("data.augment.zero_pad", v["zero_pad"]))  # the ranges: mcd/core/config_rules.py
         stops = float(checked("data.augment.exposure_stops", v["exposure_stops"]))
         m = v["zero_pad_max"]
         limit = crop if crop is not None else int(data_cfg.train_crop)

@@ -14,6 +14,10 @@ from typing import Literal
 
 from omegaconf import DictConfig
 
+from mcd.core.config_rules import UNIFORM_BUDGETS
+
+__all__ = ["UNIFORM_BUDGETS"]  # the budgets with a uniform render, from the config's rule of ``budget``
+
 #: ``input``: the 1 spp render the sampling network sees; ``uniform``: the stack of independent renders at
 #: 2^k spp (the simulated adaptive render's stack, and the uniform renders at budget s); ``reference``;
 #: ``gbuffer``: first-hit features of one ``aov`` render; ``motion``: computed from depth and the cameras.
@@ -42,7 +46,7 @@ class Buffer:
 
 TABLE: tuple[Buffer, ...] = (
     Buffer("c1_in", 3, "input", 1),
-    *(Buffer(f"c{2 ** k}", 3, "uniform", 2**k) for k in range(6)),
+    *(Buffer(f"c{s}", 3, "uniform", s) for s in UNIFORM_BUDGETS),
     Buffer("ref", 3, "reference", None),
     Buffer("depth", 1, "gbuffer", None),
     Buffer("normal", 3, "gbuffer", None, signed=True),
@@ -56,8 +60,6 @@ COLOUR_BUFFERS: tuple[str, ...] = tuple(b.name for b in TABLE if b.colour)
 GBUFFERS: tuple[str, ...] = tuple(b.name for b in TABLE if b.kind == "gbuffer")
 #: the uniform renders by name, with their spp (``c1`` .. ``c32``)
 SPP_BUFFERS: dict[str, int] = {b.name: int(b.spp or 0) for b in TABLE if b.kind == "uniform"}
-#: the budgets s (average spp) that have a uniform render ``c{s}``
-UNIFORM_BUDGETS: tuple[int, ...] = tuple(SPP_BUFFERS.values())
 CHANNELS: dict[str, int] = {b.name: b.channels for b in TABLE}
 #: buffers whose negative values are meaningful (normals in [-1, 1], motion in pixels)
 NEGATIVE_OK: frozenset[str] = frozenset(b.name for b in TABLE if b.signed)

@@ -49,10 +49,9 @@ from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, S
 from mcd.data.augment import Augment
 from mcd.data.buffers import BUFFERS, validate_buffers
 from mcd.data.clips import ExrClips
-from mcd.data.splits import split_of
+from mcd.data.splits import check_crops, split_of
 from mcd.data.store import StoreReader
 from mcd.data.train_store import TrainStore, TrainStoreSettings, pack_command
-from mcd.preflight import check_crops
 
 log = logging.getLogger(__name__)
 

@@ -40,13 +40,13 @@ from typing import Any
 import numpy as np
 from omegaconf import OmegaConf
 
-from mcd.allocator import keep_freed_memory
+from mcd.core.allocator import keep_freed_memory
+from mcd.core.machine import status_mb
 from mcd.data.clips import ExrClips
 from mcd.data.pack import pack
 from mcd.data.store import StoreReader
 from mcd.data.synthetic_store import synthetic_data_cfg, write_synthetic_store
 from mcd.data.train_store import TrainStore, TrainStoreSettings, frame_bytes
-from mcd.machine import status_mb
 
 PROFILE, SCENE = "loaderbench", "synthetic"
 #: bytes fetched from storage over the bytes of the clips, from which a figure counts as disk-bound

@@ -1,11 +1,5 @@
-"""``python -m mcd.data.pack data=<profile> [+experiment=X]``: pack the EXR store's training and validation
-frames into the training store (:mod:`mcd.data.train_store`, docs/training_store.md).
-
-Which buffers: ``render.buffers`` as for ``python -m mcd.render`` (default ``method``: those the configured
-method reads, plus ``ref`` and the uniform render at the budget). Which scenes: ``data.train_scenes`` (the
-frames of their training and validation clips, :func:`mcd.data.splits.split_of`). Where, and in which
-precision: ``data.train_store.dir`` and ``data.train_store.dtype``. ``python -m mcd.run`` packs by itself
-when ``data.train_store.format=array``; this command does it ahead (e.g. once, before a sweep).
+"""Packing the EXR store's training and validation frames into the training store
+(:mod:`mcd.data.train_store`, docs/training_store.md); the command is ``python -m mcd.pack`` (mcd/pack.py).
 
 The unit of work is one frame of one scene: its buffers are read through
 :meth:`mcd.data.store.StoreReader.load` (as models see them), written into the scene's array, flushed, read
@@ -15,9 +9,9 @@ skips recorded frames whose EXR sources are unchanged and whose bytes still have
 deleted, truncated or overwritten file is packed again), and packs the rest. A store packed with another
 config is refused before any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR
 store that lacks a file, naming the render command. One packer per scene at a time (``<scene>.lock``,
-:func:`mcd.file_lock.exclusive`): a second one (another DDP rank) waits, then reuses the first one's frames.
-A scene whose every frame is packed and intact is found so by reading alone and reused without the lock, so
-a fully packed store on a read-only mount is trained from as it is.
+:func:`mcd.core.file_lock.exclusive`): a second one (another DDP rank) waits, then reuses the first one's
+frames. A scene whose every frame is packed and intact is found so by reading alone and reused without the
+lock, so a fully packed store on a read-only mount is trained from as it is.
 """
 
 from __future__ import annotations
@@ -33,7 +27,7 @@ from typing import Any
 import numpy as np
 from omegaconf import DictConfig
 
-from mcd import file_lock
+from mcd.core import file_lock
 from mcd.core.atomic_write import atomic_write, atomic_write_json, leftovers
 from mcd.data.buffers import BUFFERS
 from mcd.data.splits import split_of
@@ -246,21 +240,3 @@ def _bytes_intact(fh: Any, mm: np.memmap, frame: int, crc: Any) -> bool:
     back = os.pread(fh.fileno(), n, mm.offset + frame * n)
     return isinstance(crc, int) and len(back) == n and zlib.crc32(back) == crc
 
-
-def main() -> None:
-    """The Hydra command (module docstring)."""
-    from mcd.config import hydra_main
-
-    @hydra_main
-    def _run(cfg: DictConfig) -> dict:
-        from mcd.lit.transfer import prepare
-        from mcd.render import requested_buffers
-
-        cfg, _ = prepare(cfg)
-        return pack(cfg, StoreReader.from_cfg(cfg), requested_buffers(cfg))
-
-    _run()
-
-
-if __name__ == "__main__":
-    main()

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from mcd.metrics import PSNR_CAP_DB, to_display
+from mcd.core.metrics import PSNR_CAP_DB, to_display
 
 #: 10 log10(4): the mean of two independent halves has a quarter of the noise of their difference.
 HALVES_GAIN_DB = 10.0 * math.log10(4.0)

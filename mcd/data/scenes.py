@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from mcd.core.paths import VENDORED_SCENES_DIR
+from mcd.core.paths import scenes_dir as resolve_scenes_dir
 from mcd.data.camera import look_at, yaw
-from mcd.paths import VENDORED_SCENES_DIR
-from mcd.paths import scenes_dir as resolve_scenes_dir
 
 log = logging.getLogger(__name__)
 

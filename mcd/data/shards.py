@@ -21,7 +21,8 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-_SHARD = re.compile(r"^\s*(\d+)\s*/\s*(\d+)\s*$")
+from mcd.core.config_rules import parse_shard
+
 _FRAMES = re.compile(r"^\s*(\d*)\s*:\s*(\d*)\s*$")
 
 
@@ -83,37 +84,6 @@ class Selection:
         if self.frames is not None:
             parts.append(f"frames {self.frames[0]}:{self.frames[1]}")
         return ", ".join(parts) or "the whole profile"
-
-
-def parse_shard(value: Any, shards: Any = None) -> tuple[int, int]:
-    """``render.shard`` (``None``, ``"i/N"`` or ``i`` with ``render.shards=N``; 0-based) as ``(i, N)``; a
-    ValueError naming the key."""
-    if value is None:
-        if shards not in (None, 1):
-            raise ValueError(f"render.shards={shards!r} without render.shard: give render.shard=i "
-                             f"(0 <= i < {shards}) too, or leave render.shards=null")
-        return 0, 1
-    if isinstance(value, int) and not isinstance(value, bool):
-        if not isinstance(shards, int) or isinstance(shards, bool):
-            raise ValueError(f"render.shard={value}: a shard number needs render.shards=N (the shard count), "
-                             f"or write render.shard={value}/N")
-        index, count = value, shards
-    else:
-        m = _SHARD.match(str(value))
-        if m is None:
-            raise ValueError(f"render.shard={value!r}: expected i/N with 0 <= i < N (0-based), e.g. "
-                             "render.shard=0/4 .. render.shard=3/4 for four processes")
-        index, count = int(m.group(1)), int(m.group(2))
-        if shards is not None and shards != count:
-            raise ValueError(f"render.shard={value!r} and render.shards={shards!r} disagree on the shard "
-                             "count: give one of them")
-    if count < 1:
-        raise ValueError(f"render.shard={value!r}: the shard count N of i/N must be at least 1; give "
-                         "render.shard=i/N with 0 <= i < N (0-based), e.g. render.shard=0/4")
-    if index >= count:
-        raise ValueError(f"render.shard={value!r}: shard {index} is out of range for {count} shards; shards "
-                         f"are numbered from 0 to {count - 1} (0-based)")
-    return index, count
 
 
 def parse_frames(value: Any, n_frames: int) -> tuple[int, int] | None:

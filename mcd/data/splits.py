@@ -11,6 +11,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from omegaconf import DictConfig
+
+from mcd.core.config_rules import checked
+
 
 def test_frame_count(n: int, test_fraction: float) -> int:
     """How many of a sequence's ``n`` frames (its first ones) are test frames."""
@@ -55,3 +59,15 @@ def split_of(n: int, data_cfg: Any) -> dict[str, list[list[int]]]:
     """:func:`split_frames` of an ``n``-frame sequence with a data profile's settings (``data.*``)."""
     return split_frames(n, float(data_cfg.get("test_fraction", 0.2)), int(data_cfg.val_clips),
                         int(data_cfg.clip_len), data_cfg.get("train_clip_stride"))
+
+
+def check_crops(cfg: DictConfig) -> None:
+    """ValueError unless ``data.train_crop`` fits the frames and ``data.train_crop_at_edge`` is a
+    probability (its rule in mcd/core/config_rules.py)."""
+    d = cfg.data
+    checked("data.train_crop", d.train_crop)
+    checked("data.train_crop_at_edge", d.get("train_crop_at_edge", 0.0))
+    crop, w, h = int(d.train_crop), int(d.width), int(d.height)
+    if crop > min(w, h):
+        raise ValueError(f"data.train_crop={crop} is larger than the {w}x{h} frames of profile {d.name}: "
+                         f"give data.train_crop <= {min(w, h)}")

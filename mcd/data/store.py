@@ -10,7 +10,7 @@ spp, seed, byte size, SHA-256 and the NaN / Inf / negative counts the renderer p
 multiplied by the scene's exposure scale (``exposure: auto`` sets the mean of frame 0's reference to
 ``data.exposure_target``; recorded in the manifest), depth divided by the scene's ``depth_scale`` (median
 first-hit distance of frame 0), then NaN/Inf (and negative values where they are not meaningful) replaced by 0
-with one log line per file. The datamodule, ``mcd.bench`` and ``mcd.tools.check_paths`` read through it;
+with one log line per file. The datamodule, ``mcd.bench`` and ``mcd.check_paths`` read through it;
 :class:`mcd.data.store_builder.StoreBuilder` (a reader that also renders) writes the store.
 """
 
@@ -27,14 +27,14 @@ from typing import Self
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from mcd.core.paths import check_folder_name
+from mcd.core.paths import data_dir as resolve_data_dir
+from mcd.core.paths import scenes_dir as resolve_scenes_dir
 from mcd.data.buffers import CHANNELS, COLOUR_BUFFERS
 from mcd.data.camera import Camera
 from mcd.data.exposure import normalise
 from mcd.data.exr import CorruptEXRError, read_exr, sha256
 from mcd.data.scenes import SCENE_LISTS, SceneSpec, path_scene_name
-from mcd.paths import check_folder_name
-from mcd.paths import data_dir as resolve_data_dir
-from mcd.paths import scenes_dir as resolve_scenes_dir
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,7 @@ class CorruptManifestError(RuntimeError):
 
 
 def check_name(name: str, key: str) -> str:
-    """``name`` if it is a single safe folder name (:func:`mcd.paths.check_folder_name`), else ValueError
+    """``name`` if it is a single safe folder name (:func:`mcd.core.paths.check_folder_name`), else ValueError
     naming ``key``.
 
     Profile and scene names become folders of the store; ``..`` or ``/`` would write outside

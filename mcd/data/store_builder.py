@@ -39,7 +39,7 @@ from typing import Any, Self
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from mcd import file_lock
+from mcd.core import file_lock
 from mcd.core.atomic_write import atomic_write_json
 from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS, GBUFFERS, NEGATIVE_OK, buffer_spp, validate_buffers
 from mcd.data.camera import Camera, backward_motion, interpolate_path
@@ -405,7 +405,7 @@ class StoreBuilder(StoreReader):
 
     @contextlib.contextmanager
     def _scene_lock(self, scene: str) -> Iterator[None]:
-        """Hold ``<scene>/.lock`` (:func:`mcd.file_lock.exclusive`) for a short read-modify-write of the
+        """Hold ``<scene>/.lock`` (:func:`mcd.core.file_lock.exclusive`) for a short read-modify-write of the
         scene's manifest.
 
         Every writer of the scene's manifest holds it, so a process that takes it reads the manifest every

@@ -33,8 +33,8 @@ crop of the EXR path. ``float16`` halves the bytes; values beyond its range (``|
 
 Memory maps are opened lazily on first read in the process that reads (a DataLoader worker), never pickled
 open: :class:`TrainStore` pickles its paths and settings only. A loader worker that opens one also has glibc
-keep freed memory (:func:`mcd.allocator.keep_freed_memory`): a clip's arrays then reuse the pages the last
-clip freed instead of faulting in fresh zeroed ones, which nearly doubled the clips per CPU second
+keep freed memory (:func:`mcd.core.allocator.keep_freed_memory`): a clip's arrays then reuse the pages the
+last clip freed instead of faulting in fresh zeroed ones, which nearly doubled the clips per CPU second
 (docs/training_store.md).
 """
 
@@ -54,9 +54,9 @@ import numpy.typing as npt
 import torch
 from omegaconf import DictConfig
 
-from mcd.allocator import keep_freed_memory
+from mcd.core.allocator import keep_freed_memory
+from mcd.core.paths import folder_to_be
 from mcd.data.buffers import BUFFERS, CHANNELS
-from mcd.paths import folder_to_be
 
 #: ``store.json``'s format; a store of another version is refused (pack it again)
 VERSION = 2
@@ -111,7 +111,7 @@ class TrainStoreSettings:
     @classmethod
     def from_cfg(cls, cfg: DictConfig) -> Self:
         """The settings of a full config; ValueError naming the key for an unknown format or dtype, or, with
-        ``format=array``, a folder that is a file or lies below one (:func:`mcd.paths.folder_to_be`). A
+        ``format=array``, a folder that is a file or lies below one (:func:`mcd.core.paths.folder_to_be`). A
         config without ``data.train_store`` reads EXR (the behaviour before the key existed)."""
         ts = cfg.data.get("train_store") or {}
         fmt, dtype = str(ts.get("format", "exr")), str(ts.get("dtype", "float32"))
@@ -226,7 +226,7 @@ class TrainStore:
         docs/training_store.md)."""
         if scene not in self._maps:
             if torch.utils.data.get_worker_info() is not None:
-                keep_freed_memory()  # a loader worker: a clip reuses the last one's pages (mcd/allocator.py)
+                keep_freed_memory()  # a loader worker: a clip reuses the last one's pages (core/allocator.py)
             with open(self.scene_path(scene), "rb") as f:
                 read_header = _NPY_HEADERS.get(np.lib.format.read_magic(f))
                 if read_header is None:
@@ -375,6 +375,6 @@ def check_meta(meta: dict, settings: TrainStoreSettings, data_cfg: DictConfig, b
 
 
 def pack_command(overrides: Iterable[str], buffers: Iterable[str]) -> str:
-    """The ``python -m mcd.data.pack`` command that packs ``buffers`` with a store's overrides."""
+    """The ``python -m mcd.pack`` command that packs ``buffers`` with a store's overrides."""
     listed = ",".join(b for b in BUFFERS if b in set(buffers))
-    return shlex.join(["python", "-m", "mcd.data.pack", *overrides, f"render.buffers=[{listed}]"])
+    return shlex.join(["python", "-m", "mcd.pack", *overrides, f"render.buffers=[{listed}]"])

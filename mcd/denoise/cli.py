@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mcd import allocator
+from mcd.core import allocator
 from mcd.denoise import arguments, output_folder, precision, weights, work
 from mcd.denoise.output import SUMMARY, frame_files, write_json
 from mcd.denoise.precision import PRECISIONS
@@ -109,7 +109,7 @@ def load_model(args: argparse.Namespace) -> weights.Loaded:
         raise ValueError("give --checkpoint (a run directory, a .ckpt file or a bundled name: "
                          f"{', '.join(weights.bundled_names()) or 'none installed'}), or --experiment of a "
                          "method without weights (oidn, noisy)")
-    from mcd.config import compose
+    from mcd.config.compose import compose
     from mcd.models import build
 
     capacity = [f"capacity={args.capacity}"] if args.capacity else []
@@ -125,7 +125,7 @@ def run(argv: list[str] | None = None) -> dict:
     (docs/reliability.md, "Denoising your frames")."""
     args = parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    allocator.keep_freed_memory()           # full frames reuse freed pages (mcd/allocator.py)
+    allocator.keep_freed_memory()           # full frames reuse freed pages (mcd/core/allocator.py)
     # -o is locked from its check to the last write of denoise.json (output_folder.hold, in _scene/_frames)
     with contextlib.ExitStack() as folder_lock:
         return _run(args, folder_lock)

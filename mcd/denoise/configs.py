@@ -1,5 +1,5 @@
 """A model capacity profile (``conf/capacity/``) as ``mcd.denoise`` needs it (docs/denoise.md); the composed
-config of an experiment without weights (``oidn``, ``noisy``) is :func:`mcd.config.compose`'s."""
+config of an experiment without weights (``oidn``, ``noisy``) is :func:`mcd.config.compose.compose`'s."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
-from mcd.config import experiment_names
-from mcd.paths import CONF_DIR
+from mcd.config.compose import experiment_names
+from mcd.core.paths import CONF_DIR
 
 
 def capacity_profile(name: str) -> dict[str, Any]:
@@ -23,8 +23,8 @@ def capacity_profile(name: str) -> dict[str, Any]:
 
 
 def check_experiment(name: str) -> None:
-    """ValueError naming ``--experiment=name`` and the valid names (:func:`mcd.config.experiment_names`), if
-    there is no such experiment."""
+    """ValueError naming ``--experiment=name`` and the valid names
+    (:func:`mcd.config.compose.experiment_names`), if there is no such experiment."""
     names = experiment_names()
     if name not in names:
         raise ValueError(f"--experiment={name}: no such experiment (+experiment={name}); choose one of "

@@ -11,8 +11,8 @@ naming the file, and the frame's score line says how many (``reference_sanitised
 
 Input (the noisy colour as the network reads it), output and reference are compared in one exposure, the
 sequence's (frame 0's mean scaled to the checkpoint's target, :mod:`mcd.data.exposure`), sanitised alike,
-with :mod:`mcd.metrics`: PSNR and SSIM of the display images and mean LDR-FLIP. Per frame and the mean over
-the frames are printed and recorded in ``denoise.json`` (``scores``).
+with :mod:`mcd.core.metrics`: PSNR and SSIM of the display images and mean LDR-FLIP. Per frame and the mean
+over the frames are printed and recorded in ``denoise.json`` (``scores``).
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
+from mcd.core.metrics import SSIM_WINDOW, flip, psnr, ssim
 from mcd.data.exposure import normalise
 from mcd.denoise.frames import FrameError, read_frame
-from mcd.metrics import SSIM_WINDOW, flip, psnr, ssim
 
 log = logging.getLogger(__name__)
 

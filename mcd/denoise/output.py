@@ -1,8 +1,8 @@
 """What ``mcd.denoise`` writes per frame (docs/denoise.md, "Output").
 
 ``<out>/<stem>.exr``: the denoised frame, linear HDR in the input's own units (the exposure scale undone);
-``<out>/<stem>.png``: a preview (``mcd.metrics.to_display`` of the exposure-normalised image); and where the
-method has them ``<stem>_sampling_map``, ``<stem>_kernel_map``, ``<stem>_adaptive`` (the adaptive render
+``<out>/<stem>.png``: a preview (``mcd.core.metrics.to_display`` of the exposure-normalised image); and where
+the method has them ``<stem>_sampling_map``, ``<stem>_kernel_map``, ``<stem>_adaptive`` (the adaptive render
 ``i``), ``<stem>_initial`` (``ī``) as EXR + PNG, drawn as the run directory's samples are
 (:func:`mcd.lit.samples.picture`); with a reference (``--scene ... --reference-spp``) ``<stem>_reference``
 too, in the same units.

@@ -16,7 +16,7 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from mcd import file_lock
+from mcd.core import file_lock
 
 
 class OutputFolderError(ValueError):

@@ -33,6 +33,8 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from mcd.config.methods import display_name
+from mcd.core.metrics import psnr, ssim
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import depth_scale, input_exposure, normalise
@@ -42,8 +44,6 @@ from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.reference import MAX_SPP, TARGET_DB, ReferencePlan
 from mcd.denoise.weights import Loaded
-from mcd.methods import display_name
-from mcd.metrics import psnr, ssim
 from mcd.sampling import real_renderer, stack_names
 
 log = logging.getLogger(__name__)
@@ -251,7 +251,7 @@ COLUMNS = (("uniform", "uniform input"), ("adaptive", "adaptive input"), ("outpu
 
 def scores(ref: np.ndarray, uniform: torch.Tensor | None, adaptive: torch.Tensor | None,
            output: torch.Tensor) -> dict[str, float]:
-    """PSNR and SSIM (mcd/metrics.py) of each column present against ``ref``, all in one exposure."""
+    """PSNR and SSIM (mcd/core/metrics.py) of each column present against ``ref``, all in one exposure."""
     row = {}
     for key, img in (("uniform", uniform), ("adaptive", adaptive), ("output", output)):
         if img is not None:

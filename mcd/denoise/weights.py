@@ -3,7 +3,7 @@
 ``--checkpoint`` is a run directory of ``python -m mcd.run`` (its best checkpoint, else its last: the rule of
 ``transfer.init_from``, :func:`mcd.lit.transfer.checkpoint_of`), a ``.ckpt`` file of such a run, or the name
 of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.json``, made by
-``python -m mcd.tools.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
+``python -m mcd.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
 ``weights_only=True`` (:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the
 checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
 it exactly (:func:`mcd.lit.checkpoint.check_fits`). A bundle's JSON must parse and hold its ``config``, and a
@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING, Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.config import upgrade_saved
 from mcd.denoise.work import MAX_PARAMS
 from mcd.lit import checkpoint
 
@@ -29,10 +28,26 @@ if TYPE_CHECKING:  # torch is imported where used, so that --help starts fast (d
     from torch import nn
 
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "bundled"
-#: Keys a bundle's JSON ``config`` must hold (written by :func:`mcd.denoise.bundle.write_bundle`).
+#: Keys a bundle's JSON ``config`` must hold (written by ``python -m mcd.bundle``).
 BUNDLE_CONFIG = ("experiment", "method", "capacity", "budget", "data")
 #: Methods whose first stage samples adaptively: they need a renderer (``--scene``), not frames from disk.
 ADAPTIVE = ("dasr", "ntasad")
+
+
+#: What to do with a checkpoint whose config is of an older schema than this version builds.
+RESAVE = ("save it again on today's config schema: python -m mcd.bundle RUN_DIR --name NAME from a run of "
+          "this version, or check out the commit it records (docs/denoise.md, 'Bundled checkpoints')")
+#: Keys of a config from before today's schema (the group ``capacity`` was called ``model``).
+OLD_KEYS = ("model",)
+
+
+def check_schema(config: Any, source: str) -> None:
+    """CheckpointError naming ``source`` and :data:`RESAVE` if ``config`` (a checkpoint's or a bundle's) is of
+    an older config schema: it holds a key of :data:`OLD_KEYS` or lacks ``capacity``."""
+    old = [k for k in OLD_KEYS if k in config]
+    if old or "capacity" not in config:
+        what = f"holds '{old[0]}'" if old else "lacks 'capacity'"
+        raise checkpoint.CheckpointError(f"{source}: an older config schema ({what}); {RESAVE}")
 
 
 def bundled_names() -> list[str]:
@@ -72,7 +87,9 @@ def _from_run_ckpt(path: Path) -> tuple[DictConfig, dict[str, Any], dict[str, An
         cfg = OmegaConf.load(resolved)
     weights = checkpoint.model_weights(state)
     prov = {"checkpoint": str(path), "global_step": state.get("global_step")}
-    return upgrade_saved(OmegaConf.create(cfg)), weights, prov
+    cfg = OmegaConf.create(cfg)
+    check_schema(cfg, f"--checkpoint={path}: its training config")
+    return cfg, weights, prov
 
 
 def _bundle_json(meta: Path) -> dict[str, Any]:
@@ -81,15 +98,15 @@ def _bundle_json(meta: Path) -> dict[str, Any]:
         provenance = json.loads(meta.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise checkpoint.CheckpointError(f"--checkpoint: {meta}: not a readable bundle JSON ({exc}); write "
-                                         "it again with python -m mcd.denoise.bundle") from exc
-    config = upgrade_saved(provenance.get("config")) if isinstance(provenance, dict) else None
+                                         "it again: {RESAVE}") from exc
+    config = provenance.get("config") if isinstance(provenance, dict) else None
     method = config.get("method") if isinstance(config, dict) else None
     missing = [k for k in BUNDLE_CONFIG if not isinstance(config, dict) or k not in config]
     if missing or not isinstance(method, dict) or "name" not in method:
         raise checkpoint.CheckpointError(
             f"--checkpoint: {meta}: its 'config' lacks {', '.join(missing) or 'method.name'} (it needs "
-            f"{', '.join(BUNDLE_CONFIG)}, with method.name); write the bundle again with python -m "
-            "mcd.denoise.bundle")
+            f"{', '.join(BUNDLE_CONFIG)}, with method.name); {RESAVE}")
+    check_schema(config, f"--checkpoint: {meta}")
     return {**provenance, "config": config}
 
 

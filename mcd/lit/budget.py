@@ -22,7 +22,7 @@ import torch
 from lightning.pytorch.callbacks import Callback, EarlyStopping, ModelCheckpoint
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.config_rules import checked
+from mcd.core.config_rules import checked
 from mcd.lit import precision
 from mcd.lit.csv_log import ResumableCSVLogger, drop_rows_after
 
@@ -33,7 +33,7 @@ CURVE_COLUMNS = ("step", "epoch", "seconds", "lr", "train_loss", "val_loss", "va
 
 
 def _limit(train: DictConfig, key: str) -> float | None:
-    """``train.<key>`` as a number, or None (no limit); its range is the rule of mcd/config_rules.py."""
+    """``train.<key>`` as a number, or None (no limit); its range is the rule of mcd/core/config_rules.py."""
     value = checked(f"train.{key}", train.get(key))
     return None if value is None else float(value)
 

@@ -42,7 +42,7 @@ def safe_load(path: str | Path, key: str) -> dict[str, Any]:
         ) from err
     except Exception as err:  # torch.load raises RuntimeError, EOFError, IndexError, ... on a foreign file
         raise CheckpointError(f"{key}={path}: not a readable checkpoint ({type(err).__name__}: {err}); give "
-                              "a checkpoint written by python -m mcd.run or mcd.denoise.bundle") from err
+                              "a checkpoint written by python -m mcd.run or python -m mcd.bundle") from err
     if not isinstance(state, dict):
         raise CheckpointError(f"{key}={path}: not a checkpoint (a {type(state).__name__}, not a dict)")
     return state

@@ -12,8 +12,8 @@
 - ``train.compile``: ``torch.compile`` (inductor) of the model in place during ``fit`` (off by default: not
   faster on this project's CPU, docs/training.md "Throughput").
 - Validation logs ``val/loss`` and ``val/psnr``, ``val/ssim`` of the last frame of each clip (the test
-  metrics of ``mcd.metrics``), each averaged over the validation clips of all processes (``sync_dist``), so
-  that under DDP every rank picks the same best checkpoint: the one with the highest ``val/psnr``. The
+  metrics of ``mcd.core.metrics``), each averaged over the validation clips of all processes (``sync_dist``),
+  so that under DDP every rank picks the same best checkpoint: the one with the highest ``val/psnr``. The
   training loss and its terms are logged as their mean over the processes too (:func:`mean_over_processes`,
   one all-reduce of the detached terms per step), so ``logs/metrics.csv`` and ``curve.csv`` show the loss of
   the whole effective batch, not rank 0's share. ``train/grad_norm`` is the gradients' total L2 norm before
@@ -42,10 +42,10 @@ import torch.distributed as dist
 from omegaconf import DictConfig, OmegaConf
 from torch import Tensor, nn
 
+from mcd.config.preflight import check_warmup
+from mcd.core.metrics import frame_metrics
 from mcd.data.buffers import uniform_buffer
 from mcd.lit.test_recorder import hwc
-from mcd.metrics import frame_metrics
-from mcd.preflight import check_warmup
 
 
 def clip_buffers(batch: dict[str, object]) -> dict[str, Tensor]:

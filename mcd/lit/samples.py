@@ -1,7 +1,7 @@
 """Intermediate outputs of a few test frames for the reports (docs/benchmark.md "Reports", qualitative strip).
 
 ``samples/<scene>/<frame:04d>_<name>.exr`` holds the raw values (linear HDR colour; sample counts; kernel map
-in [-1, 1]) and ``.png`` a picture of them: colour through the display transform of ``mcd.metrics``; the
+in [-1, 1]) and ``.png`` a picture of them: colour through the display transform of ``mcd.core.metrics``; the
 sampling map ``m`` with the viridis colour map over ``[0, max(m)]``; the kernel map's two channels as red
 (position along the pool) and green (blend towards the identity kernel), each mapped from [-1, 1] to [0, 1];
 the adjusted kernel pool (``kernel_pool``, its ``q`` kernels tiled 16 to a row) with the magma colour map over
@@ -17,8 +17,8 @@ import numpy as np
 from matplotlib import colormaps
 from matplotlib.image import imsave
 
+from mcd.core.metrics import to_display
 from mcd.data.exr import write_exr
-from mcd.metrics import to_display
 
 
 def picture(name: str, image: np.ndarray) -> np.ndarray:

@@ -17,7 +17,7 @@ from typing import Any
 import lightning as L
 from lightning.pytorch.callbacks import Callback
 
-from mcd.machine import device_name
+from mcd.core.machine import device_name
 
 
 class TrainingSegments(Callback):

@@ -6,16 +6,16 @@ whole test frame (the model's outputs, the reference and the noisy uniform input
 ``c{budget}``) and records, on global rank 0 only (the datamodule gives every test frame to rank 0,
 docs/architecture.md "Batches"):
 
-- one row per frame of the metrics of ``mcd.metrics`` (docs/benchmark.md, "Metrics") for the output and for
-  the noisy input (``input_*``); ``lt`` pairs each frame with the previous one of its sequence (NaN on a
+- one row per frame of the metrics of ``mcd.core.metrics`` (docs/benchmark.md, "Metrics") for the output and
+  for the noisy input (``input_*``); ``lt`` pairs each frame with the previous one of its sequence (NaN on a
   sequence's first frame), as do ``tpsnr`` and ``input_tpsnr``; with KP also the kernel map's identity
   share (``kp_identity``) and the standard deviation of its kernel index ``h[0]`` over the frame's pixels
   (``kp_index_std``; 0 = one kernel everywhere); with a sampling map its spread (``map_spread``, standard
   deviation over mean) and its outer ring's share of the samples over the ring's share of the pixels
-  (``map_ring_share``; :func:`mcd.metrics.map_spread`, :func:`mcd.metrics.map_ring_share`);
+  (``map_ring_share``; :func:`mcd.core.metrics.map_spread`, :func:`mcd.core.metrics.map_ring_share`);
 - ``samples/<scene>/`` (``mcd.lit.samples``) of the frames at the sequence positions ``train.sample_frames``;
 - at the end of the test ``frames.csv`` (the rows) and :attr:`TestRecorder.averages`
-  (``mcd.metrics.aggregate``: per scene, then over scenes) for the run record (``mcd.run_record``).
+  (``mcd.core.metrics.aggregate``: per scene, then over scenes) for the run record (``mcd.lit.run_record``).
 """
 
 from __future__ import annotations
@@ -30,8 +30,7 @@ import pandas as pd
 from lightning.pytorch.callbacks import Callback
 from torch import Tensor
 
-from mcd.lit.samples import save_samples
-from mcd.metrics import (
+from mcd.core.metrics import (
     FRAME_METRICS,
     MODEL_METRICS,
     aggregate,
@@ -41,6 +40,7 @@ from mcd.metrics import (
     temporal_l1,
     temporal_psnr,
 )
+from mcd.lit.samples import save_samples
 from mcd.models.kernel_pool import identity_weight
 
 
@@ -64,7 +64,7 @@ class TestRecorder(Callback):
         self.run_dir = Path(run_dir) if run_dir is not None else None
         self.sample_frames = {int(i) for i in sample_frames}
         self.rows: list[dict[str, object]] = []
-        #: ``mcd.metrics.aggregate`` of :attr:`rows` over :attr:`metric_keys`, set at the end of a test.
+        #: ``mcd.core.metrics.aggregate`` of :attr:`rows` over :attr:`metric_keys`, set at the end of a test.
         self.averages: dict[str, object] | None = None
         self._prev: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # output, reference, input
         self._position = 0

@@ -1,6 +1,6 @@
 """Training losses (docs/method.md "Losses", docs/baselines.md), chosen by ``loss.name`` (``conf/loss/``).
 
-:data:`LOSSES` is a :class:`mcd.registry.Registry`; a loss registers ``@LOSSES.register(name)``
+:data:`LOSSES` is a :class:`mcd.core.registry.Registry`; a loss registers ``@LOSSES.register(name)``
 (``register_loss``) on a class whose constructor takes the settings of its ``conf/loss/<name>.yaml`` as
 keyword arguments (everything but ``name``). The built-in losses are :mod:`mcd.losses.paper` (``paper``) and
 :mod:`mcd.losses.baselines` (``rae``, ``dasr``, ``ntasad``, ``mse``). Every loss is an ``nn.Module`` called as
@@ -18,7 +18,7 @@ from collections.abc import Callable
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
-from mcd.registry import Registry
+from mcd.core.registry import Registry
 
 LossFactory = Callable[..., nn.Module]
 

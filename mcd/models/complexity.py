@@ -1,5 +1,5 @@
 """Params and MACs of a method (docs/benchmark.md "Metrics"), as a run records them (``metrics.json``
-``params_m``, ``macs_g``) and ``python -m mcd.tools.complexity`` tables them beside the paper's.
+``params_m``, ``macs_g``) and ``python -m mcd.complexity`` tables them beside the paper's.
 
 MACs = FLOPs / 2 of one forward pass producing one output frame, whole pipeline, counted by
 ``torch.utils.flop_counter.FlopCounterMode``. The count runs on the ``meta`` device (shapes only, no memory,

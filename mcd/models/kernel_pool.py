@@ -174,9 +174,6 @@ class KernelPool(nn.Module):
 
 #: What enters the kernel-map head's final ``tanh`` (``method.kp.head_output``; see the module docstring).
 HEAD_OUTPUTS = ("tanh", "rms_centred", "rms_soft")
-#: Options that earlier configs (run checkpoints, bundled checkpoints) still carry, each with the one value
-#: that remains: the behaviour they chose otherwise is gone (docs/kernel_pool.md has its measurements).
-REMOVED_OPTIONS = {"denoiser_reads_adaptive": False, "temperature": 1.0, "pool_init_scale": 1.0}
 
 
 def kp_options_of(options: dict | None) -> dict[str, Any]:
@@ -185,15 +182,9 @@ def kp_options_of(options: dict | None) -> dict[str, Any]:
     one from before ``skip_misses`` filters across pixels that saw no geometry; conf/method/two_stage.yaml
     sets 1.0 and false, and docs/method.md "Kernel pool" says why ``skip_misses`` stays off).
 
-    A removed option (:data:`REMOVED_OPTIONS`) is accepted at its remaining value and refused otherwise,
-    naming the key; an unknown key is refused too.
+    An unknown key is refused, naming it.
     """
     options = dict(options or {})
-    for key, kept in REMOVED_OPTIONS.items():
-        if key in options and options.pop(key) != kept:
-            raise ValueError(f"method.kp.{key}: this option was removed and only {key}={kept} remains; this "
-                             f"config (or checkpoint) was made with another value, which this version cannot "
-                             f"build (check out the commit it records)")
     head_output = str(options.pop("head_output", "rms_centred"))
     highlight = options.pop("highlight", None)
     skip_misses = options.pop("skip_misses", False)

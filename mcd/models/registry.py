@@ -1,5 +1,5 @@
-"""The methods by name (``method.name``): :data:`METHODS`, a :class:`mcd.registry.Registry` (after BasicSR's:
-``METHODS.get(name)(**kwargs)``).
+"""The methods by name (``method.name``): :data:`METHODS`, a :class:`mcd.core.registry.Registry` (after
+BasicSR's: ``METHODS.get(name)(**kwargs)``).
 
 A method registers ``@METHODS.register(name)`` (``mcd.models.register``) on a factory that takes plain keyword
 arguments, so that its signature documents its knobs: ``budget`` (average samples per pixel), the settings
@@ -19,9 +19,9 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
+from mcd.core.registry import Registry
 from mcd.models.margin import set_margin
 from mcd.models.output_steps import attach_output_steps
-from mcd.registry import Registry
 
 Factory = Callable[..., nn.Module]
 

@@ -201,17 +201,15 @@ class TwoStage(nn.Module):
 @register("two_stage")
 def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG: bool, SA: bool,
                     denoiser: dict, sampler: dict, kernel_pool: dict, ghost: dict, pooling: dict,
-                    attention: dict,
-                    sampling: dict | None = None, colour: str = "log1p", kp: dict | None = None,
-                    denoiser_output: str = "direct", sampler_padding: str = "zeros",
-                    denoiser_reads_map: bool = True,
+                    attention: dict, sampling: dict, kp: dict, denoiser_output: str, sampler_padding: str,
+                    colour: str = "log1p", denoiser_reads_map: bool = True,
                     warp_previous: bool = False, init: str = "torch") -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
-    ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions: ``replicate`` in the config, ``zeros``
-    for a config from before the key), ``denoiser_reads_map`` (``F_d`` reads the normalised
-    sampling map with AS: this project's default; false: the paper's list of ``F_d``'s inputs),
+    ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions), ``denoiser_reads_map`` (``F_d``
+    reads the normalised sampling map with AS: this project's default; false: the paper's list of ``F_d``'s
+    inputs),
     ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output),
     ``init`` (the convolutions' initialisation, :mod:`mcd.models.init`); and its
     widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
@@ -221,7 +219,7 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
     switches = check_switches({"UN": UN, "AS": AS, "KP": KP, "PP": PP, "FG": FG, "SA": SA}, complete=True)
     sizes = {"denoiser": denoiser, "sampler": sampler, "kernel_pool": kernel_pool, "ghost": ghost,
              "pooling": pooling, "attention": attention}
-    return TwoStage(switches, budget, sizes, levels=int((sampling or {}).get("levels", 5)), colour=colour,
+    return TwoStage(switches, budget, sizes, levels=int(sampling["levels"]), colour=colour,
                     kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding),
                     reads_map=bool(denoiser_reads_map),
                     warp_previous=bool(warp_previous), init=str(init))

@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mcd.methods import display_name
+from mcd.config.methods import display_name
 
 FILE = "findings.json"
 

@@ -15,8 +15,14 @@ import math
 
 import pandas as pd
 
+from mcd.config.methods import (
+    BASELINE_VARIANTS,
+    BY_EXPERIMENT,
+    TABLE1_VARIANTS,
+    TRAINED_BASELINES,
+    display_name,
+)
 from mcd.data.buffers import UNIFORM_BUDGETS
-from mcd.methods import BASELINE_VARIANTS, BY_EXPERIMENT, TABLE1_VARIANTS, TRAINED_BASELINES, display_name
 from mcd.reporting.finding import Finding
 from mcd.reporting.runs import Run
 from mcd.reporting.select import pick, scene_mean, train_scenes

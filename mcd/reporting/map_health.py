@@ -1,13 +1,13 @@
 """Sampling-map health (docs/benchmark.md "Sampling-map health"): for every finished run with adaptive
 sampling, whether its map is adaptive, collapsed (one count on every pixel: uniform sampling) or edge-bound
 (the frame's outer ring takes far more than its share of the samples), from the test averages of its
-``metrics.json`` (``map_spread``, ``map_ring_share``: :mod:`mcd.metrics`)."""
+``metrics.json`` (``map_spread``, ``map_ring_share``: :mod:`mcd.core.metrics`)."""
 
 from __future__ import annotations
 
 import math
 
-from mcd.metrics import MAP_COLLAPSED, MAP_EDGE_BOUND, MAP_RING, map_health
+from mcd.core.metrics import MAP_COLLAPSED, MAP_EDGE_BOUND, MAP_RING, map_health
 from mcd.reporting.finding import Finding
 from mcd.reporting.runs import Run
 

@@ -1,14 +1,15 @@
-"""The paper's numbers for the reference columns of the tables, read from `mcd.methods` (never retyped).
+"""The paper's numbers for the reference columns of the tables, read from `mcd.config.methods` (never
+retyped).
 
 Units as the paper prints them: PSNR dB, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs at 1920x1080, params in M.
-Keys here follow the run's metrics.json (`macs_g`); `mcd.methods` says `gmacs`.
+Keys here follow the run's metrics.json (`macs_g`); `mcd.config.methods` says `gmacs`.
 """
 
 from __future__ import annotations
 
 import math
 
-from mcd import methods
+from mcd.config import methods
 
 _FIELDS = {
     "psnr": "psnr",

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from mcd.provenance import short_commit
+from mcd.core.provenance import short_commit
 from mcd.reporting.runs import Run, Sweep
 
 

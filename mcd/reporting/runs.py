@@ -20,12 +20,11 @@ import pandas as pd
 import yaml
 from omegaconf import OmegaConf
 
-from mcd.config import upgrade_saved
-from mcd.metrics import FRAME_METRICS, PSNR_CAP_DB
+from mcd.core.metrics import FRAME_METRICS, PSNR_CAP_DB
 
 log = logging.getLogger(__name__)
 
-#: The file ``python -m mcd.tools.edge_effect`` writes into a run directory, read beside its metrics.
+#: The file the lab's ``tools/edge_effect.py`` writes into a run directory, read beside its metrics.
 EDGES_FILE = "edges.json"
 #: The sampling and kernel maps' border figures in that file, where a model has the maps.
 MAP_KEYS = ("map_border_ratio", "index_border", "index_interior")
@@ -194,8 +193,8 @@ class Run:
         return ""
 
 
-#: The plausible range of each score a run records (``mcd.metrics``): PSNR of display images in [0, the cap],
-#: SSIM in [-1, 1], FLIP in [0, 1], errors at least 0. A score outside it is damage, not a result.
+#: The plausible range of each score a run records (``mcd.core.metrics``): PSNR of display images in [0, the
+#cap], : SSIM in [-1, 1], FLIP in [0, 1], errors at least 0. A score outside it is damage, not a result.
 SCORE_RANGES = {
     **{k: (0.0, PSNR_CAP_DB) for k in ("psnr", "input_psnr", "tpsnr", "input_tpsnr")},
     **{k: (-1.0, 1.0) for k in ("ssim", "input_ssim")},
@@ -208,9 +207,9 @@ FRAMES_COLUMNS = ("scene", "frame", "psnr")
 
 def metrics_problem(path: Path) -> str | None:
     """What is wrong with the ``metrics.json`` at ``path`` (None: absent or sound): not readable JSON, not an
-    object, or a score (``mcd.metrics.FRAME_METRICS``) that is not a number or null (``"psnr": "NaN"``), or
-    one outside its range (:data:`SCORE_RANGES`: ``"psnr": 1e308``, ``"ssim": -5``).
-    mcd.run writes it atomically (mcd/run_record.py), so a damaged one is not a run still writing it."""
+    object, or a score (``mcd.core.metrics.FRAME_METRICS``) that is not a number or null (``"psnr": "NaN"``),
+    or one outside its range (:data:`SCORE_RANGES`: ``"psnr": 1e308``, ``"ssim": -5``).
+    mcd.run writes it atomically (mcd/lit/run_record.py), so a damaged one is not a run still writing it."""
     if not path.exists():
         return None
     try:
@@ -277,7 +276,7 @@ def load_run(path: Path) -> Run:
     metrics = None if problem else _load_json(path / "metrics.json")
     if metrics is not None and "psnr" not in metrics:
         metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
-    edges = _load_json(path / EDGES_FILE)  # measured after the run by python -m mcd.tools.edge_effect
+    edges = _load_json(path / EDGES_FILE)  # measured after the run by tools/edge_effect.py
     if metrics is not None and edges is not None and edges.get("checkpoint") == metrics.get("checkpoint"):
         metrics = {**metrics, **{k: edges.get(k) for k in ("edge_effect", *MAP_KEYS)}}
     error = _load_json(path / "error.json")
@@ -293,12 +292,10 @@ def load_run(path: Path) -> Run:
     problem = problem or bad
     if not config and error is not None and isinstance(error.get("config"), dict):
         config = error["config"]
-    config = upgrade_saved(config or {})  # a run from before a group's rename reads as today's (mcd.config)
+    config = config or {}
     choices, bad = _read_yaml(path / ".hydra" / "hydra.yaml", _choices)
     problem = problem or bad
-    choices = upgrade_saved(
-        {str(k): str(v) for k, v in choices.items() if not str(k).startswith("hydra")} if choices else {}
-    )
+    choices = {str(k): str(v) for k, v in (choices or {}).items() if not str(k).startswith("hydra")}
     if problem:
         metrics, error = None, {**(error or {}), "error": problem, "corrupt": problem}
     return Run(path=path, config=config, overrides=overrides or [], choices=choices, metrics=metrics,

@@ -27,8 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
-from mcd.config import upgrade_saved  # noqa: E402
-from mcd.methods import BY_EXPERIMENT, display_name  # noqa: E402
+from mcd.config.methods import BY_EXPERIMENT, display_name  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import metric, pick  # noqa: E402
@@ -63,8 +62,8 @@ def run_config(run: Run) -> dict:
     """The run's composed config: ``resolved_config.yaml`` where the run has one, else its
     ``.hydra/config.yaml``."""
     resolved = run.path / "resolved_config.yaml"
-    if resolved.is_file():  # a run from before a group's rename reads as today's (mcd.config.upgrade_saved)
-        return upgrade_saved(OmegaConf.to_container(OmegaConf.load(resolved), resolve=False))
+    if resolved.is_file():
+        return OmegaConf.to_container(OmegaConf.load(resolved), resolve=False)
     return run.config
 
 
@@ -103,7 +102,7 @@ def speed_frame(runs: list[Run]) -> pd.DataFrame:
     row A's for a U-Net without a job of its own), its model's latency and its errors."""
     import torch
 
-    from mcd.machine import device_name
+    from mcd.core.machine import device_name
 
     machine = device_name(torch.device("cpu"))
     rows = []

@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from mcd.methods import (  # noqa: E402
+from mcd.config.methods import (  # noqa: E402
     BY_EXPERIMENT,
     CATALOGUE,
     display_name,  # noqa: E402
@@ -34,8 +34,9 @@ PANELS = (
 def spp_frame(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
     """One row per (experiment, budget) with a finished or failed run, preferring the spp sweep's jobs.
 
-    Where a method with a ``stand_in`` (mcd.methods: the U-Net is row A's network, docs/baselines.md) has no
-    finished run at a budget, that experiment's run stands in and its ``source`` names it, as in Table 1.
+    Where a method with a ``stand_in`` (mcd.config.methods: the U-Net is row A's network, docs/baselines.md)
+    has no finished run at a budget, that experiment's run stands in and its ``source`` names it, as in Table
+    1.
     """
     keys = {(r.experiment, r.budget) for r in runs if r.budget is not None and r.transfer is None}
     ran = {exp for exp, _ in keys}

@@ -15,13 +15,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
-from mcd.data.exr import read_exr  # noqa: E402
-from mcd.lit.samples import picture  # noqa: E402
-from mcd.methods import (
+from mcd.config.methods import (
     BY_EXPERIMENT,  # noqa: E402
     display_name,  # noqa: E402
 )
-from mcd.metrics import flip_map, to_display  # noqa: E402
+from mcd.core.metrics import flip_map, to_display  # noqa: E402
+from mcd.data.exr import read_exr  # noqa: E402
+from mcd.lit.samples import picture  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import pick  # noqa: E402
@@ -81,7 +81,8 @@ def strip_run(runs: list[Run]) -> Run | None:
 def table1_runs(runs: list[Run]) -> list[tuple[str, str, Run]]:
     """``(experiment, title, run)`` of Table 1's finished methods at 4 spp, in Table 1's order, the noisy
     input left out (the strips and the viewer show it from the full method's samples). A method's stand-in
-    (mcd.methods: row A for the U-Net) stands in where it did not run (as in table1), under the same title."""
+    (mcd.config.methods: row A for the U-Net) stands in where it did not run (as in table1), under the same
+    title."""
     found = []
     for exp in (e for e in TABLE1_ROWS if e != "noisy"):
         other = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")

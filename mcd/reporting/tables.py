@@ -1,5 +1,5 @@
 """Table 1 (methods at 4 spp), the component table (A-M) and the transfer table (docs/benchmark.md "Reports"),
-as markdown and CSV, with the paper's numbers in adjacent columns (read from `mcd.methods`)."""
+as markdown and CSV, with the paper's numbers in adjacent columns (read from `mcd.config.methods`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from mcd.methods import BY_EXPERIMENT, TABLE1_ROWS, TABLE1_VARIANTS, display_name
+from mcd.config.methods import BY_EXPERIMENT, TABLE1_ROWS, TABLE1_VARIANTS, display_name
 from mcd.models.switches import SWITCHES
 from mcd.reporting import paper
 from mcd.reporting.finding import Finding, render
@@ -41,7 +41,7 @@ def stacked(runs: list[Run], experiments: Iterable[str],
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
 
 
-#: The columns of the metrics this project adds (mcd.metrics.ADDED_METRICS; docs/benchmark.md "Metrics"),
+#: The columns of the metrics this project adds (mcd.core.metrics.ADDED_METRICS; docs/benchmark.md "Metrics"),
 #: the same in every table: ``(column, metrics.json key, scale)``.
 ADDED_COLUMNS = (
     ("FLIP", "flip", 1e2),
@@ -56,7 +56,7 @@ ADDED_NOTE = ("FLIP x1e2 (LDR-FLIP of the display images, lower is better), tPSN
               "input's beside it shows the content's share), colour shift % (largest per-channel difference "
               "of the frame mean from the reference's), edge effect in dB (PSNR of a crop's outer 4-pixel "
               "frame minus that of the same pixels denoised inside the whole frame: what the image border "
-              "itself costs; python -m mcd.tools.edge_effect): metrics this project adds (docs/benchmark.md "
+              "itself costs; tools/edge_effect.py): metrics this project adds (docs/benchmark.md "
               "\"Metrics\"); empty for runs from before them.")
 
 
@@ -289,7 +289,7 @@ def write_all(runs: list[Run], out_dir: Path, root: Path | None = None) -> dict[
             "map ring ratio: the sampling map's mean on the outermost pixel ring over its interior mean (1: "
             "no preference for the border); KP index ring: the kernel index h[0] on that ring (the "
             "interior's spread is KP index std); both measured with the edge effect (python -m "
-            "mcd.tools.edge_effect).",
+            "tools.edge_effect).",
             *map(render, component_checks(comp)),
         ],
     )

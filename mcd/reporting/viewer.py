@@ -7,15 +7,15 @@ scene and frame that the runs saved samples of (``train.sample_frames``, ``mcd.l
   run's ``frames.csv``;
 - a wipe between any two pictures (left and right picked from lists), zoom (wheel) and pan (drag) in sync
   across every picture, exposure in stops;
-- each picture's FLIP error map against the reference (``mcd.metrics.flip_map``, magma colours);
+- each picture's FLIP error map against the reference (``mcd.core.metrics.flip_map``, magma colours);
 - the full method's sampling map ``m`` and its kernel map (kernel index ``h[0]`` and identity weight, paper
   Sec. 4.1), pictured as the strips picture them (``mcd.lit.samples.picture``).
 
 Bytes: every picture is a lossless 8-bit WebP file (smaller than PNG; lossless, so the noise shows as the
-metrics score it). The colour pictures are tone-mapped by ``mcd.metrics.to_display`` (what PSNR and FLIP see)
-after an exposure of ``2**ev``, one file per stop of :data:`STOPS`, and the page loads only the shown frame's
-pictures at the shown stop. Pre-exposed stops keep the page on plain ``<img>`` elements: a continuous exposure
-would need float data drawn through a canvas, and Chromium forbids reading back pixels of images from
+metrics score it). The colour pictures are tone-mapped by ``mcd.core.metrics.to_display`` (what PSNR and FLIP
+see) after an exposure of ``2**ev``, one file per stop of :data:`STOPS`, and the page loads only the shown
+frame's pictures at the shown stop. Pre-exposed stops keep the page on plain ``<img>`` elements: a continuous
+exposure would need float data drawn through a canvas, and Chromium forbids reading back pixels of images from
 ``file://`` pages, so the floats would have to travel base64-encoded inside scripts (docs/benchmark.md
 "Viewer" weighs the two). Error and map pictures do not depend on exposure: one file each. A frame larger
 than :data:`MAX_SIDE` on a side is cut to its noisiest :data:`MAX_SIDE` square (``strips.crop_box``). The
@@ -41,10 +41,10 @@ import numpy as np
 from matplotlib import colormaps
 from PIL import Image
 
+from mcd.config.methods import display_name
+from mcd.core.metrics import flip_map, to_display
 from mcd.data.exr import read_exr
 from mcd.lit.samples import picture
-from mcd.methods import display_name
-from mcd.metrics import flip_map, to_display
 from mcd.reporting.runs import Run
 from mcd.reporting.strips import crop_box, samples, strip_run, table1_runs
 

@@ -10,9 +10,9 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
-from mcd.config import compose
+from mcd.config.compose import compose
+from mcd.config.methods import TABLE1
 from mcd.losses import build_loss
-from mcd.methods import TABLE1
 from mcd.models import build
 from mcd.models.complexity import complexity, dummy_batch
 

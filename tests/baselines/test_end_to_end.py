@@ -15,8 +15,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from mcd.core.metrics import psnr
 from mcd.data import StoreBuilder
-from mcd.metrics import psnr
 from tests.conftest import compose_cfg
 
 REPO = Path(__file__).resolve().parents[2]

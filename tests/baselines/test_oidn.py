@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from mcd.metrics import psnr
+from mcd.core.metrics import psnr
 
 HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None
 

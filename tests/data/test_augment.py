@@ -9,12 +9,12 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
+from mcd.config.preflight import check_run
 from mcd.data import MCDDataModule
 from mcd.data.augment import EXPOSURE_LIMIT, Augment, Draw, apply
 from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS
 from mcd.data.clips import ExrClips
 from mcd.models.warp import warp
-from mcd.preflight import check_run
 from tests.conftest import compose_cfg, store32_overrides
 
 ALL_ON = {"flips": True, "transpose": True, "channels": True, "zero_pad": 0.5, "zero_pad_max": 6,

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from mcd.core.metrics import psnr
 from mcd.data.reference_quality import estimate_psnr, spp_for_target
-from mcd.metrics import psnr
 
 
 def test_estimate_from_two_halves_matches_the_error_against_a_converged_render(cbox32):

@@ -135,8 +135,8 @@ def test_auto_variant_is_a_jit_one_or_the_gap_is_reported():
 @pytest.mark.parametrize("name", REAL)
 def test_camera_path_never_inside_a_wall(name):
     """Every frame of the medium profile's path (every 3rd, at 16x16) renders the inside of a room."""
+    from mcd.check_paths import check_scene
     from mcd.data.mitsuba_env import select_variant
-    from mcd.tools.check_paths import check_scene
 
     select_variant("auto")
     cfg = compose_cfg("data=medium", f"paths.scenes_dir={SHARED}")
@@ -148,8 +148,8 @@ def test_camera_path_never_inside_a_wall(name):
 
 
 def test_path_checks_catch_a_camera_against_a_wall():
+    from mcd.check_paths import check_scene
     from mcd.data.mitsuba_env import select_variant
-    from mcd.tools.check_paths import check_scene
 
     select_variant("auto")
     start = {"origin": [278, 480, -800], "target": [278, 480, 0], "up": [0, 1, 0]}

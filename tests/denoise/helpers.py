@@ -1,5 +1,5 @@
 """Real inputs for the ``mcd.denoise`` tests: a 32x32 Cornell-box sequence rendered with Mitsuba and written
-as EXR frames, and bundles of real (untrained) models written by :func:`mcd.tools.bundle.write_bundle`."""
+as EXR frames, and bundles of real (untrained) models written by :func:`mcd.bundle.write_bundle`."""
 
 from __future__ import annotations
 
@@ -40,8 +40,8 @@ def render_sequence(folder: Path, frames: int = 3, spp: int = 4, ref_spp: int = 
 def untrained_bundle(folder: Path, name: str, *overrides: str) -> Path:
     """A bundle of the freshly built model of ``overrides`` (``+experiment=unet``, ...) as
     ``<folder>/<name>.pt``."""
+    from mcd.bundle import write_bundle
     from mcd.models import build
-    from mcd.tools.bundle import write_bundle
 
     cfg = compose_cfg("data=small", *overrides)
     write_bundle(build(cfg).state_dict(), cfg, name, {"command": "untrained, for tests"}, folder)

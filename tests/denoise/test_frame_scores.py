@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mcd.core.metrics import flip, psnr, ssim
 from mcd.denoise.cli import run
 from mcd.denoise.frames import read_frame
-from mcd.metrics import flip, psnr, ssim
 from tests.denoise.helpers import render_sequence, untrained_bundle
 
 

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 import torch
 
+from mcd.core.metrics import psnr
 from mcd.data.exr import read_exr
 from mcd.data.scenes import VENDORED_DIR
 from mcd.denoise import weights
 from mcd.denoise.cli import run
 from mcd.lit import precision as lit_precision
 from mcd.lit.precision import cpu_bf16_supported
-from mcd.metrics import psnr
 from tests.denoise.helpers import render_sequence
 
 needs_bf16 = pytest.mark.skipif(not cpu_bf16_supported(), reason="this CPU has no native bf16")

@@ -10,11 +10,11 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
+from mcd.core.metrics import psnr
 from mcd.denoise import weights
 from mcd.denoise.frames import FrameSequence
 from mcd.denoise.sequence import colour_key, to_tensor, wanted_layers
 from mcd.denoise.tiles import TiledModel
-from mcd.metrics import psnr
 from tests.denoise.helpers import REPO
 
 WIDTH, HEIGHT, TILE, OVERLAP = 160, 128, 32, 32

@@ -158,7 +158,7 @@ def test_learning_rate_warms_up_linearly_then_follows_the_cosine(tiny_store, tmp
 
 
 def test_a_bad_warmup_is_named_before_anything_runs(tiny_store):
-    from mcd.preflight import check_run
+    from mcd.config.preflight import check_run
 
     for bad in ("-1", "2.5", "true"):
         with pytest.raises(ValueError, match=r"train\.warmup_steps="):

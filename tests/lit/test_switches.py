@@ -2,10 +2,10 @@
 
 import pytest
 
-from mcd.methods import component_experiment
+from mcd.config.methods import component_experiment
 from mcd.models.switches import check_switches, switch_row
 
-#: The paper's rows as docs/method.md prints them: an oracle apart from the table of mcd/methods.py.
+#: The paper's rows as docs/method.md prints them: an oracle apart from the table of mcd/config/methods.py.
 ROWS = dict(A="100000", B="110000", C="111000", D="111100", E="111110", F="111111", G="111010", H="111011",
             I="111101", J="111001", K="110100", L="110010", M="110001")
 

@@ -7,19 +7,19 @@ from pathlib import Path
 import torch
 from omegaconf import OmegaConf
 
+from mcd.config.methods import COMPONENTS, component_experiment
 from mcd.data.buffers import BUFFERS
 from mcd.data.synthetic import synthetic_frame
-from mcd.methods import COMPONENTS, component_experiment
 from mcd.models.switches import SWITCHES
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
-#: Row -> its switches as bits (``UN AS KP PP FG SA``), from the one table (mcd.methods.COMPONENTS).
+#: Row -> its switches as bits (``UN AS KP PP FG SA``), from the one table (mcd.config.methods.COMPONENTS).
 ROWS = {row: "".join("1" if c["switches"][s] else "0" for s in SWITCHES) for row, c in COMPONENTS.items()}
 
 
 def row_cfg(row: str, profile: str = "cpu", budget: float = 4):
     """The run config of a component row with a capacity profile (conf/method/two_stage.yaml with the row's
-    switches, :func:`mcd.methods.component_experiment`, + the profile)."""
+    switches, :func:`mcd.config.methods.component_experiment`, + the profile)."""
     exp = component_experiment(row)
     method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), exp["method"])
     model = OmegaConf.load(CONF / "capacity" / f"{profile}.yaml")

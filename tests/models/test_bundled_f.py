@@ -1,9 +1,9 @@
 """The bundled F (``mcd/bundled/F-cpu-small``, trained on ``data=small``) on frames rendered here, of the
 three vendored training scenes at 96x96 (issue 12's two checks on the output, docs/benchmark.md "Metrics"):
 
-- no colour cast: each channel's frame mean within 5% of the reference's (``mcd.metrics.colour_shift``), per
-  frame; and it beats its noisy input on every frame;
-- no border artefact: the edge effect (``mcd.tools.edge_effect``: the outer 4-pixel frame of a 64x64 inset
+- no colour cast: each channel's frame mean within 5% of the reference's (``mcd.core.metrics.colour_shift``),
+  per frame; and it beats its noisy input on every frame;
+- no border artefact: the edge effect (``tools.edge_effect``: the outer 4-pixel frame of a 64x64 inset
   crop as the crop's border, against the same pixels inside the whole frame) at least -1 dB averaged over the
   scenes, and on each scene no worse than OIDN's on the same frames (when ``pyoidn`` is installed, as
   ``scripts/setup.sh`` does). Per scene the image border costs every method something where a sharp edge
@@ -21,21 +21,21 @@ import importlib.util
 import numpy as np
 import pytest
 
-from mcd.config import compose
+from mcd.config.compose import compose
 from mcd.data import StoreBuilder
 from mcd.data.buffers import run_buffers
 from mcd.data.datamodule import MCDDataModule
 from mcd.denoise.weights import load
 from mcd.lit.module import DenoiseModule
 from mcd.models import build
-from mcd.tools.edge_effect import measure
+from tools.edge_effect import measure
 
 SCENES = ("cbox", "cornell-box-picture", "staircase2")
 HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None
 
 
 def _rows(model, experiment: str, data_dir) -> list[dict[str, object]]:
-    """``mcd.tools.edge_effect.measure`` of ``model`` on the test frames (2 per scene) of a 96x96 store."""
+    """``tools.edge_effect.measure`` of ``model`` on the test frames (2 per scene) of a 96x96 store."""
     cfg = compose([
         f"+experiment={experiment}", "capacity=cpu", "data=tiny", "data.name=bundled_f",
         f"paths.data_dir={data_dir}",

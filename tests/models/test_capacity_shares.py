@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from mcd.tools.complexity import SHARE_BAND, main, outside_band, shares, trained_methods
+from mcd.complexity import SHARE_BAND, main, outside_band, shares, trained_methods
 
 
 def test_every_trained_method_keeps_an_equal_share_of_its_paper_macs():

@@ -5,10 +5,10 @@ import csv
 import pytest
 import torch
 
-from mcd.methods import COMPONENTS
+from mcd.complexity import main
+from mcd.config.methods import COMPONENTS
 from mcd.models import build
 from mcd.models.complexity import complexity, count_macs
-from mcd.tools.complexity import main
 from tests.models.helpers import ROWS, row_cfg
 
 

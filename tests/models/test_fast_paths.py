@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import torch
 
+from mcd.core.metrics import psnr
 from mcd.denoise.weights import load
 from mcd.lit.precision import cpu_bf16_supported
-from mcd.metrics import psnr
 from mcd.models import fast_paths
 from mcd.models.inputs import gbuffers
 from mcd.models.kernel_pool import KernelPool, apply_pixel_kernels, filter_below, interpolate_kernels

@@ -11,13 +11,13 @@ import pytest
 import torch
 from omegaconf import open_dict
 
-from mcd.config import compose
+from mcd.config.compose import compose
+from mcd.core.metrics import psnr, rmse
 from mcd.data.buffers import BUFFERS, COLOUR_BUFFERS
 from mcd.data.clips import ExrClips
 from mcd.data.datamodule import SequenceDataset
 from mcd.denoise import weights
 from mcd.lit.test_recorder import hwc
-from mcd.metrics import psnr, rmse
 from mcd.models import build
 from mcd.models.output_bound import clamp_output, output_bound
 from mcd.models.output_steps import denoised_render

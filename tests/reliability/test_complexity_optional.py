@@ -1,4 +1,4 @@
-"""Defect 13 of issue 14: without the optional ``pyoidn``, ``python -m mcd.tools.complexity`` lists OIDN as
+"""Defect 13 of issue 14: without the optional ``pyoidn``, ``python -m mcd.complexity`` lists OIDN as
 unavailable and prints every other row."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import csv
 import math
 import sys
 
-from mcd.tools.complexity import main
+from mcd.complexity import main
 
 
 def test_complexity_without_pyoidn_lists_oidn_as_unavailable(tmp_path, capsys, monkeypatch):

@@ -1,5 +1,5 @@
 """Defects 10, 11, 23, 24, 29 and 30 of the fourth reliability round: one check of every numeric key
-(mcd/config_rules.py) that every Hydra command runs before any work. Each bad value ends the real command
+(mcd/core/config_rules.py) that every Hydra command runs before any work. Each bad value ends the real command
 with exit status 2 and one line ``error: <key>=<value>: ...``, no traceback, before anything is rendered or
 written; every profile and experiment of conf/ passes it, and every numeric key there has a rule."""
 
@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from mcd.config import compose, experiment_names
-from mcd.paths import CONF_DIR
+from mcd.config.compose import compose, experiment_names
+from mcd.core.paths import CONF_DIR
 from tests.conftest import store32_overrides
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -50,7 +50,7 @@ def test_defect10_bad_training_values_are_named_before_rendering(tmp_path, overr
 
 
 def test_defect11_the_plan_refuses_a_huge_frame_and_caps_its_pilot(tmp_path):
-    from mcd.workload import PILOT_MAX_PIXELS, pilot_size
+    from mcd.lit.workload import PILOT_MAX_PIXELS, pilot_size
 
     proc = _command(tmp_path, "mcd.plan", "data.width=100000", "data.height=100000")
     assert "16384" in _assert_refused(tmp_path, proc, "data.width")
@@ -92,14 +92,14 @@ def test_defect30_help_into_a_closed_pipe_ends_quietly(tmp_path):
     assert "Traceback" not in err and "BrokenPipeError" not in err, err
 
 
-@pytest.mark.parametrize("module", ["mcd.run", "mcd.render", "mcd.plan", "mcd.data.pack",
-                                    "mcd.tools.check_paths"])
+@pytest.mark.parametrize("module", ["mcd.run", "mcd.render", "mcd.plan", "mcd.pack",
+                                    "mcd.check_paths"])
 def test_every_hydra_command_checks_the_config_before_any_work(tmp_path, module):
     _assert_refused(tmp_path, _command(tmp_path, module, "data.clip_len=0"), "data.clip_len")
 
 
 def test_a_sweep_job_with_a_bad_value_writes_its_error_and_the_sweep_goes_on(tmp_path):
-    """In a multirun the check is the job's: ``mcd.run`` writes its ``error.json`` (mcd/hydra_callbacks.py
+    """In a multirun the check is the job's: ``mcd.run`` writes its ``error.json`` (mcd/lit/hydra_callbacks.py
     then exits 1 naming the failed jobs), as for any job that fails."""
     proc = _command(tmp_path, "mcd.run", "+experiment=unet", "seed=-1", f"hydra.sweep.dir={tmp_path / 'sw'}",
                     flags=("-m",))
@@ -119,7 +119,7 @@ def _profiles() -> list[list[str]]:
 @pytest.mark.parametrize("overrides", _profiles(), ids=lambda o: o[0])
 def test_every_profile_and_experiment_passes_and_every_numeric_key_has_a_rule(overrides):
     """Every profile of the groups data, train, capacity, trainer and loss, every sweep and experiment."""
-    from mcd.config_rules import check_config, rule_of
+    from mcd.core.config_rules import check_config, rule_of
 
     cfg = compose(overrides)
     check_config(cfg)
@@ -138,7 +138,7 @@ def test_every_profile_and_experiment_passes_and_every_numeric_key_has_a_rule(ov
 
     missing = [k for k, v in leaves(OmegaConf.to_container(cfg, resolve=False)) if numeric(v) and
                rule_of(k) is None]
-    assert not missing, f"numeric keys without a rule in mcd/config_rules.py: {missing}"
+    assert not missing, f"numeric keys without a rule in mcd/core/config_rules.py: {missing}"
 
 
 @pytest.mark.parametrize(("key", "value", "message"), [
@@ -150,7 +150,7 @@ def test_every_profile_and_experiment_passes_and_every_numeric_key_has_a_rule(ov
      "capacity.rae.encoder=[8, 0]: give whole numbers from 1 to 4096 (0 is not)"),
 ])
 def test_the_rules_read_types_ranges_and_null(key, value, message):
-    from mcd.config_rules import ConfigError, checked
+    from mcd.core.config_rules import ConfigError, checked
 
     if message is None:
         checked(key, value)

@@ -17,10 +17,10 @@ import torch
 import torch.distributed as dist
 import torch.multiprocessing as mp
 
+from mcd.core.metrics import FRAME_METRICS
 from mcd.lit.module import mean_over_processes
-from mcd.metrics import FRAME_METRICS
+from mcd.lit.run_record import RunRecord
 from mcd.run import build, run_test
-from mcd.run_record import RunRecord
 from tests.conftest import compose_cfg, store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]

@@ -1,6 +1,6 @@
-"""A rerun into a finished run never rewrites its records (mcd/run_dir.py, ``mcd.run.main``): Hydra saved a
-rerun's ``.hydra/*.yaml`` into the finished run before ``mcd.run`` skipped it (so ``mcd.report`` then read the
-rerun's ``capacity=paper`` for a ``capacity=cpu`` run), and a rerun of another job, refused, still wrote
+"""A rerun into a finished run never rewrites its records (mcd/lit/run_dir.py, ``mcd.run.main``): Hydra saved
+a rerun's ``.hydra/*.yaml`` into the finished run before ``mcd.run`` skipped it (so ``mcd.report`` then read
+the rerun's ``capacity=paper`` for a ``capacity=cpu`` run), and a rerun of another job, refused, still wrote
 ``error.json`` there. Every file of the finished run now keeps its bytes."""
 
 from __future__ import annotations

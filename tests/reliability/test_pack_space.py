@@ -2,7 +2,7 @@
 arrays are memory maps, and a write into one past a full disk kills the process. The pack checks the free
 space of ``data.train_store.dir``'s disk before it writes anything, and names the need (mcd/data/pack.py).
 
-Two tests: ``python -m mcd.data.pack`` for real onto a 64 KB tmpfs, mounted in a private mount namespace
+Two tests: ``python -m mcd.pack`` for real onto a 64 KB tmpfs, mounted in a private mount namespace
 (``unshare -rm``; skipped where the machine cannot make one), and the same check in process with
 ``shutil.disk_usage`` reporting a nearly full disk (runs everywhere)."""
 
@@ -31,7 +31,7 @@ def test_defect8_a_pack_onto_a_full_tmpfs_names_the_need_instead_of_dying(cbox_s
     _, store = cbox_store
     folder = tmp_path / "ts"
     folder.mkdir()
-    argv = [sys.executable, "-m", "mcd.data.pack", *store32_overrides(store.data_dir),
+    argv = [sys.executable, "-m", "mcd.pack", *store32_overrides(store.data_dir),
             "data.train_store.format=array", f"data.train_store.dir={folder}", "render.buffers=all"]
     script = f"mount -t tmpfs -o size=64k tmpfs {shlex.quote(str(folder))} && exec {shlex.join(argv)}"
     proc = subprocess.run(["unshare", "-rm", "sh", "-c", script], cwd=tmp_path, capture_output=True,

@@ -71,7 +71,7 @@ def test_a_missing_scene_file_fails_before_the_first_scene_renders(tmp_path):
 
 def test_a_missing_scenes_dir_is_named_with_its_key_before_rendering(tmp_path):
     """``paths.scenes_dir`` (conf/paths/default.yaml) set to no folder fails when the store is made, even if
-    every scene of the profile is vendored, naming the key and the variable (mcd.paths.scenes_dir)."""
+    every scene of the profile is vendored, naming the key and the variable (mcd.core.paths.scenes_dir)."""
     message = r"paths\.scenes_dir=.*nowhere \(or MCD_SCENES_DIR\): no such folder; set it to the folder"
     with pytest.raises(ValueError, match=message):
         _run(tmp_path, "+experiment=A", f"paths.scenes_dir={tmp_path / 'nowhere'}")
@@ -94,7 +94,7 @@ def test_paths_is_a_config_group_whose_keys_the_environment_sets(tmp_path, monke
     ``MCD_DATA_DIR`` and ``MCD_SCENES_DIR``."""
     from omegaconf import OmegaConf
 
-    from mcd.paths import CONF_DIR
+    from mcd.core.paths import CONF_DIR
 
     assert (CONF_DIR / "paths" / "default.yaml").is_file()
     assert "paths" not in OmegaConf.load(CONF_DIR / "config.yaml")  # the group is the one home of the keys

@@ -1,5 +1,6 @@
 """A report never writes or deletes outside its output root (``mcd.report.report_name``,
-``mcd.paths.check_folder_name``): with no ``--name`` the report is named after the runs' data profile, read
+``mcd.core.paths.check_folder_name``): with no ``--name`` the report is named after the runs' data profile,
+read
 from ``metrics.json``; a ``"data_profile"`` of ``"../../escaped"`` or an absolute folder made ``mcd.report``
 write its report there, overwriting a ``README.md`` and deleting a ``runs/thesis.tex`` it found; a ``--name``
 holding ``/`` or ``..`` did the same. Such a name is refused, naming the field and the file (or ``--name``),

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 from omegaconf import OmegaConf
 
-from mcd.config import compose
+from mcd.config.compose import compose
 from mcd.models import latency
 from mcd.reporting import speed
 from mcd.reporting.runs import find_runs

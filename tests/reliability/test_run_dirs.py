@@ -1,5 +1,5 @@
-"""Defects 2, 3 and 4 of issue 33: one owner per run directory (mcd/run_dir.py). Two runs started in the same
-second get two directories and both keep their results; a ``ckpt_path=auto`` resume of a run directory
+"""Defects 2, 3 and 4 of issue 33: one owner per run directory (mcd/lit/run_dir.py). Two runs started in the
+same second get two directories and both keep their results; a ``ckpt_path=auto`` resume of a run directory
 another process holds is refused naming the owner's pid; an interrupted run resumed with other settings
 is refused naming the keys that differ."""
 
@@ -68,14 +68,14 @@ def test_two_runs_started_in_the_same_second_get_two_directories_with_both_resul
         assert len(pd.read_csv(r / "curve.csv")) == 1  # one validation each, not interleaved
 
 
-#: A process that owns a run directory (``mcd.run_dir.hold``) until its stdin closes: the owner of
+#: A process that owns a run directory (``mcd.lit.run_dir.hold``) until its stdin closes: the owner of
 #: :func:`test_an_auto_resume_of_a_directory_in_use_is_refused_naming_the_owner`. Two real ``mcd.run``
 #: resumes race (the first may finish before the second has imported torch, and the second then finds a
 #: complete run and skips it), so the owner holds the lock for as long as the test needs.
 OWNER = """
 import sys
 from pathlib import Path
-from mcd import run_dir
+from mcd.lit import run_dir
 with run_dir.hold(Path(sys.argv[1])):
     print("held", flush=True)
     sys.stdin.read()

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from mcd.run_record import REQUIRED_KEYS, job_identity
+from mcd.lit.run_record import REQUIRED_KEYS, job_identity
 from tests.conftest import compose_cfg
 from tests.test_run import mcd_run
 

@@ -54,7 +54,7 @@ def test_defect19_a_corrupt_store_or_scene_record_is_named_with_its_fix(cbox_sto
     with pytest.raises(TrainStoreError) as err:
         pack(cfg, store, BUFFERS)
     message = str(err.value)
-    assert message.startswith(f"{path} is corrupt (") and "python -m mcd.data.pack" in message, message
+    assert message.startswith(f"{path} is corrupt (") and "python -m mcd.pack" in message, message
     if name == "store.json":  # what training opens, too
         with pytest.raises(TrainStoreError, match="is corrupt"):
             TrainStore.open(TrainStoreSettings.from_cfg(cfg), cfg.data, BUFFERS, "pack")
@@ -79,7 +79,7 @@ def _in_read_only_mount(folder, argv, cwd):
                           text=True, timeout=600)
 
 
-@pytest.mark.parametrize("command", ["mcd.data.pack", "mcd.run"])
+@pytest.mark.parametrize("command", ["mcd.pack", "mcd.run"])
 def test_defect20_a_fully_packed_read_only_store_is_trained_from(cbox_store, tmp_path, command):
     _, store = cbox_store
     folder = tmp_path / "ts"
@@ -89,7 +89,7 @@ def test_defect20_a_fully_packed_read_only_store_is_trained_from(cbox_store, tmp
     assert pack(cfg, store, BUFFERS)["packed"] == 10
     (folder / "cbox.lock").unlink()  # as a store copied onto a read-only mount may come: no lock file
     before = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
-    more = ["render.buffers=all"] if command == "mcd.data.pack" else [
+    more = ["render.buffers=all"] if command == "mcd.pack" else [
         "train.max_steps=2", "train.batch_size=1", f"hydra.run.dir={tmp_path / 'run'}"]
     proc = _in_read_only_mount(folder, [sys.executable, "-m", command, *overrides, *more], tmp_path)
     if proc is None:

@@ -8,10 +8,10 @@ import csv
 import pytest
 import torch
 
-from mcd import allocator
 from mcd.bench import speed as bench
 from mcd.bench.__main__ import MODES
 from mcd.bench.__main__ import main as bench_command
+from mcd.core import allocator
 
 INTERFACE = ["method", "device", "dtype", "compiled", "height", "width", "ms_median", "fps"]
 
@@ -187,11 +187,11 @@ def test_bench_gpu_paths(tmp_path):
 
 
 def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
-    """`python -m mcd.bench --profile` (the old flag of the `profile` mode): a real profiled forward of row
+    """`python -m mcd.bench profile`: a real profiled forward of row
     F; each stage label has a time in the exclusive table, whose rows add up to its frame, and the labels
     with modules have their MACs in the inclusive one."""
     out = tmp_path / "profile.md"
-    bench_command(["--profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
+    bench_command(["profile", "--size", "48x32", "--dtype", "fp32", "--synthetic", "--out", str(out),
                 "capacity=cpu"])
     text = capsys.readouterr().out
     assert text.strip() == out.read_text().strip()

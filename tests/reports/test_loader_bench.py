@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def test_loader_bench_json_reports_both_paths_in_one_run(tmp_path):
-    cmd = [sys.executable, "-m", "mcd.bench", "--loader", "--json", "--width", "320", "--height", "200",
+    cmd = [sys.executable, "-m", "mcd.bench", "loader", "--json", "--width", "320", "--height", "200",
            "--frames", "7", "--crop", "96", "--seconds", "0.5", "--dir", str(tmp_path)]
     proc = subprocess.run(cmd, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True,
                           text=True, timeout=600)

@@ -450,7 +450,7 @@ def _speed_job(root, name, experiment, capacity, size):
     """A finished 4-spp job whose config is composed as mcd.run would (resolved_config.yaml)."""
     from omegaconf import OmegaConf
 
-    from mcd.config import compose
+    from mcd.config.compose import compose
 
     d = _job(root, name, experiment=experiment, sweep="baselines",
              metrics={"psnr": 20.0, "rmse": 0.5, "experiment": experiment, "budget": 4})

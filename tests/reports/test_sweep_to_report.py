@@ -15,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from mcd.methods import COMPONENTS
+from mcd.config.methods import COMPONENTS
 from mcd.reporting import finding
 
 REPO = Path(__file__).resolve().parents[2]
@@ -126,7 +126,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     # the edge effect of the finished F, measured after the run from the checkpoint it tested, and of the
     # transfer job tested as loaded (no checkpoint of its own: the weights it started from)
     as_loaded = transfer_dir / "F_spp4_ft0"
-    edges = _run(["-m", "mcd.tools.edge_effect", str(sweep_dir / "F_spp4"), str(as_loaded), "--margin", "8"],
+    edges = _run(["-m", "tools.edge_effect", str(sweep_dir / "F_spp4"), str(as_loaded), "--margin", "8"],
                  tmp_path)
     assert edges.stdout.count("edge effect") == 2
     f_edges = json.loads((sweep_dir / "F_spp4" / "edges.json").read_text())
@@ -139,7 +139,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
     record = json.loads((tmp_path / "F_copy" / "metrics.json").read_text())
     (tmp_path / "F_copy" / "metrics.json").write_text(json.dumps({**record, "psnr": record["psnr"] + 5}))
     (tmp_path / "F_copy" / "edges.json").unlink()
-    refused = _run(["-m", "mcd.tools.edge_effect", str(tmp_path / "F_copy"), str(sweep_dir / "A_spp4"),
+    refused = _run(["-m", "tools.edge_effect", str(tmp_path / "F_copy"), str(sweep_dir / "A_spp4"),
                     "--margin", "8"], tmp_path, returncode=1)
     assert "not the weights or frames the run tested" in refused.stderr and "1 of 2 run(s)" in refused.stderr
     assert not (tmp_path / "F_copy" / "edges.json").exists()

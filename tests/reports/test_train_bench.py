@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import csv
 
-from mcd import allocator
 from mcd.bench import train as train_bench
+from mcd.core import allocator
 from tests.conftest import store32_overrides
 
 

@@ -24,7 +24,7 @@ from pathlib import Path
 import lightning as L
 import torch
 
-from mcd.config import compose
+from mcd.config.compose import compose
 from mcd.data import MCDDataModule, StoreReader
 from mcd.data.buffers import run_buffers
 from mcd.data.pack import pack

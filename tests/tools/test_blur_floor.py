@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mcd.metrics import flip
+from mcd.core.metrics import flip
 from tests.conftest import store32_overrides
 from tools import blur_floor
 
@@ -51,7 +51,7 @@ def test_table_of_a_real_store_written_between_markers(cbox_store, tmp_path, cap
     row = _rows(text)["cbox"]
     scores = [float(c) for c in row[4:7]]
     assert scores == sorted(scores) and scores[0] > 0  # more blur, a worse FLIP
-    # the input's FLIP as mcd.metrics scores the store's frames
+    # the input's FLIP as mcd.core.metrics scores the store's frames
     n = int(row[1])
     noisy = [store.load("cbox", f, "c4") for f in range(n)]
     ref = [store.load("cbox", f, "ref") for f in range(n)]

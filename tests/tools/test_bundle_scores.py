@@ -7,7 +7,7 @@ import importlib.util
 
 import pytest
 
-from mcd.methods import display_name
+from mcd.config.methods import display_name
 from tests.conftest import store32_overrides
 from tools import bundle_scores
 

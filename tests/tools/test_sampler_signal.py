@@ -9,7 +9,7 @@ from tools.sampler_signal import block_table
 
 
 def test_the_bundle_with_a_dead_block_and_a_live_fresh_build():
-    from mcd.config import compose
+    from mcd.config.compose import compose
     from mcd.denoise import weights
     from mcd.models.registry import build
 

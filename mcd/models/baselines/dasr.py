@@ -68,8 +68,8 @@ class DASR(nn.Module):
 
 @register("dasr")
 def build_dasr(*, budget: float, encoder: list[int], bottleneck: int, last: list[int],
-               sampling: dict | None = None) -> DASR:
+               sampling: dict) -> DASR:
     """DASR at ``budget`` with its widths (``capacity.dasr``): ``encoder`` (full resolution .. 1/16),
     ``bottleneck``, ``last`` (the full-resolution decoder's two convs); ``sampling.levels`` (5) of
     conf/method/dasr.yaml (docs/baselines.md)."""
-    return DASR(float(budget), encoder, int(bottleneck), last, int((sampling or {}).get("levels", 5)))
+    return DASR(float(budget), encoder, int(bottleneck), last, int(sampling["levels"]))

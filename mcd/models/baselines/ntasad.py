@@ -182,11 +182,11 @@ class NTASAD(nn.Module):
 
 
 @register("ntasad")
-def build_ntasad(*, budget: float, enc: int, dec: int, full: int, sampling: dict | None = None,
+def build_ntasad(*, budget: float, enc: int, dec: int, full: int, sampling: dict,
                  warp: bool = True, previous_output: bool = True) -> NTASAD:
     """NTASAD at ``budget`` with its widths (``capacity.ntasad``): ``enc`` (encoder, every level), ``dec``
     (decoder, 1/16 .. 1/2), ``full`` (full-resolution decoder); ``sampling.levels`` (5), and the diagnostic
     switches ``warp`` and ``previous_output`` (module docstring) of conf/method/ntasad.yaml
     (docs/baselines.md)."""
-    return NTASAD(budget, int(enc), int(dec), int(full), int((sampling or {}).get("levels", 5)),
+    return NTASAD(budget, int(enc), int(dec), int(full), int(sampling["levels"]),
                   warp=bool(warp), previous_output=bool(previous_output))

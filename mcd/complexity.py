@@ -1,13 +1,13 @@
-"""``python -m mcd.tools.complexity``: params and 1920x1080 MACs of every registered experiment beside the
+"""``python -m mcd.complexity``: params and 1920x1080 MACs of every registered experiment beside the
 paper's (docs/benchmark.md "Metrics").
 
-``python -m mcd.tools.complexity [--capacity paper] [--experiments A B ...] [-o PATH]`` prints the table; with
+``python -m mcd.complexity [--capacity paper] [--experiments A B ...] [-o PATH]`` prints the table; with
 ``-o`` it also writes it as CSV (``name, params_m, gmacs_1080p, paper_params_m, paper_gmacs``; NaN, and an
 "unavailable" note in the printed table, for a method whose optional package is missing). It writes nothing
 else: the tracked ``reports/complexity.csv`` changes only when asked for by name. Experiments are
-:func:`mcd.config.experiment_names` (rows A-M from the component table, then ``conf/experiment/*.yaml``),
-so a new method only needs its config (and its paper numbers in :mod:`mcd.methods`). The counting itself is
-:mod:`mcd.models.complexity`.
+:func:`mcd.config.compose.experiment_names` (rows A-M from the component table, then
+``conf/experiment/*.yaml``), so a new method only needs its config (and its paper numbers in
+:mod:`mcd.config.methods`). The counting itself is :mod:`mcd.models.complexity`.
 
 Below the table it prints the shares (``--shares cpu``, the default; ``--shares none`` skips them): each
 trained Table 1 method's MACs in that profile over its MACs in the ``paper`` profile, both counted from the
@@ -27,8 +27,8 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
-from mcd.config import compose, experiment_names
-from mcd.methods import CATALOGUE, paper_complexity
+from mcd.config.compose import compose, experiment_names
+from mcd.config.methods import CATALOGUE, paper_complexity
 from mcd.models.complexity import complexity
 
 #: How far each trained method's share of its paper-size MACs may be from F's, relative.
@@ -38,7 +38,8 @@ SHARE_REFERENCE = "F"
 
 
 def trained_methods() -> list[str]:
-    """Table 1's trained methods (:data:`mcd.methods.CATALOGUE`): the ones whose shares must be equal."""
+    """Table 1's trained methods (:data:`mcd.config.methods.CATALOGUE`): the ones whose shares must be
+    equal."""
     return [m.experiment for m in CATALOGUE if m.table1 and m.trainable]
 
 
@@ -105,7 +106,7 @@ def _rel(ours: float, paper: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m mcd.tools.complexity",
+    parser = argparse.ArgumentParser(prog="python -m mcd.complexity",
                                      description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--capacity", default="paper", help="capacity profile (conf/capacity/<name>.yaml)")

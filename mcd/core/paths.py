@@ -15,9 +15,9 @@ from pathlib import Path
 SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 #: The ``mcd`` package folder.
-PACKAGE_DIR = Path(__file__).resolve().parent
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
 #: The checkout the package was imported from (in an installed package: the folder above it, which holds no
-#: checkout; :func:`mcd.provenance.git_commit` then says ``unknown``).
+#: checkout; :func:`mcd.core.provenance.git_commit` then says ``unknown``).
 REPO_ROOT = PACKAGE_DIR.parent
 #: The Hydra config folder (``conf/config.yaml`` and its groups), package data (``conf`` at the repository
 #: root is a link to it).

@@ -64,7 +64,7 @@ def policy() -> str:
 def add_option(parser: argparse.ArgumentParser) -> None:
     """``--allocator keep|system`` (default ``keep``) on a benchmark's command line."""
     parser.add_argument("--allocator", choices=CHOICES, default="keep",
-                        help="keep: glibc keeps freed memory for reuse (mcd/allocator.py); "
+                        help="keep: glibc keeps freed memory for reuse (mcd/core/allocator.py); "
                              "system: glibc's default")
 
 

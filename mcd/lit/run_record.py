@@ -2,7 +2,7 @@
 directory").
 
 :class:`RunRecord` owns the keys of ``metrics.json``: one field per key, written in field order, the test
-averages first as top-level keys named as in ``mcd.metrics`` (``psnr`` ... ``input_rmse``, then
+averages first as top-level keys named as in ``mcd.core.metrics`` (``psnr`` ... ``input_rmse``, then
 ``kp_identity``, ``kp_index_std``, null for a model without a kernel map). NaN and infinity are written as
 ``null`` (JSON has no NaN). The reports (``mcd.reporting``) read these keys. A sweep skips a job whose
 ``metrics.json`` holds every key of :data:`REQUIRED_KEYS` (:func:`is_complete`) when it is the same job
@@ -21,8 +21,8 @@ from typing import Any
 from omegaconf import DictConfig
 
 from mcd.core.atomic_write import atomic_write_json
+from mcd.core.metrics import FRAME_METRICS, MODEL_METRICS, PAPER_METRICS
 from mcd.data.store import store_settings
-from mcd.metrics import FRAME_METRICS, MODEL_METRICS, PAPER_METRICS
 from mcd.models.switches import switch_row
 
 #: Keys a finished run's ``metrics.json`` must hold (a sweep skips jobs that have them all); runs from before
@@ -37,7 +37,7 @@ SWITCHED_METHODS = ("two_stage", "unet")
 class RunRecord:
     """One run's ``metrics.json`` (see the module docstring); :meth:`write` saves it."""
 
-    #: Test averages over scenes (``mcd.metrics.aggregate``) of ``FRAME_METRICS`` and ``MODEL_METRICS``.
+    #: Test averages over scenes (``mcd.core.metrics.aggregate``) of ``FRAME_METRICS`` and ``MODEL_METRICS``.
     scores: dict[str, float | None]
     macs_g: float | None  # 1080p GMACs (mcd.models.complexity); null where FlopCounterMode cannot count them
     params_m: float | None  # millions of parameters (older records: null for OIDN)
@@ -60,7 +60,7 @@ class RunRecord:
     device: str  # GPU name, or CPU model and threads (mcd.run.device_name)
     precision: str  # the Lightning precision the run trained and tested in
     torch: str  # torch version
-    allocator: str  # the process's allocator setting (mcd/allocator.py; older records lack the key)
+    allocator: str  # the process's allocator setting (mcd/core/allocator.py; older records lack the key)
     config: str  # path of resolved_config.yaml
     data: dict[str, Any]  # the store's report of what it rendered and reused
     trained: bool
@@ -80,8 +80,8 @@ class RunRecord:
 
     @staticmethod
     def scores_of(averages: dict[str, object]) -> dict[str, float | None]:
-        """The :attr:`scores` of a test's averages (``mcd.metrics.aggregate``): every ``FRAME_METRICS`` key,
-        and each ``MODEL_METRICS`` key, ``None`` where the model has no such statistic."""
+        """The :attr:`scores` of a test's averages (``mcd.core.metrics.aggregate``): every ``FRAME_METRICS``
+        key, and each ``MODEL_METRICS`` key, ``None`` where the model has no such statistic."""
         return {**{k: averages[k] for k in FRAME_METRICS},  # type: ignore[misc]
                 **{k: averages.get(k) for k in MODEL_METRICS}}  # type: ignore[misc]
 

@@ -1,4 +1,4 @@
-"""The edge effect (mcd/tools/edge_effect.py; docs/benchmark.md "Metrics"): what the image border itself costs
+"""The edge effect (tools/edge_effect.py; docs/benchmark.md "Metrics"): what the image border itself costs
 a denoiser, measured on real 32x32 Cornell-box renders."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from mcd.data.buffers import run_buffers
 from mcd.data.datamodule import MCDDataModule
 from mcd.lit.module import DenoiseModule
 from mcd.models import build
-from mcd.tools.edge_effect import inset_batch, measure
 from tests.conftest import compose_cfg, store32_overrides
+from tools.edge_effect import inset_batch, measure
 
 
 class DarkBorder(nn.Module):
@@ -92,7 +92,7 @@ def test_inset_batch_cuts_every_image_buffer_and_refuses_too_small_frames():
 
 
 def test_map_border_reads_the_outermost_ring_of_the_maps():
-    from mcd.tools.edge_effect import map_border
+    from tools.edge_effect import map_border
 
     m = torch.full((1, 1, 40, 30), 2.0)
     m[..., 0, :] = m[..., -1, :] = m[..., :, 0] = m[..., :, -1] = 6.0

@@ -2,7 +2,7 @@
 behind ``python -m mcd.plan`` (its docstring says what each figure is; docs/scale.md, "Plan"), and
 :func:`announce`, the line of counts that ``mcd.run`` and ``mcd.render`` log before their work (no render, no
 model: the plan alone measures). :func:`requested_buffers` is the buffer set ``render.buffers`` asks for
-(``mcd.render``, ``mcd.data.pack``). It imports no loader measurement, so the commands can import it.
+(``mcd.render``, ``mcd.pack``). It imports no loader measurement, so the commands can import it.
 """
 
 from __future__ import annotations
@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 from omegaconf import DictConfig, ListConfig
 
+from mcd.core.machine import restart_peak_rss, status_mb
 from mcd.data.buffers import BUFFERS, CHANNELS, COLOUR_BUFFERS, GBUFFERS, buffer_spp, run_buffers
 from mcd.data.splits import clip_stride, split_of, test_frame_count
 from mcd.data.store import StoreReader
-from mcd.machine import restart_peak_rss, status_mb
 
-log = logging.getLogger("mcd.workload")
+log = logging.getLogger("mcd.lit.workload")
 
 #: seconds per sample of this project's renderer on the reference GPU: the pilot scene of data=paper
 #: (staircase2, the first of its scenes that the repository vendors) at 1920x1080, the range of the two pilots

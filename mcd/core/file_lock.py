@@ -1,7 +1,7 @@
 """One exclusive advisory lock (``fcntl.flock``) on a file, for every writer that must be alone on a path: the
-run directory's ``run.lock`` (:mod:`mcd.run_dir`; docs/reliability.md, "One owner per run directory"), the EXR
-store's scene and frame locks (:mod:`mcd.data.store_builder`; docs/architecture.md, "The store") and the
-training store's packer lock per scene (:mod:`mcd.data.pack`; docs/training_store.md); and, with
+run directory's ``run.lock`` (:mod:`mcd.lit.run_dir`; docs/reliability.md, "One owner per run directory"),
+the EXR store's scene and frame locks (:mod:`mcd.data.store_builder`; docs/architecture.md, "The store") and
+the training store's packer lock per scene (:mod:`mcd.data.pack`; docs/training_store.md); and, with
 :func:`exclusive_folder`, on a folder itself (``mcd-denoise``'s ``-o``, :mod:`mcd.denoise.output_folder`),
 which adds no file among its outputs.
 

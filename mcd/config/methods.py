@@ -1,6 +1,6 @@
 """Every method of the benchmark, one entry each (docs/architecture.md, "Methods"): its experiment, the name
 tables and legends show, its config, whether it trains, the paper's numbers for it, its place in Table 1 and
-in the benchmarks. Tables, reports, the bench and ``python -m mcd.tools.complexity`` derive from
+in the benchmarks. Tables, reports, the bench and ``python -m mcd.complexity`` derive from
 :data:`CATALOGUE`; nothing else lists methods.
 
 The paper's numbers (docs/benchmark.md "The paper's numbers") are data here: Table 1 in each entry's
@@ -131,7 +131,8 @@ def component_experiment(row: str) -> dict:
     """The experiment config of component row ``row`` (A-M; ``+experiment=<row>``), made from
     :data:`COMPONENTS` alone: ``experiment: <row>`` and the row's six switches on the default ``two_stage``
     method, so the rows share row F's everything but switches (docs/method.md, "Component study").
-    :func:`mcd.config.register_experiments` stores it as the group ``experiment``'s entry, at the root."""
+    :func:`mcd.config.compose.register_experiments` stores it as the group ``experiment``'s entry, at the
+    root."""
     return {"experiment": row, "method": dict(COMPONENTS[row]["switches"])}
 
 

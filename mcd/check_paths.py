@@ -1,4 +1,4 @@
-"""``python -m mcd.tools.check_paths data=<profile>``: no camera-path frame is rendered from inside a wall.
+"""``python -m mcd.check_paths data=<profile>``: no camera-path frame is rendered from inside a wall.
 
 Renders every frame of every scene of the profile at a low resolution and spp (``check.size``, ``check.spp``)
 with colour and first-hit depth, and flags a frame that is mostly black (its fraction of black pixels exceeds
@@ -16,7 +16,7 @@ import sys
 import numpy as np
 from omegaconf import DictConfig
 
-from mcd.config import hydra_main
+from mcd.config.compose import hydra_main
 from mcd.data.camera import interpolate_path
 from mcd.data.renderer import SceneRenderer
 from mcd.data.scenes import SceneSpec

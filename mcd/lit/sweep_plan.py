@@ -8,7 +8,7 @@ three additions, all read from the root config's ``sweep_plan`` block:
 - ``seeds_only_where``: a job of a seed other than the config's ``seed`` runs only where each listed key has
   one of the listed values (the scaling study: seeds 1 and 2 only at 3000 steps on ``small`` and ``medium``);
 - before any job starts, the plan: every job's CPU-hours of training, ``train.max_steps`` x the seconds of
-  one optimiser step measured here (:func:`mcd.workload.train_step`: CPU seconds of one thread at batch 1,
+  one optimiser step measured here (:func:`mcd.lit.workload.train_step`: CPU seconds of one thread at batch 1,
   times ``train.batch_size``, the rule of ``python -m mcd.plan``), per cell and in all; rendering the stores
   is not in it (``python -m mcd.plan data=<profile>`` says what that costs);
 - a grid whose CPU-hours exceed ``cpu_hours_limit`` is refused, before anything is written, unless
@@ -86,7 +86,7 @@ def plan_lines(rows: list[dict[str, Any]], limit: float) -> list[str]:
 def measured_step_seconds(cfg: DictConfig) -> float:
     """CPU seconds of one optimiser step of ``cfg``: one measured step at batch 1 (:func:`train_step`, at
     ``plan.step_crop`` extrapolated to ``data.train_crop``) times ``train.batch_size``."""
-    from mcd.workload import train_step
+    from mcd.lit.workload import train_step
 
     step = train_step(cfg, int(cfg.plan.step_crop))
     return float(step["seconds"]) * int(cfg.train.batch_size)

@@ -3,10 +3,10 @@
 
 - :func:`register_resolvers` adds ``${run_id:}`` to OmegaConf: a short token drawn once per process (6 hex
   digits), which ``conf/config.yaml`` appends to the default ``hydra.run.dir``, so two runs started in the
-  same second get two directories (and an ad-hoc ``-m`` sweep's). ``mcd.hydra_callbacks`` calls it at
+  same second get two directories (and an ad-hoc ``-m`` sweep's). ``mcd.lit.hydra_callbacks`` calls it at
   import: Hydra instantiates the callbacks of ``conf/config.yaml`` before it resolves those directories, so
   every command composing that config has it.
-- :func:`hold` takes ``<run dir>/run.lock`` with ``fcntl.flock`` (:func:`mcd.file_lock.exclusive`) for as
+- :func:`hold` takes ``<run dir>/run.lock`` with ``fcntl.flock`` (:func:`mcd.core.file_lock.exclusive`) for as
   long as the run lives; a second process on the same directory (two ``ckpt_path=auto`` resumes, a
   ``hydra.run.dir`` given twice, two copies of one sweep) is refused with :class:`RunDirInUse`, naming the
   owner's pid. The kernel drops the lock when the owner dies, so a killed run never leaves a stale lock
@@ -27,7 +27,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from mcd import file_lock
+from mcd.core import file_lock
 
 #: The lock file inside a run directory.
 LOCK_NAME = "run.lock"
@@ -45,8 +45,8 @@ def run_id() -> str:
 
 def is_finished(run_dir: str | Path) -> bool:
     """Whether ``run_dir`` holds a finished run (a complete ``metrics.json``,
-    :func:`mcd.run_record.is_complete`): its records are never written again."""
-    from mcd.run_record import is_complete
+    :func:`mcd.lit.run_record.is_complete`): its records are never written again."""
+    from mcd.lit.run_record import is_complete
 
     return is_complete(Path(run_dir) / "metrics.json")
 

@@ -4,16 +4,18 @@
 :data:`RULES` is the one table (key -> :class:`Rule`), :data:`PATTERNS` the rules of key families (the
 capacity profiles' widths, the scenes' camera paths). :func:`check_config` walks a composed config and
 raises :class:`ConfigError` for the first value that breaks its rule, naming the key, the value, what is
-expected and what to do. Every Hydra command runs it before any work (:func:`mcd.config.hydra_main`), and
-``mcd.run``'s preflight again (:func:`mcd.preflight.check_run`); the code that reads a key may take its
-checked value from :func:`checked` (the training budget, the warm-up). Checks that relate keys to each other
-or to files (a crop larger than the frames, a budget without a stored render) stay in mcd/preflight.py.
+expected and what to do. Every Hydra command runs it before any work (:func:`mcd.config.compose.hydra_main`),
+and ``mcd.run``'s preflight again (:func:`mcd.config.preflight.check_run`); the code that reads a key may
+take its checked value from :func:`checked` (the training budget, the warm-up). Checks that relate keys to
+each other or to files (a crop larger than the frames, a budget without a stored render) stay in
+mcd/config/preflight.py.
 """
 
 from __future__ import annotations
 
 import fnmatch
 import math
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -23,6 +25,9 @@ from omegaconf import DictConfig, ListConfig, OmegaConf
 #: The largest frame side a profile may ask for (8K UHD is 7680): larger ones are typing errors that would
 #: only fail after minutes of allocation.
 MAX_SIDE = 16384
+#: The budgets s (average spp) a run may have: the store renders a uniform image ``c{s}`` at each
+#: (:data:`mcd.data.buffers.SPP_BUFFERS`), which every run is scored against.
+UNIFORM_BUDGETS: tuple[int, ...] = (1, 2, 4, 8, 16, 32)
 
 
 class ConfigError(ValueError):
@@ -80,9 +85,7 @@ def _number(low: float | None = 0, high: float | None = None, about: str = "", *
 
 def _check_budget(value: Any, cfg: DictConfig) -> None:
     """Every run is scored against the noisy uniform render at the budget (``c_s``, ``input_psnr``), which
-    the store renders for the budgets of :data:`mcd.data.buffers.UNIFORM_BUDGETS` only."""
-    from mcd.data.buffers import UNIFORM_BUDGETS
-
+    the store renders for the budgets of :data:`UNIFORM_BUDGETS` only."""
     choices = ", ".join(str(s) for s in UNIFORM_BUDGETS)
     try:
         budget = float(value)
@@ -95,9 +98,41 @@ def _check_budget(value: Any, cfg: DictConfig) -> None:
 
 
 def _check_shard(value: Any, cfg: DictConfig) -> None:
-    from mcd.data.shards import parse_shard
-
     parse_shard(value, OmegaConf.select(cfg, "render.shards", default=None))
+
+
+_SHARD = re.compile(r"^\s*(\d+)\s*/\s*(\d+)\s*$")
+
+
+def parse_shard(value: Any, shards: Any = None) -> tuple[int, int]:
+    """``render.shard`` (``None``, ``"i/N"`` or ``i`` with ``render.shards=N``; 0-based) as ``(i, N)``; a
+    ValueError naming the key."""
+    if value is None:
+        if shards not in (None, 1):
+            raise ValueError(f"render.shards={shards!r} without render.shard: give render.shard=i "
+                             f"(0 <= i < {shards}) too, or leave render.shards=null")
+        return 0, 1
+    if isinstance(value, int) and not isinstance(value, bool):
+        if not isinstance(shards, int) or isinstance(shards, bool):
+            raise ValueError(f"render.shard={value}: a shard number needs render.shards=N (the shard count), "
+                             f"or write render.shard={value}/N")
+        index, count = value, shards
+    else:
+        m = _SHARD.match(str(value))
+        if m is None:
+            raise ValueError(f"render.shard={value!r}: expected i/N with 0 <= i < N (0-based), e.g. "
+                             "render.shard=0/4 .. render.shard=3/4 for four processes")
+        index, count = int(m.group(1)), int(m.group(2))
+        if shards is not None and shards != count:
+            raise ValueError(f"render.shard={value!r} and render.shards={shards!r} disagree on the shard "
+                             "count: give one of them")
+    if count < 1:
+        raise ValueError(f"render.shard={value!r}: the shard count N of i/N must be at least 1; give "
+                         "render.shard=i/N with 0 <= i < N (0-based), e.g. render.shard=0/4")
+    if index >= count:
+        raise ValueError(f"render.shard={value!r}: shard {index} is out of range for {count} shards; shards "
+                         f"are numbered from 0 to {count - 1} (0-based)")
+    return index, count
 
 
 _SPP = 1 << 20

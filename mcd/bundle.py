@@ -1,4 +1,4 @@
-"""``python -m mcd.tools.bundle <run dir> --name <name>``: a finished run -> a bundled checkpoint
+"""``python -m mcd.bundle <run dir> --name <name>``: a finished run -> a bundled checkpoint
 (docs/denoise.md, "Bundled checkpoints").
 
 Writes ``mcd/bundled/<name>.pt`` (the model's weights only: a flat state dict of float tensors, loadable with
@@ -22,11 +22,10 @@ import torch
 import yaml
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.config import upgrade_saved
-from mcd.denoise.weights import BUNDLED_DIR
+from mcd.core.paths import check_folder_name
+from mcd.denoise.weights import BUNDLED_DIR, check_schema
 from mcd.lit import checkpoint
 from mcd.lit.transfer import checkpoint_of
-from mcd.paths import check_folder_name
 
 #: Keys of a run's metrics.json copied into the provenance.
 METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse", "per_scene",
@@ -55,7 +54,8 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     metrics = json.loads(metrics_path.read_text())
     ckpt = checkpoint_of(run_dir)
     state = checkpoint.safe_load(ckpt, "run dir")
-    cfg = upgrade_saved(OmegaConf.create(state["hyper_parameters"]["cfg"]))  # mcd/config.py
+    cfg = OmegaConf.create(state["hyper_parameters"]["cfg"])
+    check_schema(cfg, f"{ckpt}: its training config")
     weights = {k: v.detach().float().contiguous() for k, v in checkpoint.model_weights(state).items()}
     checkpoint.check_fits(build(cfg), weights, "run dir", ckpt)
     overrides_file = run_dir / ".hydra" / "overrides.yaml"
@@ -64,7 +64,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
         "command": None if overrides is None else " ".join(["python -m mcd.run", *overrides]),
         "checkpoint": f"{ckpt.relative_to(run_dir)} (global step {state.get('global_step')})",
         "train": OmegaConf.to_container(cfg.train, resolve=True),
-        "metrics": {k: upgrade_saved(metrics).get(k) for k in METRICS},
+        "metrics": {k: metrics.get(k) for k in METRICS},
         **({"source_commit": source_commit} if source_commit else {}),
     }
     return write_bundle(weights, cfg, name, provenance, out_dir)
@@ -96,7 +96,7 @@ def _plain(value: Any) -> Any:
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="python -m mcd.tools.bundle", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m mcd.bundle", description=__doc__.split("\n\n")[0])
     p.add_argument("run_dir", type=Path, help="a finished run directory of python -m mcd.run")
     p.add_argument("--name", required=True, help="the bundled checkpoint's name (e.g. F-cpu-small)")
     p.add_argument("--out", type=Path, default=BUNDLED_DIR,

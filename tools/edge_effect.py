@@ -1,9 +1,9 @@
 """Border artefacts separated from content: the edge effect (docs/benchmark.md "Metrics", "Edge effect").
 
-The border gap of ``mcd.metrics`` compares a frame's outer 4 pixels with its interior, so it also measures
-how hard the content there is (on ``cbox`` the 1-2 pixel black frame around the box makes every denoiser's
-border worse than its interior, OIDN's included). The edge effect asks the question the padding of a
-network actually raises: are pixels denoised worse *because* they lie at the image border?
+The border gap of ``mcd.core.metrics`` compares a frame's outer 4 pixels with its interior, so it also
+measures how hard the content there is (on ``cbox`` the 1-2 pixel black frame around the box makes every
+denoiser's border worse than its interior, OIDN's included). The edge effect asks the question the padding of
+a network actually raises: are pixels denoised worse *because* they lie at the image border?
 
 Each test frame is denoised twice: whole, and cut to an inset crop (``margin`` pixels off each side, every
 input buffer alike, so the crop is a smaller frame of the same render). The crop's outer ``width``-pixel
@@ -16,13 +16,14 @@ frame of that size gets. ``tests/models/test_bundled_f.py`` holds the bundled F 
 
 For finished runs (after the fact, from the checkpoint the run tested; no retraining)::
 
-    python -m mcd.tools.edge_effect RUN_DIR [RUN_DIR ...] [--margin 16]
+    PYTHONPATH=. python tools/edge_effect.py RUN_DIR [RUN_DIR ...] [--margin 16]
 
 writes ``edges.json`` into each run directory (per frame, per scene and over scenes, averaged as
-``mcd.metrics.aggregate`` does; with the command, the commit and the weights: the checkpoint the run tested,
-or for a transfer job tested as loaded the weights it started from). The whole frames must score the run's own
-PSNR within ``PSNR_AGREEMENT_DB``, else nothing is written for that run. ``mcd.report`` reads the file
-into the ``edge effect`` column of every table. ``scripts/current_report.sh report`` runs it on every job.
+``mcd.core.metrics.aggregate`` does; with the command, the commit and the weights: the checkpoint the run
+tested, or for a transfer job tested as loaded the weights it started from). The whole frames must score the
+run's own PSNR within ``PSNR_AGREEMENT_DB``, else nothing is written for that run. ``mcd.report`` reads the
+file into the ``edge effect`` column of every table. ``scripts/current_report.sh report`` runs it on every
+job.
 """
 
 from __future__ import annotations
@@ -40,8 +41,8 @@ import torch
 from omegaconf import OmegaConf
 from torch import Tensor
 
-from mcd.metrics import BORDER, aggregate, border_psnr, colour_shift, psnr
-from mcd.provenance import short_commit
+from mcd.core.metrics import BORDER, aggregate, border_psnr, colour_shift, psnr
+from mcd.core.provenance import short_commit
 from mcd.reporting.runs import EDGES_FILE, MAP_KEYS
 
 if TYPE_CHECKING:
@@ -170,13 +171,13 @@ def measure_run(run_dir: Path, margin: int = MARGIN) -> dict[str, object]:
     return {"edge_effect": averages["edge_effect"], **{k: averages[k] for k in MAP_KEYS},
             "psnr": averages["psnr"], "per_scene": averages["per_scene"], "frames": rows, "margin": margin,
             "width": BORDER, "checkpoint": tested, "weights": weights,
-            "command": shlex.join(["python", "-m", "mcd.tools.edge_effect", str(run_dir),
+            "command": shlex.join(["python", "-m", "tools.edge_effect", str(run_dir),
                                    "--margin", str(margin)]),
             "commit": short_commit()}
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m mcd.tools.edge_effect",
+    parser = argparse.ArgumentParser(prog="PYTHONPATH=. python tools/edge_effect.py",
                                      description=__doc__.split("\n\n")[0] if __doc__ else None)
     parser.add_argument("runs", nargs="+", type=Path, help="finished run directories of python -m mcd.run")
     parser.add_argument("--margin", type=int, default=MARGIN, help="pixels cut off each side for the crop")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 import subprocess
 
-from mcd.paths import REPO_ROOT
+from mcd.core.paths import REPO_ROOT
 
 
 @functools.cache

@@ -1,9 +1,9 @@
 """The last thing ``python -m mcd.run`` prints: what happened (docs/training.md, "Progress and summary").
 
-:func:`summary` turns a run's ``metrics.json`` (``mcd.run_record.RunRecord``) into a few lines: why training
-stopped (epochs, step or time budget, plateau) with the steps done, the training and wall time; the test
-scores PSNR / SSIM / rMSE / FLIP with the noisy input's beside each; the same per scene; and where the run
-directory and the tested checkpoint are.
+:func:`summary` turns a run's ``metrics.json`` (``mcd.lit.run_record.RunRecord``) into a few lines: why
+training stopped (epochs, step or time budget, plateau) with the steps done, the training and wall time; the
+test scores PSNR / SSIM / rMSE / FLIP with the noisy input's beside each; the same per scene; and where the
+run directory and the tested checkpoint are.
 """
 
 from __future__ import annotations

@@ -16,11 +16,11 @@ from typing import Any
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig
 
-from mcd import run_dir
+from mcd.lit import run_dir
 
 log = logging.getLogger("mcd.run")
 # Hydra instantiates this module's callbacks before it resolves hydra.run.dir or hydra.sweep.dir, so every
-# command composing conf/config.yaml gets the ${run_id:} of their defaults (mcd/run_dir.py) from here
+# command composing conf/config.yaml gets the ${run_id:} of their defaults (mcd/lit/run_dir.py) from here
 run_dir.register_resolvers()
 
 

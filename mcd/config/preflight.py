@@ -1,6 +1,6 @@
 """Checks of a run's config that must fail before anything is rendered or trained (docs/reliability.md).
 
-:func:`check_run` refuses a value outside its key's rule (mcd/config_rules.py, the one table of them: a
+:func:`check_run` refuses a value outside its key's rule (mcd/core/config_rules.py, the one table of them: a
 budget that is not a number or has no stored uniform render, a warm-up that is not a step count, ...),
 images smaller than the SSIM window, training crops the frames cannot hold, a training-clip stride outside
 1 to ``data.clip_len``, a malformed ``data.augment`` block and a diagnostic switch on a method without
@@ -18,14 +18,14 @@ from collections.abc import Iterable
 
 from omegaconf import DictConfig
 
-from mcd.config_rules import check_config, checked
-from mcd.data.splits import clip_stride
-from mcd.metrics import SSIM_WINDOW
+from mcd.core.config_rules import check_config, checked
+from mcd.core.metrics import SSIM_WINDOW
+from mcd.data.splits import check_crops, clip_stride
 
 
 def check_budget(cfg: DictConfig) -> float:
     """``cfg.budget`` as a number, if every method can be tested at it; else ValueError saying what to give
-    (the rule of ``budget`` in mcd/config_rules.py: a budget with a stored uniform render ``c_s``)."""
+    (the rule of ``budget`` in mcd/core/config_rules.py: a budget with a stored uniform render ``c_s``)."""
     return float(checked("budget", cfg.get("budget")))
 
 
@@ -36,18 +36,6 @@ def check_image_size(cfg: DictConfig) -> None:
         raise ValueError(f"data.width={w} data.height={h}: test frames are scored by SSIM, whose window "
                          f"needs at least {SSIM_WINDOW}x{SSIM_WINDOW} pixels; give data.width and "
                          f"data.height >= {SSIM_WINDOW}")
-
-
-def check_crops(cfg: DictConfig) -> None:
-    """ValueError unless ``data.train_crop`` fits the frames and ``data.train_crop_at_edge`` is a
-    probability (its rule in mcd/config_rules.py)."""
-    d = cfg.data
-    checked("data.train_crop", d.train_crop)
-    checked("data.train_crop_at_edge", d.get("train_crop_at_edge", 0.0))
-    crop, w, h = int(d.train_crop), int(d.width), int(d.height)
-    if crop > min(w, h):
-        raise ValueError(f"data.train_crop={crop} is larger than the {w}x{h} frames of profile {d.name}: "
-                         f"give data.train_crop <= {min(w, h)}")
 
 
 def check_clip_stride(cfg: DictConfig) -> None:
@@ -132,8 +120,8 @@ def check_train_store(cfg: DictConfig, buffers: Iterable[str], pack_command: str
 
 
 def check_run(cfg: DictConfig) -> None:
-    """Every key's own rule (:func:`mcd.config_rules.check_config`), then every check of this module, in the
-    order a user would fix them."""
+    """Every key's own rule (:func:`mcd.core.config_rules.check_config`), then every check of this module, in
+    the order a user would fix them."""
     check_config(cfg)
     check_diagnostics(cfg)
     check_budget(cfg)
