@@ -20,6 +20,9 @@ writes those two alone (mcd/reporting/index.py). The report holds:
   checked against our numbers, F against the trained baselines, OIDN and its noisy input), failed jobs with
   their error, and an index of the files.
 
+Runs of the scaling sweep (``+sweep=scaling``; any runs with ``--kind scaling``) get the scaling study's
+report instead, ``reports/scaling/`` (``mcd.reporting.scaling``; docs/benchmark.md "Scaling report").
+
 A job whose ``metrics.json`` is corrupt (``mcd.reporting.runs.metrics_problem``) is reported as failed, and
 the command then exits 1 naming each such file on stderr (docs/reliability.md).
 """
