@@ -110,11 +110,11 @@ def test_the_plan_is_the_sweeps_grid_less_the_seeds_it_drops():
     assert seeds["small", 3000] == [0, 1, 2] and seeds["tiny", 3000] == [0] and seeds["medium", 10000] == [0]
 
 
-def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+def _run(args: list[str], cwd: Path, returncode: int = 0) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
     proc = subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True,
                           timeout=900)
-    assert proc.returncode == 0, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
+    assert proc.returncode == returncode, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
     return proc
 
 
@@ -129,8 +129,13 @@ def test_a_real_grid_gives_the_scaling_report(cbox_store, tmp_path):
           "sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[4]}",
           *store32_overrides(cbox_store[1].data_dir), "train.batch_size=1", "train.val_every_steps=2",
           "trainer.enable_progress_bar=false", f"hydra.sweep.dir={sweep}"], tmp_path)
+    # a job of the plan (tiny, 1000 steps, row A) that fails before any work: recorded, and listed as failed
+    _run(["-m", "mcd.run", "-m", "+sweep=scaling", "+experiment=A", "train.max_steps=1000", "train.lr=-1",
+          *store32_overrides(cbox_store[1].data_dir), f"hydra.sweep.dir={sweep}"], tmp_path, returncode=1)
+    assert (sweep / "tiny" / "A_steps1000_seed0" / "error.json").is_file()
     runs = {}
-    for job in sorted(sweep.glob("tiny/*_steps*_seed*")):  # <experiment>_steps<steps>_seed<seed>
+    for done in sorted(sweep.glob("tiny/*/metrics.json")):  # <experiment>_steps<steps>_seed<seed>/
+        job = done.parent
         exp, steps, seed = re.fullmatch(r"(\w+)_steps(\d+)_seed(\d+)", job.name).groups()
         runs[exp, int(steps), int(seed)] = json.loads((job / "metrics.json").read_text())
     cells_run = ((2, [0]), (4, [0, 1]))
@@ -192,14 +197,18 @@ def test_a_real_grid_gives_the_scaling_report(cbox_store, tmp_path):
 
     jobs = pd.read_csv(out / "scaling_jobs.csv")
     assert (jobs["status"] == "outside the plan").sum() == 9  # the test's budgets are not the plan's
-    assert (jobs["status"] == "not run").sum() == 65
+    assert (jobs["status"] == "not run").sum() == 64
+    failed = jobs[(jobs["data"] == "tiny") & (jobs["steps"] == 1000) & (jobs["experiment"] == "A")]
+    assert failed["status"].tolist() == ["failed"]
     text = (out / "notes.md").read_text()
     assert "Does the paper's ordering appear as the work grows?" in text.split("\n\n")[2]
     assert f"{sum(d) / 2:+.2f} ± {abs(d[0] - d[1]) / 2:.2f} dB (paired, 2 seeds" in text
     assert "- medium, 10000 steps: Ours (F), seed 0 (not run)" in text
     assert "- small, 3000 steps: NTASAD, seeds 0, 1, 2 (not run)" in text
+    assert "- tiny, 1000 steps: A, seed 0 (failed)" in text
     readme = (out / "README.md").read_text()
     assert "- Data profile(s): tiny" in readme and "the largest scale point, tiny x 4 steps" in readme
+    assert "A_steps1000_seed0`: failed: ConfigError: train.lr=-1" in readme
     # the viewer shows the largest scale point's runs: F's pictures carry F_steps4_seed0's per-frame PSNR
     data = json.loads((out / "viewer" / "data.js").read_text().split(" = ", 1)[1].rstrip().rstrip(";"))
     first = data["frames"][0]

@@ -138,7 +138,8 @@ def write(found: list[Finding], out_dir: Path, regenerate: str) -> Path:
         "# Scaling study: generated notes",
         "",
         f"Generated from this report's findings (`findings.json`) by `{regenerate}`, rewritten each time; a "
-        f"hand-written analysis goes beside it in `{ANALYSIS}`, which the report never writes.",
+        f"hand-written analysis goes beside it in `{ANALYSIS}`, which the report never writes. The runs' "
+        "commands, config, commits and machines: [README.md](README.md), \"Provenance\".",
         "",
         answer(found),
         "",
