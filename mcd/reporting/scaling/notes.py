@@ -11,9 +11,14 @@ steps:
 - no scale point with F and NTASAD or the U-Net: the question cannot be answered yet;
 - the ordering (F above both where both ran) holds at every scale point: yes, at every one measured;
 - it holds at the largest scale point and not at the smallest: it appears as the work grows;
+- it holds at the smallest and not at the largest: no, it fades as the work grows;
 - it holds at none: no, within the grid measured (with whether F's gap narrows between the smallest and
   the largest point, and the crossings of the fits);
 - else: partly, naming where it holds.
+
+The verdict goes by the means; where the seeds do not resolve the sign of a difference it rests on (at the
+smallest or the largest scale point: fewer than ``RESOLVED_SE`` standard errors from zero, or no standard
+error), the paragraph says so.
 """
 
 from __future__ import annotations
@@ -22,7 +27,8 @@ import math
 from pathlib import Path
 
 from mcd.methods import display_name
-from mcd.reporting.finding import Finding, render, resolved
+from mcd.reporting.finding import RESOLVED_SE, Finding, render, resolved
+from mcd.reporting.markdown_text import escape as esc
 from mcd.reporting.scaling.fit import HORIZON
 from mcd.reporting.scaling.gaps import MAIN
 
@@ -57,6 +63,18 @@ def _short_crossing(f: Finding) -> str:
             "losing": "F above at the largest budget by the fits, but losing ground",
             "cannot fit": "no fit (fewer than two budgets)",
             "cannot check": "no budget with both"}[d["outcome"]]
+
+
+def _covered(coverage: Finding) -> str:
+    """The plan's counts and the scale points with runs, from the ``scaling_coverage`` finding."""
+    v, d = coverage.values, coverage.detail
+    cells = "; ".join(f"{c['data']} x {c['steps']} steps ({', '.join(map(display_name, c['experiments']))})"
+                      for c in d["cells"]) or "none"
+    return (f"Planned by {d['sweep_file']}: {int(v['planned'])} jobs, of which {int(v['finished'])} "
+            f"finished, {int(v['failed'])} failed, {int(v['incomplete'])} incomplete and {int(v['not run'])} "
+            f"not run; {int(v['outside the plan'])} finished run(s) outside the plan. Scale points with "
+            "runs: "
+            f"{cells}.")
 
 
 def answer(found: list[Finding]) -> str:
@@ -104,6 +122,10 @@ def answer(found: list[Finding]) -> str:
         verdict = (f"it appears as the work grows: {ordering} holds at the largest scale point "
                    f"({_where(points[-1])}) and not at the smallest ({_where(points[0])}); it holds at "
                    f"{', '.join(map(_where, where))}")
+    elif holds(points[0]) and not holds(points[-1]):
+        verdict = (f"no, it fades as the work grows: {ordering} holds at the smallest scale point "
+                   f"({_where(points[0])}) and not at the largest ({_where(points[-1])}); it holds at "
+                   f"{', '.join(map(_where, where))}")
     elif not where:
         nt = gaps[MAIN[0]]
         trend = ""
@@ -122,13 +144,20 @@ def answer(found: list[Finding]) -> str:
         verdict = (f"partly: {ordering} holds at {', '.join(map(_where, where))}, not at "
                    f"{', '.join(_where(p) for p in points if p not in where)}")
     parts.append(f"Does the paper's ordering appear as the work grows? {verdict[0].upper()}{verdict[1:]}.")
+    shaky = [f"{display_name(f.subjects[0])} - {display_name(f.subjects[1])} at {_where(p)}"
+             for p in dict.fromkeys((points[0], points[-1])) for by in gaps.values() if p in by
+             for f in [by[p]] if not abs(f.values["mean"]) >= RESOLVED_SE * f.values["se"]]
+    if shaky:
+        parts.append(f"The verdict goes by the means; the seeds do not resolve the sign of "
+                     f"{', '.join(shaky)} (fewer than {RESOLVED_SE:g} standard errors from zero, or one "
+                     "seed), so it is not yet a result.")
     return " ".join(parts)
 
 
 def write(found: list[Finding], out_dir: Path, regenerate: str) -> Path:
     """Write ``notes.md``: :func:`answer`, then every scaling finding rendered, grouped (module docstring)."""
     def listed(kind: str) -> list[str]:
-        return [f"- {render(f)}" for f in found if f.kind == kind]
+        return [f"- {esc(render(f))}" for f in found if f.kind == kind]
 
     coverage = next((f for f in found if f.kind == "scaling_coverage"), None)
     missing = coverage.detail["missing"] if coverage is not None else []
@@ -141,16 +170,16 @@ def write(found: list[Finding], out_dir: Path, regenerate: str) -> Path:
         f"hand-written analysis goes beside it in `{ANALYSIS}`, which the report never writes. The runs' "
         "commands, config, commits and machines: [README.md](README.md), \"Provenance\".",
         "",
-        answer(found),
+        esc(answer(found)),
         "",
         "## What the grid covers",
         "",
-        *([f"- {render(coverage)}"] if coverage is not None else []),
+        *([f"- {esc(_covered(coverage))}"] if coverage is not None else []),
         "",
         "Missing legs (planned, not finished):",
         "",
-        *([f"- {m['data']}, {m['steps']} steps: {display_name(str(m['experiment']))}, seed"
-           f"{'s' if len(m['seeds']) > 1 else ''} {', '.join(map(str, m['seeds']))} ({m['status']})"
+        *([esc(f"- {m['data']}, {m['steps']} steps: {display_name(str(m['experiment']))}, seed"
+               f"{'s' if len(m['seeds']) > 1 else ''} {', '.join(map(str, m['seeds']))} ({m['status']})")
            for m in missing] or ["- none"]),
         "",
         "## Differences at each scale point",
@@ -163,7 +192,7 @@ def write(found: list[Finding], out_dir: Path, regenerate: str) -> Path:
         "",
         "## Sampling-map health of the adaptive-sampling runs",
         "",
-        *([f"- {render(f)}" for f in flagged] or
+        *([f"- {esc(render(f))}" for f in flagged] or
           [f"- no map is flagged collapsed or edge-bound ({len(maps)} run(s) with a map)"
            if maps else "- no run records a sampling map"]),
         "",
