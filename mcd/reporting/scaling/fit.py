@@ -16,6 +16,8 @@ Where F and another method cross, :func:`crossing`, decided in this order:
   :data:`HORIZON` times that budget (an extrapolation), else ``no crossing`` (within the horizon);
 - F gains no more per decade: ``no crossing`` where F's fit is below at the largest budget, ``losing`` where
   it is above (F ahead by the fit there, but the other method closing in).
+
+(:func:`crossings` says ``no runs`` for a data profile where either method has none.)
 """
 
 from __future__ import annotations
@@ -100,19 +102,21 @@ def crossing(first: Mapping[int, float], second: Mapping[int, float], horizon: f
 
 
 def _means(cells: pd.DataFrame, data: str, experiment: str) -> dict[int, float]:
+    if cells.empty:
+        return {}
     df = cells[(cells["data"] == data) & (cells["experiment"] == experiment)]
     return {int(s): float(v) for s, v in zip(df["steps"], df["psnr mean"], strict=True) if not pd.isna(v)}
 
 
-def fits(cells: pd.DataFrame) -> pd.DataFrame:
-    """One row per data profile and experiment of ``cells`` (:func:`mcd.reporting.scaling.grid.cells`):
-    its budgets, ``a``, ``b`` (dB per decade of steps), the RMS residual, and a note where the fit checks
-    nothing (two budgets) or cannot be made (one)."""
+def fits(cells: pd.DataFrame, expected: list[tuple[str, str]]) -> pd.DataFrame:
+    """One row per data profile and experiment of ``expected`` (the plan's and the runs'), from ``cells``
+    (:func:`mcd.reporting.scaling.grid.cells`): its budgets, ``a``, ``b`` (dB per decade of steps), the RMS
+    residual, and a note where the fit checks nothing (two budgets) or cannot be made (one, or no runs)."""
     rows = []
-    for (data, exp), _ in cells.groupby(["data", "experiment"], sort=False):
+    for data, exp in expected:
         means = _means(cells, str(data), str(exp))
         f = fit_log_steps(means)
-        note = ("one budget: no fit" if f is None else
+        note = ("no runs" if not means else "one budget: no fit" if f is None else
                 "two budgets: the line passes through both (residual 0 by construction)"
                 if len(f.budgets) == 2 else "")
         rows.append({"data": data, "experiment": exp, "method": display_name(str(exp)),
@@ -124,21 +128,22 @@ def fits(cells: pd.DataFrame) -> pd.DataFrame:
 
 
 def crossings(cells: pd.DataFrame, data: list[str]) -> list[tuple[str, str, str, Crossing]]:
-    """``(data, first, second, crossing)`` of each pair of :data:`MAIN` on each data profile where both
-    ran."""
+    """``(data, first, second, crossing)`` of each pair of :data:`MAIN` on each data profile of ``data``;
+    outcome ``no runs`` where either has no runs there."""
     out = []
     for d in data:
         for a, b in MAIN:
             first, second = _means(cells, d, a), _means(cells, d, b)
-            if first and second:
-                out.append((d, a, b, crossing(first, second)))
+            c = crossing(first, second) if first and second else Crossing("no runs", *(math.nan,) * 3)
+            out.append((d, a, b, c))
     return out
 
 
 def findings(table: pd.DataFrame, crossed: list[tuple[str, str, str, Crossing]]) -> list[Finding]:
     """A ``scaling_fit`` finding per fitted row of :func:`fits`, and a ``scaling_crossing`` per crossing:
     ``holds`` where F is ahead or the fits meet within :data:`HORIZON` (``ahead``, ``crossed``,
-    ``crosses``), ``does not hold`` where they do not, ``cannot check`` where they cannot be fitted."""
+    ``crosses``), ``does not hold`` where they do not, ``cannot check`` where they cannot be fitted; none
+    where either method has no runs (``no runs``)."""
     found = []
     for r in table.itertuples(index=False):
         row = dict(zip(table.columns, r, strict=True))
@@ -150,6 +155,8 @@ def findings(table: pd.DataFrame, crossed: list[tuple[str, str, str, Crossing]])
                              detail={"data": row["data"],
                                      "budgets": [int(b) for b in row["budgets"].split(",")]}))
     for data, a, b, c in crossed:
+        if c.outcome == "no runs":
+            continue
         verdict = ("holds" if c.outcome in ("ahead", "crossed", "crosses") else
                    "cannot check" if c.outcome.startswith("cannot") else "does not hold")
         found.append(Finding("scaling_crossing", verdict, "psnr", "dB", (a, b),

@@ -104,8 +104,12 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
     jobs = coverage.jobs(runs, grid, plan)
     points = scale_points(grid, plan)
     gap_table = gaps.table(grid, points)
-    fit_table = fit.fits(table) if not table.empty else fit.fits(pd.DataFrame(columns=["data", "experiment"]))
-    crossed = fit.crossings(table, grid.data) if not table.empty else []
+    data = list(dict.fromkeys(d for d, _ in points))
+    ran = grid.points
+    expected = [(d, e) for d in data for e in order(
+        {*plan.loc[plan["data"] == d, "experiment"], *ran.loc[ran["data"] == d, "experiment"]})]
+    fit_table = fit.fits(table, expected)
+    crossed = fit.crossings(table, data)
     used = [r for r in runs if str(r.path) in set(grid.points["path"])]
     found: list[Finding] = [coverage.finding(jobs), *gaps.findings(gap_table),
                             *fit.findings(fit_table, crossed), *map_health.checks(used)]
