@@ -20,6 +20,9 @@ writes those two alone (mcd/reporting/index.py). The report holds:
   checked against our numbers, F against the trained baselines, OIDN and its noisy input), failed jobs with
   their error, and an index of the files.
 
+Runs of the scaling sweep (``+sweep=scaling``; any runs with ``--kind scaling``) get the scaling study's
+report instead, ``reports/scaling/`` (``mcd.reporting.scaling``; docs/benchmark.md "Scaling report").
+
 A job whose ``metrics.json`` is corrupt (``mcd.reporting.runs.metrics_problem``) is reported as failed, and
 the command then exits 1 naming each such file on stderr (docs/reliability.md).
 """
@@ -93,11 +96,10 @@ def write_readme(
 ) -> Path:
     """The report's README: provenance, findings (the prose of ``found``), failures, index. Text from the
     runs' records passes :func:`mcd.reporting.markdown_text.escape`."""
-    from mcd.reporting import finding, records
+    from mcd.reporting import finding
     from mcd.reporting.markdown_text import escape as esc
     from mcd.reporting.select import to_markdown
 
-    n_ok = sum(r.status == "ok" for r in runs)
     fails = _failures(runs, root)
     lines = [
         f"# Report `{name}`",
@@ -112,35 +114,7 @@ def write_readme(
             if viewer is not None
             else []
         ),
-        "## Provenance",
-        "",
-        f"- Sweep commands ({len(sweeps)}):",
-        *[
-            f"  - `{esc(s.command)}` → "
-            f"`{s.path.relative_to(root) if s.path.is_relative_to(root) else s.path}` "
-            f"(data profile `{esc(s.data_profile)}`)"
-            for s in sweeps
-        ],
-        f"- Data profile(s): {esc(prov.data_profiles)}",
-        f"- Reference quality of the test frames (estimated PSNR of each reference, docs/data.md): "
-        f"{esc(prov.reference_quality)}",
-        f"- Config: {esc(prov.config_groups)}; each job's full config is in `<run>/.hydra/config.yaml` "
-        "(and `resolved_config.yaml`)",
-        f"- Training: {esc(prov.training)}",
-        f"- Commit(s) of the runs: {esc(prov.commits)}",
-        f"- Device(s): {esc(prov.devices)}",
-        f"- Resumed runs (trained in more than one process; metrics.json `segments`, else the excess of "
-        f"curve.csv's clock over the last process's training time): {esc(prov.resumed)}",
-        f"- Wall time: {prov.wall_s / 60:.1f} min summed over {n_ok} finished runs (each run's `wall_s`, "
-        f"plus {prov.earlier_s / 60:.1f} min of resumed runs' earlier processes); this report took "
-        f"{report_s:.1f} s",
-        f"- Run records: [{records.RECORDS_DIR}/]({records.RECORDS_DIR}/) holds each run's `metrics.json`, "
-        "`curve.csv`, `frames.csv`, `edges.json` and `.hydra/` config, and each sweep's `multirun.yaml`: "
-        f"`{_regenerate_command(out_dir, name, root)}` regenerates every table, "
-        "finding and curve from them (not the strips, which need the runs' `samples/`)",
-        f"- Jobs: {len(runs)} found, {n_ok} finished, {int((fails['status'] == 'failed').sum())} failed, "
-        f"{int((fails['status'] == 'incomplete').sum())} incomplete",
-        *[f"- Note: {n}" for n in notes],
+        *prov.readme_lines(root, _regenerate_command(out_dir, name, root), notes, report_s),
         "",
         f"## Findings (generated from the tables below; as data in [{finding.FILE}]({finding.FILE}))",
         "",
@@ -211,16 +185,18 @@ def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[F
     ]
 
 
-def report_name(runs: list[Run], name: str | None) -> str:
-    """The report's folder name under the output root: ``name`` (``--name``), else the runs' one data profile
-    (``combined`` for several). Either must be one plain folder name
+def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str:
+    """The report's folder name under the output root: ``name`` (``--name``), else ``scaling`` for a scaling
+    report, else the runs' one data profile (``combined`` for several). Either must be one plain folder name
     (:func:`mcd.core.paths.check_folder_name`): a profile comes from the runs' records (``data_profile`` in
-    ``metrics.json``, or Hydra's choice of ``data`` in ``.hydra/hydra.yaml``), and ``/`` or ``..`` in it
-    would write, and delete, outside the output root. UnsafeNameError naming the field and the file, or
-    ``--name``, before anything is written."""
+    ``metrics.json``, or Hydra's choice of ``data`` in ``.hydra/hydra.yaml``), and ``/`` or ``..`` in it would
+    write, and delete, outside the output root. UnsafeNameError naming the field and the file, or ``--name``,
+    before anything is written."""
     why = "the report is written to <out>/<name>/"
     if name is not None:
         return check_folder_name(name, "--name", why)
+    if scaling:
+        return "scaling"
     profiles = sorted({r.data_profile for r in runs})
     if len(profiles) > 1:
         return "combined"
@@ -239,12 +215,17 @@ def make_report(
     notes: list[str] | None = None,
     command: str | None = None,
     with_viewer: bool = True,
+    kind: str = "auto",
 ) -> Path:
     """Write the whole report for the runs under `dirs`; returns the report directory. ``with_viewer=False``
-    writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``)."""
+    writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``). ``kind``: ``scaling``
+    writes the scaling study's report (``mcd.reporting.scaling``), ``standard`` the report above, ``auto``
+    the scaling report where a run is a job of the scaling sweep (``mcd.reporting.scaling.grid.is_scaling``).
+    """
     from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
     from mcd.reporting.provenance import Provenance
     from mcd.reporting.runs import NoRunsError, find_runs, find_sweeps
+    from mcd.reporting.scaling.grid import is_scaling
 
     started = time.perf_counter()
     runs = find_runs(dirs)
@@ -255,11 +236,20 @@ def make_report(
         )
     records.keys(runs)  # two runs that would share a record folder: refused before anything is written
     sweeps = find_sweeps(dirs)
-    name = report_name(runs, name)
+    scaling = kind == "scaling" or (kind == "auto" and is_scaling(runs))
+    name = report_name(runs, name, scaling)
     out_dir = out_root / name
     out_dir.mkdir(parents=True, exist_ok=True)
     root = Path.cwd().resolve()
     prov = Provenance.gather(sweeps, runs, command)
+    if scaling:
+        from mcd.reporting.scaling import report as scaling_report
+
+        scaling_report.write(runs, out_dir, name, prov, root,
+                             _regenerate_command(out_dir, name, root) + " --kind scaling", notes or [],
+                             started, with_viewer)
+        records.keep(runs, sweeps, out_dir)
+        return out_dir
 
     results = tables.write_all(runs, out_dir, root)
     results.update(seeds.write(runs, out_dir))
@@ -325,6 +315,13 @@ def main(argv: list[str] | None = None) -> None:
         help="write no comparison viewer (<report>/viewer/, the heaviest part) and remove an earlier one",
     )
     parser.add_argument(
+        "--kind",
+        choices=("auto", "standard", "scaling"),
+        default="auto",
+        help="scaling: the scaling study's report (docs/benchmark.md \"Scaling report\"); standard: Table 1 "
+        "and the rest; auto (default): scaling where a run is a job of +sweep=scaling",
+    )
+    parser.add_argument(
         "--index",
         action="store_true",
         help="only write the reports index (<out>/README.md) and README.md's results from the current report",
@@ -362,7 +359,7 @@ def main(argv: list[str] | None = None) -> None:
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     try:
         out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
-                              not args.no_viewer)
+                              not args.no_viewer, args.kind)
     except (UnsafeNameError, NoRunsError) as err:  # a name leaving the output root, or nothing to report on:
         sys.exit(f"error: {err}")  # one line, and nothing was written
     print(f"report written to {out_dir}/README.md")

@@ -293,6 +293,77 @@ def _map_health(f: Finding) -> str:
             "pixels.")
 
 
+# --- the scaling study (mcd.reporting.scaling) ------------------------------------------------------------
+
+def _pm(mean: float, se: float, digits: int = 2) -> str:
+    """``mean ± se`` (``mean`` alone where the standard error is unknown)."""
+    return f"{mean:+.{digits}f}" + ("" if math.isnan(se) else f" ± {se:.{digits}f}")
+
+
+def _scaling_gap(f: Finding) -> str:
+    a, b = f.subjects
+    d = f.detail
+    m, se = f.values["mean"], f.values["se"]
+    res = "" if math.isnan(se) else f", {resolved(m, se)}"
+    claim = f"; {_name(f, a)} above {_name(f, b)} {_verdict(f.verdict)}" if "claim" in d else ""
+    flip = ("" if math.isnan(f.values["flip mean"])
+            else f"; FLIP {_pm(f.values['flip mean'], f.values['flip se'], 4)} (lower is better)")
+    return (f"{d['data']}, {d['steps']} steps: {_name(f, a)} - {_name(f, b)} = {_pm(m, se)} dB PSNR "
+            f"({d['rule']}; seeds {d['seeds'][a]} / {d['seeds'][b]}){res}{flip}{claim}.")
+
+
+def _scaling_fit(f: Finding) -> str:
+    (exp,) = f.subjects
+    budgets = f.detail["budgets"]
+    exact = " (two budgets: the line passes through both, so it checks nothing)" if len(budgets) == 2 else ""
+    return (f"Fit, {f.detail['data']}, {_name(f, exp)}: PSNR = {f.values['a']:.2f} {f.values['b']:+.2f} x "
+            f"log10(steps) dB over the budgets {', '.join(map(str, budgets))}; RMS residual "
+            f"{f.values['rms']:.2f} dB{exact}.")
+
+
+def _scaling_crossing(f: Finding) -> str:
+    a, b = f.subjects
+    d, v = f.detail, f.values
+    name_a, name_b = _name(f, a), _name(f, b)
+    largest, steps, per = v["largest budget"], v["crossing steps"], v["per decade"]
+    behind = ", ".join(map(str, d["behind"]))
+    rate = "" if math.isnan(per) else f"; {name_a} gains {per:+.2f} dB per tenfold steps against {name_b}"
+    horizon = f"{d['horizon']:g}x the largest budget ({largest:g} steps)"
+    text = {
+        "ahead": f"already ahead at every budget (up to {largest:g} steps)",
+        "crossed": f"the fits cross at {steps:.3g} steps, within the budgets run ({name_a} not above at "
+                   f"{behind} steps)",
+        "crosses": f"the fits cross at {steps:.3g} steps, {steps / largest:.1f}x the largest budget "
+                   f"({largest:g}): an extrapolation",
+        "no crossing": f"no crossing within {horizon}" + (f" (the fits cross at {steps:.3g} steps)"
+                                                          if not math.isnan(steps) else
+                                                          " (the gap does not close)"),
+        "losing": f"{name_a} is above at the largest budget by the fits, but {name_b} gains more per tenfold "
+                  f"steps (not above at {behind} steps)",
+        "cannot fit": f"cannot fit: one of them ran fewer than two budgets ({name_a} not above at {behind} "
+                      "steps)",
+        "cannot check": "no budget with both",
+    }[d["outcome"]]
+    return f"Where {name_a} meets {name_b}, {d['data']}: {text}{rate}."
+
+
+def _scaling_coverage(f: Finding) -> str:
+    v, d = f.values, f.detail
+    cells = "; ".join(f"{c['data']} {c['steps']} steps ({', '.join(_name(f, e) for e in c['experiments'])})"
+                      for c in d["cells"]) or "none"
+    by_point: dict[str, list[str]] = {}
+    for m in d["missing"]:
+        by_point.setdefault(f"{m['data']} {m['steps']} steps", []).append(
+            f"{_name(f, m['experiment'])} (seed{'s' if len(m['seeds']) > 1 else ''} "
+            f"{','.join(map(str, m['seeds']))}: {m['status']})")
+    missing = "; ".join(f"{k}: {', '.join(e)}" for k, e in by_point.items()) or "none"
+    outside = int(v["outside the plan"])
+    beyond = f"; {outside} finished run(s) lie outside the plan" if outside else ""
+    return (f"The sweep's plan ({d['sweep_file']}) has {int(v['planned'])} jobs: {int(v['finished'])} "
+            f"finished, {int(v['failed'])} failed, {int(v['incomplete'])} incomplete, "
+            f"{int(v['not run'])} not run{beyond}. Scale points with runs: {cells}. Missing: {missing}.")
+
+
 RENDERERS: dict[str, Callable[[Finding], str]] = {
     "headline": _headline,
     "f_vs_baselines": _baselines,
@@ -311,6 +382,10 @@ RENDERERS: dict[str, Callable[[Finding], str]] = {
     "seeds_kp_largest_step": _seeds_kp,
     "repeatability": _repeatability,
     "sampling_map_health": _map_health,
+    "scaling_gap": _scaling_gap,
+    "scaling_fit": _scaling_fit,
+    "scaling_crossing": _scaling_crossing,
+    "scaling_coverage": _scaling_coverage,
 }
 
 

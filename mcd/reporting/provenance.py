@@ -11,6 +11,8 @@ from pathlib import Path
 from matplotlib.figure import Figure
 
 from mcd.core.provenance import short_commit
+from mcd.reporting.markdown_text import escape as esc
+from mcd.reporting.records import RECORDS_DIR
 from mcd.reporting.runs import Run, Sweep
 
 
@@ -146,6 +148,47 @@ class Provenance:
 
         target = _distinct([q.get("target_db") for q in seen.values()])
         return f"target {target} dB; " + "; ".join(one(s, q) for s, q in sorted(seen.items()))
+
+    def readme_lines(self, root: Path, regenerate: str, notes: list[str], report_s: float) -> list[str]:
+        """The "Provenance" section of a report's README (``mcd.report``, ``mcd.reporting.scaling.report``),
+        whose ``- <label>: `` lines the reports index reads (``mcd.reporting.index.describe``): the sweep
+        commands (``root``: the folder paths are shown relative to), the runs' data, config, training,
+        commits, devices, resumed runs and wall time, the run records and ``regenerate`` (the command that
+        rebuilds the report from them), the jobs' states and ``notes``. Text from the runs' records passes
+        :func:`mcd.reporting.markdown_text.escape`."""
+        n_ok = sum(r.status == "ok" for r in self.runs)
+        return [
+            "## Provenance",
+            "",
+            f"- Sweep commands ({len(self.sweeps)}):",
+            *[
+                f"  - `{esc(s.command)}` → "
+                f"`{s.path.relative_to(root) if s.path.is_relative_to(root) else s.path}` "
+                f"(data profile `{esc(s.data_profile)}`)"
+                for s in self.sweeps
+            ],
+            f"- Data profile(s): {esc(self.data_profiles)}",
+            f"- Reference quality of the test frames (estimated PSNR of each reference, docs/data.md): "
+            f"{esc(self.reference_quality)}",
+            f"- Config: {esc(self.config_groups)}; each job's full config is in `<run>/.hydra/config.yaml` "
+            "(and `resolved_config.yaml`)",
+            f"- Training: {esc(self.training)}",
+            f"- Commit(s) of the runs: {esc(self.commits)}",
+            f"- Device(s): {esc(self.devices)}",
+            f"- Resumed runs (trained in more than one process; metrics.json `segments`, else the excess of "
+            f"curve.csv's clock over the last process's training time): {esc(self.resumed)}",
+            f"- Wall time: {self.wall_s / 60:.1f} min summed over {n_ok} finished runs (each run's `wall_s`, "
+            f"plus {self.earlier_s / 60:.1f} min of resumed runs' earlier processes); this report took "
+            f"{report_s:.1f} s",
+            f"- Run records: [{RECORDS_DIR}/]({RECORDS_DIR}/) holds each run's `metrics.json`, "
+            "`curve.csv`, `frames.csv`, `edges.json` and `.hydra/` config, and each sweep's `multirun.yaml`: "
+            f"`{regenerate}` regenerates every table, "
+            "finding and curve from them (not the strips, which need the runs' `samples/`)",
+            f"- Jobs: {len(self.runs)} found, {n_ok} finished, "
+            f"{sum(r.status == 'failed' for r in self.runs)} failed, "
+            f"{sum(r.status == 'incomplete' for r in self.runs)} incomplete",
+            *[f"- Note: {n}" for n in notes],
+        ]
 
     def commands(self) -> list[str]:
         return [s.command for s in self.sweeps]

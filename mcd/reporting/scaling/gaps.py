@@ -1,0 +1,104 @@
+"""Differences between methods at each scale point of the scaling study (docs/benchmark.md "Scaling report").
+
+The paper's ordering puts F above NTASAD and above the U-Net (row A): :data:`MAIN` pairs are listed at every
+scale point of the plan and of the runs, a cell without runs saying so. The paper's F against ours
+(``F_paper - F``) and each diagnostic against its method (``ntasad_no_warp - ntasad``, ...) follow where the
+first of the two ran.
+
+The rule for a difference of PSNR (and FLIP) between two cells, :func:`difference`:
+
+- both cells have the same seeds, at least two: *paired* by seed, the mean of the per-seed differences and
+  its standard error (their sample standard deviation over ``sqrt(n)``);
+- other seeds, at least two on each side: the difference of the means, standard error
+  ``sqrt(s_a^2/n_a + s_b^2/n_b)`` (*unpaired*);
+- one seed on a side: the difference of the means, no standard error.
+
+A seed value gives two methods no randomness in common but their test frames (their weights and crops are
+drawn in different orders), so pairing changes the estimate's spread little; it is the rule because it is the
+exact one where seeds match.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from mcd.config.methods import BY_EXPERIMENT, display_name
+from mcd.reporting.finding import Finding
+from mcd.reporting.scaling.grid import Grid, by_seed
+from mcd.reporting.tables import TABLE1_BUDGET
+
+#: The paper's ordering, checked at every scale point: (subject, the method it should be above).
+MAIN = (("F", "ntasad"), ("F", "A"))
+#: Pairs shown where their first experiment ran: the paper's F against ours, each diagnostic against its
+#: method (``mcd.config.methods``: ``variant_of``).
+EXTRA = (("F_paper", "F"), *((m.experiment, str(m.variant_of)) for m in BY_EXPERIMENT.values()
+                              if m.diagnostic and m.variant_of))
+
+
+def difference(a: dict[int, float], b: dict[int, float]) -> tuple[float, float, str]:
+    """``a - b`` of two cells' ``{seed: score}``: mean, standard error (NaN where the rule gives none) and
+    the rule applied (module docstring); NaN and ``no runs of ...`` when a side is empty."""
+    if not a or not b:
+        return math.nan, math.nan, "no runs"
+    if set(a) == set(b) and len(a) >= 2:
+        d = pd.Series([a[s] - b[s] for s in sorted(a)])
+        return float(d.mean()), float(d.std(ddof=1) / math.sqrt(len(d))), f"paired, {len(d)} seeds"
+    mean = sum(a.values()) / len(a) - sum(b.values()) / len(b)
+    if len(a) >= 2 and len(b) >= 2:
+        va, vb = pd.Series(list(a.values())).var(ddof=1), pd.Series(list(b.values())).var(ddof=1)
+        return mean, float(math.sqrt(va / len(a) + vb / len(b))), f"unpaired, {len(a)}/{len(b)} seeds"
+    return mean, math.nan, f"{len(a)}/{len(b)} seeds: no standard error"
+
+
+def _seeds(cell: dict[int, float]) -> str:
+    return ",".join(map(str, sorted(cell))) if cell else "none"
+
+
+def table(grid: Grid, scale_points: list[tuple[str, int]]) -> pd.DataFrame:
+    """One row per pair and scale point: :data:`MAIN` at each of ``scale_points`` (the plan's and the runs'),
+    :data:`EXTRA` where its first experiment ran; columns ``data``, ``train scenes`` (of the profile's
+    runs; empty without runs), ``steps``, ``difference``, the seeds of
+    each side (``none`` where a cell has no runs), ``rule``, ``PSNR dB``, ``PSNR se``, ``FLIP``, ``FLIP se``
+    (FLIP: lower is better, so a negative difference favours the first method)."""
+    rows = []
+    sizes = {d: grid.train_scene_count(d) for d in grid.data}
+    for data, steps in scale_points:
+        for a, b in (*MAIN, *EXTRA):
+            pa, pb = by_seed(grid, data, steps, a), by_seed(grid, data, steps, b)
+            if (a, b) in EXTRA and not pa:
+                continue
+            psnr, psnr_se, rule = difference(pa, pb)
+            flip, flip_se, _ = difference(by_seed(grid, data, steps, a, "flip"),
+                                          by_seed(grid, data, steps, b, "flip"))
+            rows.append({"data": data, "train scenes": sizes.get(data), "steps": steps,
+                         "difference": f"{display_name(a)} - {display_name(b)}", "a": a, "b": b,
+                         "a seeds": _seeds(pa), "b seeds": _seeds(pb),
+                         "rule": rule if pa and pb else "no runs of " + " or ".join(
+                             display_name(e) for e, cell in ((a, pa), (b, pb)) if not cell),
+                         "PSNR dB": psnr, "PSNR se": psnr_se, "FLIP": flip, "FLIP se": flip_se})
+    return pd.DataFrame(rows, columns=["data", "train scenes", "steps", "difference", "a", "b", "a seeds",
+                                       "b seeds", "rule", "PSNR dB", "PSNR se", "FLIP", "FLIP se"])
+
+
+def findings(gaps: pd.DataFrame) -> list[Finding]:
+    """One ``scaling_gap`` finding per row of :func:`table` with runs on both sides: for :data:`MAIN`, the
+    claim that the first method is above the second (``holds`` / ``does not hold`` by the mean); the other
+    pairs are ``measured``."""
+    found = []
+    for r in gaps.itertuples(index=False):
+        if pd.isna(r[gaps.columns.get_loc("PSNR dB")]):
+            continue
+        row = dict(zip(gaps.columns, r, strict=True))
+        a, b, mean = row["a"], row["b"], float(row["PSNR dB"])
+        verdict = ("holds" if mean > 0 else "does not hold") if (a, b) in MAIN else "measured"
+        found.append(Finding(
+            "scaling_gap", verdict, "psnr", "dB", (a, b),
+            {"mean": mean, "se": float(row["PSNR se"]), "flip mean": float(row["FLIP"]),
+             "flip se": float(row["FLIP se"])}, TABLE1_BUDGET,
+            detail={"data": row["data"], "train_scenes": int(row["train scenes"]), "steps": int(row["steps"]),
+                    "rule": row["rule"],
+                    "seeds": {a: row["a seeds"], b: row["b seeds"]},
+                    **({"claim": f"{a} above {b}"} if (a, b) in MAIN else {})}))
+    return found

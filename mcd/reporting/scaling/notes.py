@@ -1,0 +1,202 @@
+"""The scaling report's generated ``notes.md`` (docs/benchmark.md "Scaling report"): a first paragraph that
+answers "Does the paper's ordering appear as the work grows?", then what the grid covers and what is missing,
+the differences, fits and crossings, and the sampling-map flags. Every sentence is made from the report's
+findings (:mod:`mcd.reporting.finding` records, ``findings.json``), never typed: the file is rewritten by
+every run of the report, and a hand-written analysis goes in a file of its own beside it (:data:`ANALYSIS`).
+
+The answer's rule, from the ``scaling_gap`` findings of F - NTASAD and F - U-Net (row A) at each scale
+point (a data profile and a step budget), the scale points ordered by training scenes, then data name, then
+steps:
+
+- no scale point with F and NTASAD or the U-Net: the question cannot be answered yet;
+- the ordering (F above both where both ran) holds at every scale point: yes, at every one measured;
+- it holds at the largest scale point and not at the smallest: it appears as the work grows;
+- it holds at the smallest and not at the largest: no, it fades as the work grows;
+- it holds at none: no, within the grid measured (with whether F's gap narrows between the smallest and
+  the largest point, and the crossings of the fits);
+- else: partly, naming where it holds.
+
+The verdict goes by the means; where the seeds do not resolve the sign of a difference it rests on (at the
+smallest or the largest scale point: fewer than ``RESOLVED_SE`` standard errors from zero, or no standard
+error), the paragraph says so.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from mcd.config.methods import display_name
+from mcd.reporting.finding import RESOLVED_SE, Finding, render, resolved
+from mcd.reporting.markdown_text import escape as esc
+from mcd.reporting.scaling.fit import HORIZON
+from mcd.reporting.scaling.gaps import MAIN
+
+FILE = "notes.md"
+#: The hand-written analysis a person may add beside the generated notes; the report never writes it.
+ANALYSIS = "analysis.md"
+
+
+def _point(f: Finding) -> tuple[int, str, int]:
+    return f.detail["train_scenes"], f.detail["data"], f.detail["steps"]
+
+
+def _where(point: tuple[int, str, int]) -> str:
+    return f"{point[1]} x {point[2]} steps"
+
+
+def _gap(f: Finding) -> str:
+    m, se = f.values["mean"], f.values["se"]
+    if math.isnan(se):
+        return f"{m:+.2f} dB ({f.detail['rule']})"
+    return f"{m:+.2f} ± {se:.2f} dB ({f.detail['rule']}; {resolved(m, se)})"
+
+
+def _short_crossing(f: Finding) -> str:
+    v, d = f.values, f.detail
+    steps = v["crossing steps"]
+    return {"ahead": "F already ahead at every budget",
+            "crossed": f"the fits cross at {steps:.3g} steps, within the budgets run",
+            "crosses": f"the fits cross at {steps:.3g} steps ({steps / v['largest budget']:.1f}x the largest "
+                       "budget, an extrapolation)",
+            "no crossing": f"no crossing within {d['horizon']:g}x the largest budget",
+            "losing": "F above at the largest budget by the fits, but losing ground",
+            "cannot fit": "no fit (fewer than two budgets)",
+            "cannot check": "no budget with both"}[d["outcome"]]
+
+
+def _covered(coverage: Finding) -> str:
+    """The plan's counts and the scale points with runs, from the ``scaling_coverage`` finding."""
+    v, d = coverage.values, coverage.detail
+    cells = "; ".join(f"{c['data']} x {c['steps']} steps ({', '.join(map(display_name, c['experiments']))})"
+                      for c in d["cells"]) or "none"
+    return (f"Planned by {d['sweep_file']}: {int(v['planned'])} jobs, of which {int(v['finished'])} "
+            f"finished, {int(v['failed'])} failed, {int(v['incomplete'])} incomplete and {int(v['not run'])} "
+            f"not run; {int(v['outside the plan'])} finished run(s) outside the plan. Scale points with "
+            "runs: "
+            f"{cells}.")
+
+
+def answer(found: list[Finding]) -> str:
+    """The first paragraph of ``notes.md`` (module docstring), from ``found`` alone."""
+    coverage = next((f for f in found if f.kind == "scaling_coverage"), None)
+    parts = []
+    if coverage is not None:
+        v = coverage.values
+        beyond = f", and {int(v['outside the plan'])} run(s) outside it" if v["outside the plan"] else ""
+        parts.append(f"This grid holds {int(v['finished'])} of the {int(v['planned'])} jobs the sweep plans "
+                     f"({coverage.detail['sweep_file']}){beyond}" +
+                     (f"; {int(v['planned'] - v['finished'])} planned jobs are missing (listed below)."
+                      if v["planned"] > v["finished"] else "; none is missing."))
+    gaps = {pair: {_point(f): f for f in found if f.kind == "scaling_gap" and f.subjects == pair}
+            for pair in MAIN}
+    points = sorted({p for by in gaps.values() for p in by})
+    if not points:
+        parts.append("No scale point has F beside NTASAD or the U-Net (row A) yet, so the question cannot be "
+                     "answered from these runs.")
+        return " ".join(parts)
+    for (a, b), by in gaps.items():
+        name = f"{display_name(a)} - {display_name(b)}"
+        if not by:
+            parts.append(f"{name}: no scale point has both.")
+            continue
+        low, high = min(by), max(by)
+        if low == high:
+            parts.append(f"{name} at the only scale point with both, {_where(low)}: {_gap(by[low])}.")
+        else:
+            parts.append(f"{name}: {_gap(by[low])} at the smallest scale point with both ({_where(low)}), "
+                         f"{_gap(by[high])} at the largest ({_where(high)}).")
+    crossings = [f for f in found if f.kind == "scaling_crossing" and f.subjects == MAIN[0]]
+    if crossings:
+        parts.append(f"Fitting PSNR = a + b log10(steps) per method, F against {display_name(MAIN[0][1])}: " +
+                     "; ".join(f"{f.detail['data']}: {_short_crossing(f)}" for f in crossings) + ".")
+
+    def holds(p: tuple[int, str, int]) -> bool:
+        return all(by[p].values["mean"] > 0 for by in gaps.values() if p in by)
+
+    where = [p for p in points if holds(p)]
+    ordering = "the paper's ordering (F above NTASAD and the U-Net, where each ran)"
+    if len(where) == len(points):
+        verdict = f"yes: {ordering} holds at every scale point measured ({len(points)})"
+    elif holds(points[-1]) and not holds(points[0]):
+        verdict = (f"it appears as the work grows: {ordering} holds at the largest scale point "
+                   f"({_where(points[-1])}) and not at the smallest ({_where(points[0])}); it holds at "
+                   f"{', '.join(map(_where, where))}")
+    elif holds(points[0]) and not holds(points[-1]):
+        verdict = (f"no, it fades as the work grows: {ordering} holds at the smallest scale point "
+                   f"({_where(points[0])}) and not at the largest ({_where(points[-1])}); it holds at "
+                   f"{', '.join(map(_where, where))}")
+    elif not where:
+        nt = gaps[MAIN[0]]
+        trend = ""
+        if len(nt) > 1:
+            low, high = nt[min(nt)].values["mean"], nt[max(nt)].values["mean"]
+            narrows = "narrows" if high > low else "does not narrow"
+            trend = (f"; F's gap to {display_name(MAIN[0][1])} {narrows} from {low:+.2f} to {high:+.2f} dB "
+                     "between the smallest and the largest scale point")
+        ahead = [f.detail["data"] for f in crossings if f.detail["outcome"] in ("crossed", "crosses")]
+        reach = (f", and the fits reach it within {HORIZON:g}x the largest budget on {', '.join(ahead)} only"
+                 if ahead else f", and the fits reach it within {HORIZON:g}x the largest budget on no data "
+                 "profile" if crossings else "")
+        verdict = (f"no, not within the grid measured: {ordering} holds at none of its {len(points)} scale "
+                   f"points{trend}{reach}")
+    else:
+        verdict = (f"partly: {ordering} holds at {', '.join(map(_where, where))}, not at "
+                   f"{', '.join(_where(p) for p in points if p not in where)}")
+    parts.append(f"Does the paper's ordering appear as the work grows? {verdict[0].upper()}{verdict[1:]}.")
+    shaky = [f"{display_name(f.subjects[0])} - {display_name(f.subjects[1])} at {_where(p)}"
+             for p in dict.fromkeys((points[0], points[-1])) for by in gaps.values() if p in by
+             for f in [by[p]] if not abs(f.values["mean"]) >= RESOLVED_SE * f.values["se"]]
+    if shaky:
+        parts.append(f"The verdict goes by the means; the seeds do not resolve the sign of "
+                     f"{', '.join(shaky)} (fewer than {RESOLVED_SE:g} standard errors from zero, or one "
+                     "seed), so it is not yet a result.")
+    return " ".join(parts)
+
+
+def write(found: list[Finding], out_dir: Path, regenerate: str) -> Path:
+    """Write ``notes.md``: :func:`answer`, then every scaling finding rendered, grouped (module docstring)."""
+    def listed(kind: str) -> list[str]:
+        return [f"- {esc(render(f))}" for f in found if f.kind == kind]
+
+    coverage = next((f for f in found if f.kind == "scaling_coverage"), None)
+    missing = coverage.detail["missing"] if coverage is not None else []
+    maps = [f for f in found if f.kind == "sampling_map_health"]
+    flagged = [f for f in maps if f.verdict == "does not hold"]
+    lines = [
+        "# Scaling study: generated notes",
+        "",
+        f"Generated from this report's findings (`findings.json`) by `{regenerate}`, rewritten each time; a "
+        f"hand-written analysis goes beside it in `{ANALYSIS}`, which the report never writes. The runs' "
+        "commands, config, commits and machines: [README.md](README.md), \"Provenance\".",
+        "",
+        esc(answer(found)),
+        "",
+        "## What the grid covers",
+        "",
+        *([f"- {esc(_covered(coverage))}"] if coverage is not None else []),
+        "",
+        "Missing legs (planned, not finished):",
+        "",
+        *([esc(f"- {m['data']}, {m['steps']} steps: {display_name(str(m['experiment']))}, seed"
+               f"{'s' if len(m['seeds']) > 1 else ''} {', '.join(map(str, m['seeds']))} ({m['status']})")
+           for m in missing] or ["- none"]),
+        "",
+        "## Differences at each scale point",
+        "",
+        *(listed("scaling_gap") or ["- none: no scale point has two of the compared methods"]),
+        "",
+        "## Fits of PSNR against log10(steps), and crossings",
+        "",
+        *(listed("scaling_fit") + listed("scaling_crossing") or ["- none: no method ran two budgets"]),
+        "",
+        "## Sampling-map health of the adaptive-sampling runs",
+        "",
+        *([f"- {esc(render(f))}" for f in flagged] or
+          [f"- no map is flagged collapsed or edge-bound ({len(maps)} run(s) with a map)"
+           if maps else "- no run records a sampling map"]),
+        "",
+    ]
+    path = out_dir / FILE
+    path.write_text("\n".join(lines))
+    return path

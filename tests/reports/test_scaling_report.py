@@ -1,0 +1,229 @@
+"""The scaling study's report (mcd/reporting/scaling/, docs/benchmark.md "Scaling report"): the fit and
+crossing arithmetic and the difference rule on hand-checkable numbers, the generated answer's rule, and a real
+grid end to end: ``python -m mcd.run -m +sweep=scaling`` on the session's 32x32 Cornell box (F, NTASAD and
+row A at 2 and 4 real optimiser steps, a second seed at 4), then ``python -m mcd.report`` on its directory."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from mcd.reporting import finding
+from mcd.reporting.finding import Finding
+from mcd.reporting.scaling import coverage, notes
+from mcd.reporting.scaling.fit import HORIZON, crossing, fit_log_steps
+from mcd.reporting.scaling.gaps import difference
+from tests.conftest import store32_overrides
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_the_fit_is_least_squares_on_log10_steps_with_its_rms_residual():
+    exact = fit_log_steps({1000: 26.0, 3000: 26.0 + 2 * math.log10(3), 10000: 28.0})
+    assert exact.a == pytest.approx(20.0) and exact.b == pytest.approx(2.0) and exact.rms == pytest.approx(0)
+    # x = 1, 2, 3 and y = 1, 3, 2: slope 0.5, intercept 1, residuals -0.5, 1, -0.5
+    f = fit_log_steps({10: 1.0, 100: 3.0, 1000: 2.0})
+    assert (f.a, f.b, f.rms) == pytest.approx((1.0, 0.5, math.sqrt(0.5)))
+    assert f.budgets == (10, 100, 1000) and f.at(10000) == pytest.approx(3.0)
+    assert fit_log_steps({1000: 25.0}) is None and fit_log_steps({}) is None
+
+
+def _line(a: float, b: float, budgets=(1000, 10000)) -> dict[int, float]:
+    return {s: a + b * math.log10(s) for s in budgets}
+
+
+@pytest.mark.parametrize("f, other, outcome, steps", [
+    # ahead at every budget both ran: no fit needed
+    (_line(21, 3), _line(20, 3), "ahead", math.nan),
+    # F 29, 32 against 31.25, 32.75: F gains 1 dB per decade more, the fits meet at 10**4.25
+    (_line(20, 3), _line(24.25, 2), "crosses", 10 ** 4.25),
+    # the same gain, 10**7: 1000x the largest budget, beyond the horizon
+    (_line(20, 3), _line(27, 2), "no crossing", 1e7),
+    # F gains less per decade and is behind: the gap does not close
+    (_line(20, 3), _line(20, 4), "no crossing", math.nan),
+    # level at 1000 steps (not above), ahead at 10000: the fits met at 1000
+    (_line(20, 3), _line(26, 1), "crossed", 1000.0),
+    # F ran one budget: behind there, and no fit
+    ({1000: 25.0}, _line(26, 1), "cannot fit", math.nan),
+    ({1000: 25.0}, {3000: 24.0}, "cannot check", math.nan),
+])
+def test_the_crossing_of_f_and_another_method(f, other, outcome, steps):
+    c = crossing(f, other)
+    assert c.outcome == outcome
+    assert c.steps == pytest.approx(steps, nan_ok=True)
+    if outcome != "cannot check":
+        assert c.largest == max(set(f) & set(other))
+    if outcome == "crosses":
+        assert c.steps <= HORIZON * c.largest and c.per_decade == pytest.approx(1.0)
+        assert c.behind == (1000, 10000)
+
+
+def test_a_difference_is_paired_by_seed_where_the_seeds_match():
+    mean, se, rule = difference({0: 30.0, 1: 31.0, 2: 32.0}, {0: 29.0, 1: 29.5, 2: 31.0})
+    # per-seed differences 1, 1.5, 1: mean 7/6, standard deviation sqrt(1/12), over sqrt(3)
+    assert (mean, se) == pytest.approx((7 / 6, math.sqrt(1 / 12) / math.sqrt(3)))
+    assert rule == "paired, 3 seeds"
+    mean, se, rule = difference({0: 30.0, 1: 32.0}, {0: 29.0, 3: 31.0, 4: 30.0})
+    assert (mean, se) == pytest.approx((1.0, math.sqrt(2.0 / 2 + 1.0 / 3))) and rule == "unpaired, 2/3 seeds"
+    mean, se, rule = difference({0: 30.0, 1: 32.0}, {0: 29.0})
+    assert mean == pytest.approx(2.0) and math.isnan(se) and "no standard error" in rule
+    assert math.isnan(difference({}, {0: 29.0})[0])
+
+
+def _gap(pair: tuple[str, str], data: str, scenes: int, steps: int, mean: float, se: float = 0.2) -> Finding:
+    return Finding("scaling_gap", "holds" if mean > 0 else "does not hold", "psnr", "dB", pair,
+                   {"mean": mean, "se": se, "flip mean": math.nan, "flip se": math.nan}, 4.0,
+                   detail={"data": data, "train_scenes": scenes, "steps": steps, "rule": "paired, 3 seeds",
+                           "seeds": dict.fromkeys(pair, "0,1,2"), "claim": "F above"})
+
+
+@pytest.mark.parametrize("signs, words", [
+    ((-1, -1, +1, +1), "It appears as the work grows"),
+    ((+1, +1, +1, +1), "Yes: the paper's ordering"),
+    ((-1, -1, -1, -1), "No, not within the grid measured"),
+    ((+1, +1, +1, -1), "No, it fades as the work grows"),
+    ((-1, +1, +1, -1), "Partly"),
+])
+def test_the_answer_follows_the_ordering_from_the_smallest_to_the_largest_scale_point(signs, words):
+    points = [("tiny", 2, 1000), ("tiny", 2, 10000), ("small", 5, 1000), ("small", 5, 10000)]
+    found = [_gap(pair, d, n, s, sign * 1.5) for (d, n, s), sign in zip(points, signs, strict=True)
+             for pair in (("F", "ntasad"), ("F", "A"))]
+    text = notes.answer(found)
+    assert words in text
+    # the smallest and the largest scale point's F - NTASAD, with their standard errors
+    assert f"{signs[0] * 1.5:+.2f} ± 0.20 dB" in text and "tiny x 1000 steps" in text
+    assert "small x 10000 steps" in text
+    assert "not yet a result" not in text  # 1.5 dB at 0.2 standard error: resolved
+    shaky = notes.answer([*found[:-2], _gap(("F", "ntasad"), "small", 5, 10000, signs[-1] * 1.5, se=1.0)])
+    assert "the seeds do not resolve the sign of Ours (F) - NTASAD at small x 10000 steps" in shaky
+    assert "cannot be answered" in notes.answer([])
+
+
+def test_the_plan_is_the_sweeps_grid_less_the_seeds_it_drops():
+    plan = coverage.planned()
+    assert len(plan) == 5 * (9 + 2 * 2)
+    seeds = plan.groupby(["data", "steps"])["seed"].apply(lambda s: sorted(set(s)))
+    assert seeds["small", 3000] == [0, 1, 2] and seeds["tiny", 3000] == [0] and seeds["medium", 10000] == [0]
+
+
+def _run(args: list[str], cwd: Path, returncode: int = 0) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True,
+                          timeout=900)
+    assert proc.returncode == returncode, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
+    return proc
+
+
+@pytest.mark.slow
+def test_a_real_grid_gives_the_scaling_report(cbox_store, tmp_path):
+    """F, NTASAD and row A at 2 and 4 real steps on the 32x32 Cornell box, seeds 0 and 1 at 4 steps: the
+    report's figure, its cells and differences against the runs' metrics.json, its findings, the missing legs
+    of the sweep's plan, and the viewer of the largest scale point."""
+    sweep = tmp_path / "sweep"
+    _run(["-m", "mcd.run", "-m", "+sweep=scaling", "+experiment=F,ntasad,A", "train.max_steps=2,4",
+          "seed=0,1",
+          "sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[4]}",
+          *store32_overrides(cbox_store[1].data_dir), "train.batch_size=1", "train.val_every_steps=2",
+          "trainer.enable_progress_bar=false", f"hydra.sweep.dir={sweep}"], tmp_path)
+    # a job of the plan (tiny, 1000 steps, row A) that fails before any work: recorded, and listed as failed
+    _run(["-m", "mcd.run", "-m", "+sweep=scaling", "+experiment=A", "train.max_steps=1000", "train.lr=-1",
+          *store32_overrides(cbox_store[1].data_dir), f"hydra.sweep.dir={sweep}"], tmp_path, returncode=1)
+    assert (sweep / "tiny" / "A_steps1000_seed0" / "error.json").is_file()
+    runs = {}
+    for done in sorted(sweep.glob("tiny/*/metrics.json")):  # <experiment>_steps<steps>_seed<seed>/
+        job = done.parent
+        exp, steps, seed = re.fullmatch(r"(\w+)_steps(\d+)_seed(\d+)", job.name).groups()
+        runs[exp, int(steps), int(seed)] = json.loads((job / "metrics.json").read_text())
+    cells_run = ((2, [0]), (4, [0, 1]))
+    assert sorted(runs) == sorted((e, s, x) for e in ("A", "F", "ntasad") for s, seeds in cells_run
+                                  for x in seeds)
+
+    from mcd.report import main
+
+    main([str(sweep), "--out", str(tmp_path / "reports"), "--readme", str(tmp_path / "README.md")])
+    out = tmp_path / "reports" / "scaling"  # a scaling sweep's runs make a scaling report by themselves
+    assert (out / "scaling.png").stat().st_size > 20_000
+
+    cells = pd.read_csv(out / "scaling_cells.csv")
+    for exp in ("F", "ntasad", "A"):
+        for steps, seeds in cells_run:
+            row = cells[(cells["data"] == "tiny") & (cells["steps"] == steps) & (cells["experiment"] == exp)]
+            (r,) = row.to_dict("records")
+            psnr = [runs[exp, steps, s]["psnr"] for s in seeds]
+            flip = [runs[exp, steps, s]["flip"] for s in seeds]
+            assert r["n"] == len(seeds) and str(r["seeds"]) == ",".join(map(str, seeds))
+            assert r["psnr mean"] == pytest.approx(sum(psnr) / len(psnr))
+            assert r["flip mean"] == pytest.approx(sum(flip) / len(flip))
+            assert r["band"] == ("range" if len(seeds) == 2 else "none")
+            assert (r["psnr lo"], r["psnr hi"]) == pytest.approx((min(psnr), max(psnr)))
+    empty = cells[(cells["data"] == "medium") & (cells["steps"] == 10000) & (cells["experiment"] == "F")]
+    assert empty["n"].tolist() == [0] and empty["band"].tolist() == ["no runs"]
+
+    gaps = pd.read_csv(out / "scaling_gaps.csv")
+
+    def gap(steps: int, b: str) -> dict:
+        (r,) = gaps[(gaps["data"] == "tiny") & (gaps["steps"] == steps) & (gaps["a"] == "F")
+                    & (gaps["b"] == b)].to_dict("records")
+        return r
+
+    d = [runs["F", 4, s]["psnr"] - runs["ntasad", 4, s]["psnr"] for s in (0, 1)]
+    r = gap(4, "ntasad")
+    assert r["rule"] == "paired, 2 seeds" and r["PSNR dB"] == pytest.approx(sum(d) / 2)
+    assert r["PSNR se"] == pytest.approx(abs(d[0] - d[1]) / 2)
+    r = gap(2, "A")
+    assert r["PSNR dB"] == pytest.approx(runs["F", 2, 0]["psnr"] - runs["A", 2, 0]["psnr"])
+    assert math.isnan(r["PSNR se"]) and "no standard error" in r["rule"]
+    assert r["FLIP"] == pytest.approx(runs["F", 2, 0]["flip"] - runs["A", 2, 0]["flip"])
+    at = gaps[(gaps["data"] == "medium") & (gaps["steps"] == 10000) & (gaps["b"] == "ntasad")]
+    (missing,) = at.to_dict("records")
+    assert missing["a seeds"] == "none" and missing["rule"] == "no runs of Ours (F) or NTASAD"
+
+    found = finding.read(out / "findings.json")
+    kinds = {f.kind for f in found}
+    assert {"scaling_coverage", "scaling_gap", "scaling_fit", "scaling_crossing", "sampling_map_health"} <= \
+        kinds
+
+    def means(exp: str) -> dict[int, float]:
+        return {s: sum(runs[exp, s, x]["psnr"] for x in seeds) / len(seeds) for s, seeds in cells_run}
+
+    (fit_f,) = [f for f in found if f.kind == "scaling_fit" and f.subjects == ("F",)]
+    assert fit_f.values["b"] == pytest.approx((means("F")[4] - means("F")[2]) / math.log10(2))
+    (cross,) = [f for f in found if f.kind == "scaling_crossing" and f.subjects == ("F", "ntasad")]
+    assert cross.detail["outcome"] == crossing(means("F"), means("ntasad")).outcome
+
+    jobs = pd.read_csv(out / "scaling_jobs.csv")
+    assert (jobs["status"] == "outside the plan").sum() == 9  # the test's budgets are not the plan's
+    assert (jobs["status"] == "not run").sum() == 64
+    failed = jobs[(jobs["data"] == "tiny") & (jobs["steps"] == 1000) & (jobs["experiment"] == "A")]
+    assert failed["status"].tolist() == ["failed"]
+    text = (out / "notes.md").read_text()
+    assert "Does the paper's ordering appear as the work grows?" in text.split("\n\n")[2]
+    assert f"{sum(d) / 2:+.2f} ± {abs(d[0] - d[1]) / 2:.2f} dB (paired, 2 seeds" in text
+    assert "- medium, 10000 steps: Ours (F), seed 0 (not run)" in text
+    assert "- small, 3000 steps: NTASAD, seeds 0, 1, 2 (not run)" in text
+    assert "- tiny, 1000 steps: A, seed 0 (failed)" in text
+    readme = (out / "README.md").read_text()
+    assert "- Data profile(s): tiny" in readme and "the largest scale point, tiny x 4 steps" in readme
+    assert "A_steps1000_seed0`: failed: ConfigError: train.lr=-1" in readme
+    # the viewer shows the largest scale point's runs: F's pictures carry F_steps4_seed0's per-frame PSNR
+    data = json.loads((out / "viewer" / "data.js").read_text().split(" = ", 1)[1].rstrip().rstrip(";"))
+    first = data["frames"][0]
+    shown = {i["key"]: i["metrics"]["psnr"] for i in first["images"]}
+    frames = pd.read_csv(sweep / "tiny" / "F_steps4_seed0" / "frames.csv")
+    want = frames[(frames["scene"] == first["scene"]) & (frames["frame"] == first["frame"])]["psnr"].item()
+    assert shown["F"] == pytest.approx(want) and {"ntasad", "noisy", "reference"} <= set(shown)
+    assert "| scaling |" in (tmp_path / "reports" / "README.md").read_text()  # the reports index lists it
+
+    # the run records alone regenerate the same tables (the viewer, which needs samples, is left as it was)
+    main([str(out / "runs"), "--name", "scaling", "--out", str(tmp_path / "reports"), "--readme",
+          str(tmp_path / "README.md")])
+    pd.testing.assert_frame_equal(pd.read_csv(out / "scaling_cells.csv"), cells)
+    pd.testing.assert_frame_equal(pd.read_csv(out / "scaling_gaps.csv"), gaps)
