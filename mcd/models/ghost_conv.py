@@ -22,13 +22,18 @@ import torch
 from torch import Tensor, nn
 
 from mcd.core.stages import stage
+from mcd.models import fast_paths
 from mcd.models.blocks import check_padding
 from mcd.models.cpu_fast import fused_conv
 from mcd.models.cpu_fast.ghost_conv import (
     fast_path_applies,
     group_then_point,
     grouped_conv,
+    merged_applies,
+    merged_primary,
     primary_and_ghost,
+    replicate_block,
+    replicate_path_applies,
 )
 from mcd.models.inputs import cat_channels, with_constant
 
@@ -66,6 +71,9 @@ class FastGhostConv(nn.Module):
             return self._forward_parts(parts, constant)
 
     def _forward_parts(self, parts: Sequence[Tensor], constant: Tensor | None) -> Tensor:
+        fast = fast_paths.enabled()
+        if fast and replicate_path_applies(self.group, self.ghost, parts):
+            return replicate_block(self.group, self.point, self.ghost, parts, constant)
         if fast_path_applies(self.group, parts):
             if self.ghost.padding_mode == "zeros" and fused_conv.applies(self.ghost.weight, parts):
                 return primary_and_ghost(self.group, self.point, self.ghost, parts, constant)
@@ -73,5 +81,8 @@ class FastGhostConv(nn.Module):
         else:
             whole = with_constant(parts, constant)
             x = cat_channels(whole) if len(whole) > 1 else whole[0]
-            primary = self.point(grouped_conv(self.group, x))
+            if fast and merged_applies(self.group, x):
+                primary = merged_primary(self.group, self.point, x)
+            else:
+                primary = self.point(grouped_conv(self.group, x))
         return self.act(torch.cat([primary, grouped_conv(self.ghost, primary)], 1))

@@ -53,6 +53,103 @@ def primary_and_ghost(group: nn.Conv2d, point: nn.Conv2d, ghost: nn.Conv2d, part
                              relu=True)
 
 
+def replicate_padded(parts: Sequence[Tensor], padding: Sequence[int], dtype: torch.dtype,
+                     constant: Tensor | None = None) -> Tensor:
+    """The channel concatenation of ``parts`` (and of ``constant`` ``[B, D]`` broadcast over the image, when
+    given), replicate-padded by ``padding`` ``(ph, pw)``, in ``dtype``: one channels-last tensor, each value
+    written once (the parts into its interior, then the top and bottom rows, then the left and right columns
+    with the corners). ``F.pad(mode="replicate")`` makes the same tensor per part and measured several times
+    slower on channels-last inputs (docs/inference.md "Replicate padding"). No gradient: CPU inference."""
+    ph, pw = int(padding[0]), int(padding[1])
+    b, _, h, w = parts[0].shape
+    depth = 0 if constant is None else constant.shape[1]
+    channels = sum(p.shape[1] for p in parts) + depth
+    y = torch.empty(b, channels, h + 2 * ph, w + 2 * pw, dtype=dtype, device=parts[0].device,
+                    memory_format=torch.channels_last)
+    start = 0
+    for part in parts:
+        y[:, start : start + part.shape[1], ph : ph + h, pw : pw + w] = part
+        start += part.shape[1]
+    if constant is not None:                                   # constant over the image, so over its border
+        y[:, start:] = constant[:, :, None, None]
+    inner = slice(pw, pw + w)
+    if ph:
+        y[:, :start, :ph, inner] = y[:, :start, ph : ph + 1, inner]
+        y[:, :start, ph + h :, inner] = y[:, :start, ph + h - 1 : ph + h, inner]
+    if pw:
+        y[:, :start, :, :pw] = y[:, :start, :, pw : pw + 1]
+        y[:, :start, :, pw + w :] = y[:, :start, :, pw + w - 1 : pw + w]
+    return y
+
+
+def merged_weight(group: nn.Conv2d, point: nn.Conv2d) -> tuple[Tensor, Tensor | None]:
+    """``point(group(x))``, a group conv then a 1x1 conv, as one dense conv: its weight ``[half, cin, k, k]``
+    (each output's point-wise column times the group conv's kernels, per group) and bias (the point-wise bias
+    plus the point-wise conv of the group conv's bias). Same function (linear maps compose; the padding is
+    the group conv's). Differentiable in both convs' parameters."""
+    g = group.groups
+    mid, cin_g, kh, kw = group.weight.shape
+    pw = point.weight.reshape(point.out_channels, g, mid // g)
+    weight = torch.einsum("ogm,gmcyx->ogcyx", pw, group.weight.reshape(g, mid // g, cin_g, kh, kw))
+    bias = point.bias
+    if group.bias is not None:
+        folded = point.weight.reshape(point.out_channels, mid) @ group.bias
+        bias = folded if bias is None else bias + folded
+    return weight.reshape(point.out_channels, g * cin_g, kh, kw), bias
+
+
+def merged_pays(group: nn.Conv2d, half: int, dtype: torch.dtype) -> bool:
+    """Whether :func:`merged_weight`'s dense conv runs faster than the group conv and the point-wise conv,
+    by a model of oneDNN's blocking: a conv costs ``ceil(outputs / 16) * 16 x ceil(inputs / K) * K`` per
+    group and tap, with ``K = 32`` where bf16 runs on AMX tiles (32 bf16 inputs per tile row; the dense conv
+    has ``groups`` times the MACs but fills the tiles that a group's few inputs and outputs leave empty) and
+    ``K = 1`` elsewhere (fp32 and AVX-512 bf16, where the dense conv only adds MACs). Measured per block of
+    ``F_s`` in notes/f_speed.md."""
+    amx = dtype == torch.bfloat16 and bool(getattr(torch.cpu, "_is_amx_tile_supported", lambda: False)())
+    k = 32 if amx else 1
+
+    def cost(outputs: int, inputs: int) -> int:
+        return -(-outputs // LANES) * LANES * -(-inputs // k) * k
+
+    g = group.groups
+    grouped = g * cost(group.out_channels // g, group.in_channels // g)
+    dense = cost(half, group.in_channels)
+    return dense <= grouped if amx else dense < grouped
+
+
+def replicate_block(group: nn.Conv2d, point: nn.Conv2d, ghost: nn.Conv2d, parts: Sequence[Tensor],
+                    constant: Tensor | None = None) -> Tensor:
+    """The Fast GhostConv block ``relu(cat([p, ghost(p)]))``, ``p = point(group(x))``, with ``replicate``
+    padding, for CPU inference (docs/inference.md "Replicate padding"). ``x`` (the parts and the constant
+    channels) is replicate-padded once into one channels-last tensor (:func:`replicate_padded`: the
+    concatenation costs nothing more), ``p`` is computed on it with no padding, either as the dense conv of
+    :func:`merged_weight` where :func:`merged_pays` says so or by :func:`group_then_point`, and the ghost runs
+    as in :func:`primary_and_ghost` (identity and ghost kernels, ReLU fused) on ``[p, p]`` replicate-padded
+    by one write. Constant channels are constant over the padded image too: with one image they fold into
+    the dense conv's bias. Same function as ``nn.Conv2d(padding_mode="replicate")``, which pads each conv's
+    input with ``F.pad`` and runs the plain grouped conv."""
+    dtype = fused_conv.compute_dtype(group.weight)
+    half = ghost.out_channels
+    variable = sum(p.shape[1] for p in parts)
+    if merged_pays(group, half, dtype):
+        weight, bias = merged_weight(group, point)
+        fold = constant is not None and parts[0].shape[0] == 1
+        if fold:
+            inside = weight[:, variable:].sum((-2, -1)) @ constant[0].to(weight.dtype)
+            bias = inside if bias is None else bias + inside
+            weight = weight[:, :variable]
+        x = replicate_padded(parts, group.padding, dtype, None if fold else constant)
+        primary = fused_conv.conv2d(x, weight, bias)
+    else:
+        x = replicate_padded(parts, group.padding, dtype)
+        primary = group_then_point(group, point.weight, point.bias, [x], constant, padding=(0, 0))
+    both = replicate_padded([primary, primary], ghost.padding, primary.dtype)
+    identity = torch.zeros_like(ghost.weight)
+    identity[:, :, ghost.kernel_size[0] // 2, ghost.kernel_size[1] // 2] = 1
+    bias = None if ghost.bias is None else torch.cat([torch.zeros_like(ghost.bias), ghost.bias])
+    return fused_conv.conv2d(both, torch.cat([identity, ghost.weight]), bias, groups=2 * half, relu=True)
+
+
 #: Output channels oneDNN's CPU convolutions compute together (one AVX-512 register of fp32, or of bf16
 #: pairs): a group's outputs are padded to a multiple of this.
 LANES = 16
@@ -91,12 +188,14 @@ def lane_filled(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int, pad
     for phase in range(s):
         filled[:, phase, ..., phase : phase + kw] = weight.reshape(g, cout_g, cin_g, kh, kw)
     bias = None if bias is None else bias.view(g, 1, cout_g).expand(g, s, cout_g).reshape(-1)
-    b, _, h, w = x.shape
+    b, _, h_in, w_in = x.shape
+    h, w = h_in + 2 * padding[0] - kh + 1, w_in + 2 * padding[1] - kw + 1                  # output size
     wo = -(-w // s)
-    if wo * s != w:                              # zero columns on the right; their outputs are cropped
-        x = F.pad(x, (0, wo * s - w))
+    need = wo * s + kw - 1 - 2 * padding[1]      # input columns for wo * s outputs
+    if need != w_in:                             # zero columns on the right; their outputs are cropped
+        x = F.pad(x, (0, need - w_in))
     y = F.conv2d(x, filled.view(g * s * cout_g, cin_g, kh, kw + s - 1), bias, stride=(1, s),
-                 padding=padding, groups=g)                                   # [B, (g, phase, o), H, wo]
+                 padding=padding, groups=g)                                   # [B, (g, phase, o), h, wo]
     y = y.permute(0, 2, 3, 1).reshape(b, h, wo, g, s, cout_g).transpose(3, 4).reshape(b, h, wo * s, cout)
     return y[:, :, :w].permute(0, 3, 1, 2).contiguous(memory_format=torch.channels_last)
 
@@ -126,7 +225,8 @@ def splits(cin: int, cout_g: int) -> bool:
 
 
 def group_then_point(group: nn.Conv2d, point_weight: Tensor, point_bias: Tensor | None,
-                     parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
+                     parts: Sequence[Tensor], constant: Tensor | None = None,
+                     padding: tuple[int, ...] | None = None) -> Tensor:
     """``point(group(x))`` for a stride-1 zero-padded group conv and a 1x1 conv ``point`` (``point_weight``,
     ``point_bias``), where ``x`` is the channel
     concatenation of ``parts`` and, when given, of ``constant`` ``[B, D]`` broadcast over the image (the last
@@ -137,7 +237,10 @@ def group_then_point(group: nn.Conv2d, point_weight: Tensor, point_bias: Tensor 
     :func:`splits` holds, else as :func:`lane_filled` followed by the columns of ``point`` that read them, and
     the runs' results are added in place. Constant channels that share the last group with variable ones are
     not convolved: their part of that group's output is its value inside the image (folded into the bias) plus
-    a correction in the ``padding``-wide border (:func:`add_border_correction`). Same function and MACs."""
+    a correction in the ``padding``-wide border (:func:`add_border_correction`). Same function and MACs.
+    ``padding`` (default ``group.padding``) is the zero padding; ``(0, 0)`` on parts padded beforehand
+    (:func:`replicate_block`)."""
+    padding = group.padding if padding is None else padding
     g = group.groups
     cout, cin_g, _, kw = group.weight.shape
     cout_g = cout // g
@@ -147,7 +250,8 @@ def group_then_point(group: nn.Conv2d, point_weight: Tensor, point_bias: Tensor 
         raise ValueError(f"group_then_point: the parts have {[p.shape[1] for p in parts]} channels and the "
                          f"constant {depth}; the group conv reads {g * cin_g}")
     if constant is not None and (variable % cin_g == 0 or depth >= cin_g):       # not in a shared group
-        return group_then_point(group, point_weight, point_bias, with_constant(parts, constant))
+        return group_then_point(group, point_weight, point_bias, with_constant(parts, constant),
+                                padding=padding)
     if constant is None and len(parts) > 1 and any(p.shape[1] % cin_g for p in parts):
         parts = [torch.cat(list(parts), 1)]         # a group straddles two parts: one grouped conv (faster)
     out: Tensor | None = None
@@ -164,15 +268,15 @@ def group_then_point(group: nn.Conv2d, point_weight: Tensor, point_bias: Tensor 
             single = x.shape[0] == 1
             if single:
                 bias = inside[0] if bias is None else bias + inside[0]
-            y = lane_filled(x, weight, bias, n, group.padding, lane_stride(x.shape[1], cout_g, kw))
+            y = lane_filled(x, weight, bias, n, padding, lane_stride(x.shape[1], cout_g, kw))
             if not single:
                 y.add_(inside[:, :, None, None].to(y.dtype))
-            add_border_correction(y, taps, group.padding)
+            add_border_correction(y, taps, padding)
             out = point_into(y, pw, pb, out)
         elif splits(x.shape[1], cout_g):
-            out = split_depthwise(x, weight, bias, n, group.padding, pw, pb, out)
+            out = split_depthwise(x, weight, bias, n, padding, pw, pb, out)
         else:
-            y = lane_filled(x, weight, bias, n, group.padding, lane_stride(cin_g, cout_g, kw))
+            y = lane_filled(x, weight, bias, n, padding, lane_stride(cin_g, cout_g, kw))
             out = point_into(y, pw, pb, out)
     if out is None:
         raise ValueError("group_then_point needs at least one part")
@@ -278,6 +382,38 @@ def split_depthwise(x: Tensor, weight: Tensor, bias: Tensor | None, groups: int,
     for o in range(1, cout_g):
         part(o, None, out)
     return out
+
+
+def replicate_path_applies(group: nn.Conv2d, ghost: nn.Conv2d, parts: Sequence[Tensor]) -> bool:
+    """Whether a Fast GhostConv block runs :func:`replicate_block`: CPU inference (fused operators available:
+    :func:`fused_conv.applies`), ``replicate`` padding and a plain stride-1 group conv (not dense, not
+    depth-wise)."""
+    plain = (*group.stride, *group.dilation, *ghost.stride, *ghost.dilation) == (1,) * 8
+    return (group.padding_mode == ghost.padding_mode == "replicate" and plain
+            and 1 < group.groups < group.in_channels and fused_conv.applies(ghost.weight, parts))
+
+
+def merged_primary(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:
+    """``point(group(x))`` as the one dense conv of :func:`merged_weight`, for CPU training: autograd reaches
+    both convs' parameters through the merged weight. The grouped conv trained on the CPU already runs dense
+    (:func:`grouped_conv`, same MACs), so this drops the point-wise conv and its ``[B, mid, H, W]`` tensor
+    from the forward and the backward. Padding as ``group``'s (``F.pad`` first where it is not zeros, as
+    ``nn.Conv2d`` does)."""
+    weight, bias = merged_weight(group, point)
+    padding = group.padding
+    if group.padding_mode != "zeros":
+        ph, pw = group.padding
+        x, padding = F.pad(x, (pw, pw, ph, ph), mode=group.padding_mode), (0, 0)
+    return F.conv2d(x, weight, bias, padding=padding)
+
+
+def merged_applies(group: nn.Conv2d, x: Tensor) -> bool:
+    """Whether a Fast GhostConv block runs :func:`merged_primary`: CPU training (gradients on, not inference
+    mode; plain ``no_grad`` keeps the grouped conv, so ``FlopCounterMode`` counts the block's true MACs) of a
+    stride-1 group conv."""
+    plain = (*group.stride, *group.dilation) == (1,) * 4
+    return (x.device.type == "cpu" and torch.is_grad_enabled() and not torch.is_inference_mode_enabled()
+            and plain and group.groups > 1)
 
 
 def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
