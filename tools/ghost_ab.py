@@ -29,11 +29,11 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import torch
-from mcd.machine import device_name
-from mcd.provenance import short_commit
 
 from mcd.bench.speed import frame_buffers, parse_size
-from mcd.config import compose
+from mcd.config.compose import compose
+from mcd.core.machine import device_name
+from mcd.core.provenance import short_commit
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.models import build, ghost_conv
 from mcd.models.complexity import dummy_batch
