@@ -1,67 +1,51 @@
-"""Rows A-M of the component study have one source, the table of :mod:`mcd.config.methods`: no
-``conf/experiment/<row>.yaml`` repeats a row's switches; :mod:`mcd.config.compose` registers each row in
-Hydra's ConfigStore, and every way a config is composed (``compose``, ``python -m mcd.run``/``mcd.render``/
-``mcd.plan``, a multirun on the joblib launcher, ``mcd-denoise --experiment``) takes the switches from the
-table (docs/architecture.md, "Config")."""
+"""Rows A-M of the component study are the files ``conf/experiment/A.yaml`` .. ``M.yaml``, each written as
+:func:`row_file` makes it from the paper's table (:data:`mcd.config.methods.COMPONENTS`): the default
+config (row F) with the row's switches and nothing else; every way a config is composed (``compose``, the
+Hydra commands, ``mcd-denoise --experiment``) reads them as it reads every experiment file
+(docs/architecture.md, "Config")."""
 
 from __future__ import annotations
-
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 from omegaconf import OmegaConf
 
-from mcd.config import methods
 from mcd.config.compose import compose, experiment_names
 from mcd.config.methods import COMPONENTS
 from mcd.core.paths import CONF_DIR
 from mcd.models.switches import SWITCHES
 
-REPO = Path(__file__).resolve().parents[1]
+
+def row_file(row: str) -> str:
+    """The text of ``conf/experiment/<row>.yaml`` for component row ``row``, from the table alone."""
+    switches = COMPONENTS[row]["switches"]
+    bits = "".join("1" if switches[s] else "0" for s in SWITCHES)
+    return "\n".join([
+        "# @package _global_",
+        f"# Component row {row} ({bits}) of the paper's study (Sec. 5.3; docs/method.md \"Component",
+        "# study\"): the default two-stage method (conf/method/two_stage.yaml, row F) with these switches.",
+        "# Its paper numbers: mcd/config/methods.py (COMPONENTS), which tests/test_experiments.py holds this",
+        "# file to.",
+        f"experiment: {row}",
+        "method:",
+        *(f"  {s}: {str(switches[s]).lower()}" for s in SWITCHES)]) + "\n"
 
 
-def test_no_yaml_file_repeats_a_component_row():
-    assert not [r for r in COMPONENTS if (CONF_DIR / "experiment" / f"{r}.yaml").exists()]
-    assert experiment_names()[:13] == list("ABCDEFGHIJKLM")
+@pytest.mark.parametrize("row", list(COMPONENTS))
+def test_each_rows_file_is_the_tables_row(row):
+    path = CONF_DIR / "experiment" / f"{row}.yaml"
+    assert path.is_file(), f"write {path}:\n{row_file(row)}"
+    assert path.read_text() == row_file(row), f"{path} differs from mcd/config/methods.py's row; write:\n" \
+        f"{row_file(row)}"
 
 
-def test_each_rows_switches_come_from_the_table(monkeypatch):
-    """Changing a row in the table changes what ``+experiment=<row>`` composes to, and nothing else does."""
-    flipped = {s: not on for s, on in COMPONENTS["B"]["switches"].items()}
-    flipped["UN"] = True
-    monkeypatch.setitem(methods.COMPONENTS, "B", {**COMPONENTS["B"], "switches": flipped})
-    cfg = compose(["+experiment=B"])
-    assert cfg.experiment == "B"
-    assert {s: cfg.method[s] for s in SWITCHES} == flipped
-    default = compose()  # rows share row F's everything but switches
-    assert OmegaConf.masked_copy(cfg, [k for k in cfg if k not in ("experiment", "method")]) == \
-        OmegaConf.masked_copy(default, [k for k in default if k not in ("experiment", "method")])
-    rest = {k: v for k, v in cfg.method.items() if k not in SWITCHES}
-    assert rest == {k: v for k, v in default.method.items() if k not in SWITCHES}
-
-
-def test_every_hydra_command_and_a_joblib_multirun_compose_rows_from_the_table(tmp_path):
-    """``python -m mcd.plan -m +experiment=A,...,M hydra/launcher=joblib`` (a real multirun in worker
-    processes, from a folder outside the checkout) records each row's switches as the table has them; the
-    other Hydra commands print them too."""
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    rows = ",".join(COMPONENTS)
-    subprocess.run([sys.executable, "-m", "mcd.plan", "-m", f"+experiment={rows}", "plan.measure=false",
-                    "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={tmp_path / 'sw'}",
-                    f"paths.data_dir={tmp_path / 'data'}"], check=True, cwd=tmp_path, env=env,
-                   capture_output=True, text=True)
-    for job, row in enumerate(COMPONENTS):
-        saved = OmegaConf.load(tmp_path / "sw" / str(job) / ".hydra" / "config.yaml")
-        assert saved.experiment == row
-        assert {s: saved.method[s] for s in SWITCHES} == COMPONENTS[row]["switches"], row
-    for command in ("mcd.run", "mcd.render", "mcd.pack", "mcd.check_paths"):
-        out = subprocess.run([sys.executable, "-m", command, "+experiment=K", "--cfg", "job"], check=True,
-                             cwd=tmp_path, env=env, capture_output=True, text=True).stdout
-        printed = OmegaConf.create(out)
-        assert {s: printed.method[s] for s in SWITCHES} == COMPONENTS["K"]["switches"], command
+def test_the_rows_come_first_and_are_the_default_config_with_their_switches():
+    """``+experiment=<row>`` composes to the default config (row F) with ``experiment`` and the six switches
+    set, byte for byte as ``--cfg job`` prints it: rows share row F's everything but switches."""
+    assert experiment_names()[:13] == list("ABCDEFGHIJKLM") == list(COMPONENTS)
+    default = compose()
+    for row, paper in COMPONENTS.items():
+        expected = OmegaConf.merge(default, {"experiment": row, "method": paper["switches"]})
+        assert OmegaConf.to_yaml(compose([f"+experiment={row}"])) == OmegaConf.to_yaml(expected), row
 
 
 @pytest.mark.parametrize("row", ["C", "M"])

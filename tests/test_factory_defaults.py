@@ -1,6 +1,7 @@
-"""One value per setting (docs/architecture.md "Models"): a method factory's signature is its knob list, and
-a knob with a default has the default its config files give it (``conf/method/<name>.yaml`` and the
-capacity profiles, ``conf/capacity/``), so that a factory called by hand builds what a run builds."""
+"""One place per method, one value per setting (docs/architecture.md "Methods"): a method factory's signature
+is its knob list, every knob is given by its config files (``conf/method/<name>.yaml`` and its entry of the
+capacity profiles, ``conf/capacity/``) and nothing else is, a knob with a default has the default the files
+give it (so that a factory called by hand builds what a run builds), and every method is in the catalogue."""
 
 from __future__ import annotations
 
@@ -9,8 +10,9 @@ import inspect
 import pytest
 
 from mcd.config.compose import compose
+from mcd.config.methods import CATALOGUE
 from mcd.core.paths import CONF_DIR
-from mcd.models.registry import METHODS, factory_kwargs
+from mcd.models.registry import METHODS, capacity_entry, factory_kwargs
 
 NAMES = sorted(p.stem for p in (CONF_DIR / "method").glob("*.yaml"))
 
@@ -37,3 +39,14 @@ def test_the_check_finds_a_default_the_config_does_not_give(monkeypatch):
     METHODS.get("two_stage")  # the built-in methods registered first
     monkeypatch.setitem(METHODS._entries, "two_stage", build_two_stage_direct)
     assert disagreements("two_stage", "cpu") == ["denoiser_output: 'direct' != 'residual'"]
+
+
+@pytest.mark.parametrize("capacity", ["cpu", "paper"])
+@pytest.mark.parametrize("name", NAMES)
+def test_each_methods_knobs_are_its_files_keys_and_it_is_catalogued(name, capacity):
+    cfg = compose([f"method={name}", f"capacity={capacity}"])
+    params = inspect.signature(METHODS.get(name)).parameters
+    if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        assert set(params) == set(factory_kwargs(cfg)), f"conf/method/{name}.yaml and its factory's knobs"
+    assert (capacity_entry(name) in cfg.capacity) == bool(cfg.method.get("trainable", True))
+    assert [m.experiment for m in CATALOGUE if m.method == name], f"add {name} to mcd/config/methods.py"

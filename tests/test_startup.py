@@ -62,9 +62,8 @@ def test_a_hydra_commands_help_lists_what_hydras_own_help_lists():
     from hydra._internal.utils import create_config_search_path
     from hydra.core.object_type import ObjectType
 
-    from mcd.config.compose import CONF_DIR, config_groups, register_experiments
+    from mcd.config.compose import CONF_DIR, config_groups
 
-    register_experiments()
     loader = ConfigLoaderImpl(config_search_path=create_config_search_path(str(CONF_DIR)))
 
     def walk(parent: str = "") -> dict[str, list[str]]:

@@ -2,9 +2,9 @@
 command and tests, :func:`hydra_main` for the Hydra commands (``mcd.run``, ``mcd.render``, ``mcd.plan``,
 ``mcd.pack``, ``mcd.check_paths``), so that every one sees exactly what a run sees.
 
-The experiment group holds ``conf/experiment/*.yaml`` (the baselines and references) and, registered here in
-Hydra's ConfigStore from the component table (:data:`mcd.config.methods.COMPONENTS`), rows A-M: the table is
-the one source of each row's switches (docs/method.md, "Component study").
+The experiment group is the files of ``conf/experiment/``: rows A-M of the component study (each the paper's
+switches of its row, which tests/test_experiments.py holds to :data:`mcd.config.methods.COMPONENTS`), the
+baselines, the references and the variants (docs/architecture.md, "Config").
 """
 
 from __future__ import annotations
@@ -18,24 +18,15 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from mcd.config.methods import COMPONENTS, component_experiment
+from mcd.config.methods import COMPONENTS
 from mcd.core.paths import CONF_DIR
 
 
-def register_experiments() -> None:
-    """Store rows A-M in Hydra's ConfigStore as group ``experiment``, package ``_global_`` (as the yaml files
-    of ``conf/experiment/`` are), so ``+experiment=C`` works wherever a config is composed. Idempotent; a
-    multirun's joblib workers receive the store with Hydra's state."""
-    from hydra.core.config_store import ConfigStore
-
-    store = ConfigStore.instance()
-    for row in COMPONENTS:
-        store.store(group="experiment", name=row, node=component_experiment(row), package="_global_")
-
-
 def experiment_names() -> list[str]:
-    """Every experiment (``+experiment=<name>``): rows A-M first, then ``conf/experiment/*.yaml`` sorted."""
-    return [*COMPONENTS, *sorted(p.stem for p in (CONF_DIR / "experiment").glob("*.yaml"))]
+    """Every experiment (``+experiment=<name>``, ``conf/experiment/<name>.yaml``): rows A-M in the component
+    table's order first, then the others sorted."""
+    files = {p.stem for p in (CONF_DIR / "experiment").glob("*.yaml")}
+    return [*(row for row in COMPONENTS if row in files), *sorted(files - set(COMPONENTS))]
 
 
 def compose(overrides: Iterable[str] = ()) -> DictConfig:
@@ -45,7 +36,6 @@ def compose(overrides: Iterable[str] = ()) -> DictConfig:
     from hydra import initialize_config_dir
 
     overrides = list(overrides)
-    register_experiments()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         return hydra_compose(config_name="config", overrides=overrides)
 
@@ -80,11 +70,11 @@ def print_to_pipe(text: str) -> None:
 
 def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
                job_errors: bool = False) -> Any:
-    """``@hydra.main`` on the root config (``conf/config.yaml``) with rows A-M registered: the decorator of
-    every Hydra command. Before any work the config is checked against every key's rule
-    (:mod:`mcd.core.config_rules`): a single run composes it first (:func:`compose`) and ends with one
-    ``error:`` line and exit status 2 before Hydra writes its run directory; the task checks it again (a
-    sweep's job, or flags that Hydra composes alone), ending a single run the same way and raising
+    """``@hydra.main`` on the root config (``conf/config.yaml``): the decorator of every Hydra command. Before
+    any work the config is checked against every key's rule (:mod:`mcd.core.config_rules`): a single run
+    composes it first (:func:`compose`) and ends with one ``error:`` line and exit status 2 before Hydra
+    writes its run directory; the task checks it again (a sweep's job, or flags that Hydra composes alone),
+    ending a single run the same way and raising
     :class:`mcd.core.config_rules.ConfigError` in a sweep's job or a direct call ``main(cfg)``, except with
     ``job_errors=True`` (``mcd.run``, whose preflight checks it and writes the job's ``error.json`` so
     that the sweep goes on).
@@ -92,8 +82,6 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
     if task is None:
         return functools.partial(hydra_main, job_errors=job_errors)
     import hydra
-
-    register_experiments()
 
     @functools.wraps(task)
     def checked_task(cfg: DictConfig) -> Any:
@@ -142,17 +130,15 @@ HELP_FLAGS = frozenset({"--help", "-h"})
 
 def config_groups() -> dict[str, list[str]]:
     """Every config group a command line can pick from (``group=option``) and its options, sorted: the folders
-    of ``conf/`` (nested ones as ``a/b``) with their ``*.yaml`` files, and the experiment rows registered in
-    the ConfigStore (:func:`register_experiments`). Hydra's own groups (``hydra/...``) and private files
-    (``_name.yaml``, included by other configs) are left out. Read from the file system, so it costs
-    milliseconds where Hydra's ``--help`` builds a config repository for every group (docs/architecture.md,
-    "Start-up")."""
+    of ``conf/`` (nested ones as ``a/b``) with their ``*.yaml`` files. Hydra's own groups (``hydra/...``)
+    and private files (``_name.yaml``, included by other configs) are left out. Read from the file system, so
+    it costs milliseconds where Hydra's ``--help`` builds a config repository for every group
+    (docs/architecture.md, "Start-up")."""
     groups: dict[str, set[str]] = {}
     for yaml in CONF_DIR.rglob("*.yaml"):
         group = yaml.parent.relative_to(CONF_DIR).as_posix()
         if group != "." and group.split("/")[0] != "hydra" and not yaml.stem.startswith("_"):
             groups.setdefault(group, set()).add(yaml.stem)
-    groups.setdefault("experiment", set()).update(COMPONENTS)
     return {group: sorted(groups[group]) for group in sorted(groups)}
 
 

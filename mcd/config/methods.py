@@ -21,8 +21,7 @@ from mcd.models.switches import SWITCHES
 class Method:
     """One method of the benchmark.
 
-    ``experiment``: ``+experiment=<experiment>`` (``conf/experiment/<experiment>.yaml``, or for rows A-M
-    :func:`component_experiment`); ``display``: its
+    ``experiment``: ``+experiment=<experiment>`` (``conf/experiment/<experiment>.yaml``); ``display``: its
     name in tables and legends; ``method``: ``method.name`` (``conf/method/<method>.yaml``, the model
     registry's name); ``trainable``: it has weights to train; ``paper``: Table 1's numbers (psnr, ssim, gmacs,
     params_m) or None; ``table1``: a row of Table 1 (in :data:`CATALOGUE`'s order); ``variant_of``: the Table
@@ -123,17 +122,10 @@ def _components() -> dict[str, dict]:
     return rows
 
 
-#: Component study A-M: switches, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params.
+#: Component study A-M: switches, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params. Each row's
+#: experiment, ``conf/experiment/<row>.yaml``, is row F's method with the row's switches
+#: (tests/test_experiments.py holds the files to this table).
 COMPONENTS: dict[str, dict] = _components()
-
-
-def component_experiment(row: str) -> dict:
-    """The experiment config of component row ``row`` (A-M; ``+experiment=<row>``), made from
-    :data:`COMPONENTS` alone: ``experiment: <row>`` and the row's six switches on the default ``two_stage``
-    method, so the rows share row F's everything but switches (docs/method.md, "Component study").
-    :func:`mcd.config.compose.register_experiments` stores it as the group ``experiment``'s entry, at the
-    root."""
-    return {"experiment": row, "method": dict(COMPONENTS[row]["switches"])}
 
 
 def paper_complexity(experiment: str, method: str | None = None) -> dict[str, float] | None:

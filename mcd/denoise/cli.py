@@ -40,7 +40,6 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--experiment", help="the experiment the checkpoint must be of (e.g. unet, F); without "
                    "--checkpoint, a method without weights (oidn, noisy)")
     p.add_argument("--capacity", help="the capacity profile the checkpoint must have (cpu, paper)")
-    p.add_argument("--model", help=argparse.SUPPRESS)  # the old name of --capacity: refused, naming it
     p.add_argument("--scene", type=arguments.scene_file,
                    help="a Mitsuba 3 scene file to render and denoise (input b)")
     p.add_argument("--width", type=arguments.side, default=None,
@@ -98,9 +97,6 @@ def load_model(args: argparse.Namespace) -> weights.Loaded:
     """The checkpoint's model, or (no ``--checkpoint``) an experiment without weights."""
     from mcd.denoise.configs import check_experiment
 
-    if args.model is not None:
-        raise ValueError(f"--model {args.model}: the option is now called --capacity (the capacity profile, "
-                         f"conf/capacity/); give --capacity {args.model}")
     if args.experiment is not None:
         check_experiment(args.experiment)
     if args.checkpoint:

@@ -37,17 +37,41 @@ ADAPTIVE = ("dasr", "ntasad")
 #: What to do with a checkpoint whose config is of an older schema than this version builds.
 RESAVE = ("save it again on today's config schema: python -m mcd.bundle RUN_DIR --name NAME from a run of "
           "this version, or check out the commit it records (docs/denoise.md, 'Bundled checkpoints')")
-#: Keys of a config from before today's schema (the group ``capacity`` was called ``model``).
-OLD_KEYS = ("model",)
+
+
+def _key_paths(tree: Any, prefix: str) -> set[str]:
+    """Every key of a nested mapping as a dotted path under ``prefix``."""
+    paths = set()
+    for key, value in tree.items():
+        path = f"{prefix}.{key}"
+        paths.add(path)
+        if isinstance(value, dict):
+            paths |= _key_paths(value, path)
+    return paths
 
 
 def check_schema(config: Any, source: str) -> None:
-    """CheckpointError naming ``source`` and :data:`RESAVE` if ``config`` (a checkpoint's or a bundle's) is of
-    an older config schema: it holds a key of :data:`OLD_KEYS` or lacks ``capacity``."""
-    old = [k for k in OLD_KEYS if k in config]
-    if old or "capacity" not in config:
-        what = f"holds '{old[0]}'" if old else "lacks 'capacity'"
+    """CheckpointError naming ``source``, the first key that differs and :data:`RESAVE` if ``config`` (a
+    checkpoint's or a bundle's) is not on today's config schema: it must hold ``experiment`` (one this version
+    has) and ``capacity``, and its ``method`` section exactly the keys of that experiment's today
+    (:func:`mcd.config.compose.compose`)."""
+    from mcd.config.compose import compose, experiment_names
+
+    config = OmegaConf.to_container(OmegaConf.create(config), resolve=False)
+    assert isinstance(config, dict)
+    lacks = [k for k in ("experiment", "capacity", "method") if k not in config]
+    experiment = str(config.get("experiment"))
+    if lacks or experiment not in experiment_names():
+        what = f"lacks '{lacks[0]}'" if lacks else f"experiment {experiment!r}, which this version lacks"
         raise checkpoint.CheckpointError(f"{source}: an older config schema ({what}); {RESAVE}")
+    today = OmegaConf.to_container(compose([f"+experiment={experiment}"]).method, resolve=False)
+    saved_keys, today_keys = _key_paths(config["method"], "method"), _key_paths(today, "method")
+    differ = sorted(saved_keys ^ today_keys)
+    if differ:
+        what = "lacks" if differ[0] in today_keys else "holds"
+        raise checkpoint.CheckpointError(f"{source}: an older config schema ({what} '{differ[0]}', which "
+                                         f"today's +experiment={experiment} "
+                                         f"{'has' if what == 'lacks' else 'does not have'}); {RESAVE}")
 
 
 def bundled_names() -> list[str]:
@@ -98,7 +122,7 @@ def _bundle_json(meta: Path) -> dict[str, Any]:
         provenance = json.loads(meta.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise checkpoint.CheckpointError(f"--checkpoint: {meta}: not a readable bundle JSON ({exc}); write "
-                                         "it again: {RESAVE}") from exc
+                                         f"it again: {RESAVE}") from exc
     config = provenance.get("config") if isinstance(provenance, dict) else None
     method = config.get("method") if isinstance(config, dict) else None
     missing = [k for k in BUNDLE_CONFIG if not isinstance(config, dict) or k not in config]

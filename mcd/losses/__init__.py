@@ -31,9 +31,7 @@ def build_loss(cfg: DictConfig) -> nn.Module:
     settings = OmegaConf.to_container(cfg.loss, resolve=True)
     assert isinstance(settings, dict)
     constructor = LOSSES.get(str(settings["name"]))
-    # every other key is a setting, but ``module``, which older configs carry (the registry imports its
-    # built-ins itself)
-    kwargs = {k: v for k, v in settings.items() if k not in ("name", "module")}
+    kwargs = {k: v for k, v in settings.items() if k != "name"}
     try:
         return constructor(**kwargs)
     except TypeError as err:

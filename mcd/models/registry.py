@@ -1,13 +1,14 @@
 """The methods by name (``method.name``): :data:`METHODS`, a :class:`mcd.core.registry.Registry` (after
 BasicSR's: ``METHODS.get(name)(**kwargs)``).
 
-A method registers ``@METHODS.register(name)`` (``mcd.models.register``) on a factory that takes plain keyword
-arguments, so that its signature documents its knobs: ``budget`` (average samples per pixel), the settings
-of its ``conf/method/<name>.yaml`` (less :data:`RUN_KEYS`, which the run reads) and the keys of its entry in
-the capacity profile (``conf/capacity/<profile>.yaml``: ``capacity.<name>``, or
-:data:`CAPACITY_ENTRY`'s). :func:`build` is the one place that turns a run's config into those arguments
-(:func:`factory_kwargs`); a key the factory does not take, or one it needs that the config lacks, is refused
-naming the key and the factory's settings (docs/architecture.md, "Models").
+A method registers ``@register(name)`` (``mcd.models.register``) on a factory that takes plain keyword
+arguments, so that its signature is its knob list: ``budget`` (average samples per pixel), the settings of
+its ``conf/method/<name>.yaml`` (less :data:`RUN_KEYS`, which the run reads) and the keys of its entry in the
+capacity profile (``conf/capacity/<profile>.yaml``: ``capacity.<name>``, or the entry it names when it
+registers, ``register(name, capacity=<entry>)``); a knob's default, where it has one, is the YAML's
+(docs/architecture.md, "Methods"). :func:`build` is the one place that turns a run's config into those
+arguments (:func:`factory_kwargs`); a key the factory does not take, or one it needs that the config lacks,
+is refused naming the key and the factory's settings (docs/architecture.md, "Models").
 """
 
 from __future__ import annotations
@@ -27,15 +28,28 @@ Factory = Callable[..., nn.Module]
 
 #: Every method; importing ``mcd.models.two_stage`` and ``mcd.models.baselines`` registers the built-in ones.
 METHODS: Registry[Factory] = Registry("method", ("mcd.models.two_stage", "mcd.models.baselines"))
-register = METHODS.register
+#: Method -> the capacity profile's entry it reads where that is not its own name, as its module registers it
+#: (the U-Net is row A and reads ``capacity.two_stage``: docs/baselines.md "U-Net").
+_CAPACITY_ENTRY: dict[str, str] = {}
+
+
+def register(name: str, *, capacity: str | None = None) -> Callable[[Factory], Factory]:
+    """Decorator: register method ``name``'s factory in :data:`METHODS`; ``capacity``: the capacity
+    profile's entry its widths come from, where that is not ``capacity.<name>``."""
+    if capacity is not None:
+        _CAPACITY_ENTRY[name] = capacity
+    return METHODS.register(name)
+
+
+def capacity_entry(name: str) -> str:
+    """The capacity profile's entry method ``name`` reads (``capacity.<entry>``)."""
+    METHODS.get(name)  # its module imported, so that its registration is known
+    return _CAPACITY_ENTRY.get(name, name)
 
 #: Keys of a method's section that the run reads, not its factory: its name, whether it trains, and what
 #: :func:`build` adds to every method: the output steps (mcd/models/output_steps.py) and the denoiser's margin
 #: outside training (mcd/models/margin.py).
 RUN_KEYS = ("name", "trainable", "mean_match", "output_bound", "pass_misses", "denoiser_margin")
-#: The capacity profile's entry a method reads where it is not its own name: the U-Net is row A, the
-#: two-stage model's ``F_d`` (docs/baselines.md "U-Net").
-CAPACITY_ENTRY = {"unet": "two_stage"}
 
 
 def factory_kwargs(cfg: DictConfig) -> dict[str, Any]:
@@ -46,7 +60,7 @@ def factory_kwargs(cfg: DictConfig) -> dict[str, Any]:
     assert isinstance(method, dict)
     name = str(method["name"])
     kwargs: dict[str, Any] = {k: v for k, v in method.items() if k not in RUN_KEYS}
-    entry = CAPACITY_ENTRY.get(name, name)
+    entry = capacity_entry(name)
     capacity = cfg.get("capacity")
     widths = capacity.get(entry) if capacity is not None else None
     if widths is not None:
@@ -66,7 +80,7 @@ def check_call(name: str, factory: Factory, kwargs: dict[str, Any]) -> None:
     params = inspect.signature(factory).parameters
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
         return
-    entry = CAPACITY_ENTRY.get(name, name)
+    entry = capacity_entry(name)
     unknown = sorted(set(kwargs) - set(params))
     if unknown:
         raise ValueError(f"method.{unknown[0]} (or capacity.{entry}.{unknown[0]}): not a setting of method "

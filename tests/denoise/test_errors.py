@@ -111,13 +111,6 @@ def test_checkpoint_of_another_capacity(tmp_path, capsys, unet, frames):
     assert "not those of capacity=paper" in err and "give a checkpoint trained with capacity=paper" in err
 
 
-def test_the_old_capacity_option_names_the_new_one(tmp_path, capsys, unet, frames):
-    """``--model`` (the option's name before the ``capacity`` rename) is refused, naming ``--capacity``."""
-    err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--checkpoint", str(unet),
-                  "--model", "cpu")
-    assert "--model cpu: the option is now called --capacity" in err and "give --capacity cpu" in err
-
-
 def test_weights_that_do_not_fit_their_config(tmp_path, capsys, frames):
     """A bundle whose .pt holds paper-capacity weights, its JSON saying cpu: check_fits names the shapes."""
     paper = untrained_bundle(tmp_path, "paper", "+experiment=unet", "capacity=paper")

@@ -1,7 +1,7 @@
 """Saved configs (docs/architecture.md "Config"): the bundled checkpoints' JSON configs are on today's schema
 (every key today's experiment config has) and build their models; a config of an older schema (the group
-``model``, today ``capacity``) gets one error naming the re-save command; a run checkpoint whose config
-names ``loss.module`` and ``trainer.limit_train_batches`` loads."""
+``model``, today ``capacity``; a method section without a key today's has, or with one it no longer has)
+gets one error naming the re-save command; a run checkpoint on today's schema loads."""
 
 from __future__ import annotations
 
@@ -51,34 +51,39 @@ def test_a_bundle_of_an_older_schema_is_refused_naming_the_resave_command(tmp_pa
         load(str(tmp_path / f"{name}.pt"))
 
 
+def _run_checkpoint(tmp_path, cfg, saved: dict) -> str:
+    """A run directory whose last checkpoint holds ``cfg``'s model and the saved config ``saved``."""
+    state = {"state_dict": {f"model.{k}": v for k, v in build(cfg).state_dict().items()},
+             "hyper_parameters": {"cfg": saved}, "global_step": 1}
+    (tmp_path / "checkpoints").mkdir(exist_ok=True)
+    torch.save(state, tmp_path / "checkpoints" / "last.ckpt")
+    return str(tmp_path)
+
+
 def test_a_run_checkpoint_of_an_older_schema_is_refused_naming_the_resave_command(tmp_path):
     cfg = compose_cfg("+experiment=A")
     old = OmegaConf.to_container(cfg, resolve=True)
     old["model"] = old.pop("capacity")
-    state = {"state_dict": {f"model.{k}": v for k, v in build(cfg).state_dict().items()},
-             "hyper_parameters": {"cfg": old}, "global_step": 1}
-    (tmp_path / "checkpoints").mkdir()
-    torch.save(state, tmp_path / "checkpoints" / "last.ckpt")
-    with pytest.raises(CheckpointError, match=r"schema \(holds 'model'\).*python -m mcd\.bundle"):
-        load(str(tmp_path))
+    with pytest.raises(CheckpointError, match=r"schema \(lacks 'capacity'\).*python -m mcd\.bundle"):
+        load(_run_checkpoint(tmp_path, cfg, old))
 
 
-def test_a_run_checkpoint_with_retired_keys_loads(tmp_path):
-    """A ``mcd.run`` checkpoint carries the resolved config; the keys this refactor retired stay harmless."""
+def test_a_run_checkpoint_on_todays_schema_loads_and_one_off_it_is_refused(tmp_path):
     cfg = compose_cfg("+experiment=A")
-    old = OmegaConf.to_container(cfg, resolve=True)
-    old["loss"]["module"] = None                                   # retired: loss modules are built-in
-    old["loss"].pop("vgg16_weights")                               # not written before mcd/losses/
-    old["trainer"]["limit_train_batches"] = old["train"]["limit_train_batches"]  # retired: train.* owns it
-    for key in ("colour",):                                         # not written before conf/method/
-        old["method"].pop(key)
-    model = build(cfg)
-    state = {"state_dict": {f"model.{k}": v for k, v in model.state_dict().items()},
-             "hyper_parameters": {"cfg": old}, "global_step": 1}
-    (tmp_path / "checkpoints").mkdir()
-    torch.save(state, tmp_path / "checkpoints" / "last.ckpt")
-    loaded = load(str(tmp_path))
+    saved = OmegaConf.to_container(cfg, resolve=True)
+    loaded = load(_run_checkpoint(tmp_path, cfg, saved))
     assert loaded.experiment == "A"
-    for k, v in model.state_dict().items():
-        assert torch.equal(loaded.model.state_dict()[k], v)
-    assert build_loss(OmegaConf.create(old)) is not None
+    without = {**saved, "method": {k: v for k, v in saved["method"].items() if k != "colour"}}
+    with pytest.raises(CheckpointError, match=r"lacks 'method.colour'.*python -m mcd\.bundle RUN_DIR"):
+        load(_run_checkpoint(tmp_path, cfg, without))
+    retired = {**saved, "method": {**saved["method"], "kp": {**saved["method"]["kp"], "ring": 2}}}
+    with pytest.raises(CheckpointError, match=r"holds 'method.kp.ring'.*python -m mcd\.bundle RUN_DIR"):
+        load(_run_checkpoint(tmp_path, cfg, retired))
+
+
+def test_a_retired_loss_key_is_refused_naming_the_loss_file():
+    cfg = compose_cfg("+experiment=A", "paths.vgg16_weights=null")
+    with open_dict(cfg):
+        cfg.loss.module = None
+    with pytest.raises(ValueError, match=r"loss 'paper': its settings .*module.*conf/loss/paper\.yaml"):
+        build_loss(cfg)

@@ -7,7 +7,7 @@ from pathlib import Path
 import torch
 from omegaconf import OmegaConf
 
-from mcd.config.methods import COMPONENTS, component_experiment
+from mcd.config.methods import COMPONENTS
 from mcd.data.buffers import BUFFERS
 from mcd.data.synthetic import synthetic_frame
 from mcd.models.switches import SWITCHES
@@ -19,9 +19,9 @@ ROWS = {row: "".join("1" if c["switches"][s] else "0" for s in SWITCHES) for row
 
 def row_cfg(row: str, profile: str = "cpu", budget: float = 4):
     """The run config of a component row with a capacity profile (conf/method/two_stage.yaml with the row's
-    switches, :func:`mcd.config.methods.component_experiment`, + the profile)."""
-    exp = component_experiment(row)
-    method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), exp["method"])
+    switches, ``conf/experiment/<row>.yaml``, + the profile)."""
+    exp = OmegaConf.load(CONF / "experiment" / f"{row}.yaml")
+    method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), exp.method)
     model = OmegaConf.load(CONF / "capacity" / f"{profile}.yaml")
     return OmegaConf.create({"method": method, "budget": budget, "capacity": model})
 

@@ -15,7 +15,7 @@ from mcd.models.two_stage import build_two_stage
 ROW_A = {s: s == "UN" for s in SWITCHES}
 
 
-@register("unet")
+@register("unet", capacity="two_stage")
 def build_unet(*, budget: float, UN: bool = True, AS: bool = False, KP: bool = False, PP: bool = False,
                FG: bool = False, SA: bool = False, **two_stage: Any) -> nn.Module:
     """Row A of the two-stage model at ``budget``: :func:`mcd.models.two_stage.build_two_stage`'s settings
