@@ -4,7 +4,8 @@
 # jobs at a time, one thread each:
 #   1. F and NTASAD at 1000 steps on tiny and small (the first points of both curves);
 #   2. the diagnostics of the F - NTASAD gap at tiny x 1000 steps, seeds 0-2: NTASAD without its warp, without
-#      its previous output, and F whose F_d reads the warped previous output (docs/method.md);
+#      its previous output, and F whose F_d reads the warped previous output (docs/method.md); and F with a
+#      per-pixel identity channel (F_pixel_switch), there and at 1000 and 3000 steps on small;
 #   3. F and NTASAD at 3000 steps (seed 0), then F_paper, C and A at 1000 and 3000 on tiny and small;
 #   4. seeds 1-2 of F and NTASAD at 3000 on small, then 10000 steps on small;
 #   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A and NTASAD at 10000 (the bundles'
@@ -40,12 +41,12 @@ GAP='sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[1000]}'  # seeds 
 leg data=tiny train.max_steps=1000 +experiment=F,ntasad seed=0
 wait_render small
 leg data=small train.max_steps=1000 +experiment=F,ntasad seed=0
-leg data=tiny train.max_steps=1000 +experiment=F,ntasad,ntasad_no_warp,ntasad_no_previous,F_warp_previous \
-  seed=0,1,2 "$GAP"
+leg data=tiny train.max_steps=1000 \
+  +experiment=F,ntasad,ntasad_no_warp,ntasad_no_previous,F_warp_previous,F_pixel_switch seed=0,1,2 "$GAP"
 leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
-leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
+leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A,F_pixel_switch seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=1,2
 leg data=small train.max_steps=10000 +experiment=F,ntasad seed=0
 wait_render medium

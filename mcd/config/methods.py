@@ -66,6 +66,7 @@ CATALOGUE: tuple[Method, ...] = (
     Method("F", "Ours (F)", "two_stage", True, table1=True, bench=True, train_bench=True,
            paper={"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}),
     Method("F_paper", "Ours (F, paper's text)", "two_stage", True, variant_of="F"),
+    Method("F_pixel_switch", "F, per-pixel identity channel", "two_stage", True, variant_of="F"),
     Method("F_warp_previous", "F + warped previous output (not the paper's)", "two_stage", True,
            variant_of="F", diagnostic=True),
     Method("oidn", "OIDN", "oidn", False, table1=True, bench=True),
