@@ -31,10 +31,10 @@ from mcd.reporting.tables import TABLE1_BUDGET
 
 #: The paper's ordering, checked at every scale point: (subject, the method it should be above).
 MAIN = (("F", "ntasad"), ("F", "A"))
-#: Pairs shown where their first experiment ran: the paper's F against ours, each diagnostic against its
-#: method (``mcd.config.methods``: ``variant_of``).
-EXTRA = (("F_paper", "F"), *((m.experiment, str(m.variant_of)) for m in BY_EXPERIMENT.values()
-                              if m.diagnostic and m.variant_of))
+#: Pairs shown where their first experiment ran: each variant of F (the paper's F, the per-pixel identity
+#: channel) and each diagnostic against its method (``mcd.config.methods``: ``variant_of``).
+EXTRA = tuple((m.experiment, str(m.variant_of)) for m in BY_EXPERIMENT.values()
+              if m.variant_of and (m.diagnostic or m.variant_of == "F"))
 
 
 def difference(a: dict[int, float], b: dict[int, float]) -> tuple[float, float, str]:
