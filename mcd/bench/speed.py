@@ -480,6 +480,25 @@ def summary(rows: list[Row], ceilings: dict[str, float] | None = None) -> list[s
     return lines
 
 
+#: The first line of the README the bench writes beside its CSV.
+README_TITLE = "# Inference speed (python -m mcd.bench)"
+
+
+def check_readme(csv_path: Path) -> str | None:
+    """Why the README.md beside ``csv_path`` may not be written (it exists and is not one the bench wrote: a
+    user's own README.md in that folder was replaced), or None; asked before anything is measured."""
+    path = csv_path.parent / "README.md"
+    if not path.exists():
+        return None
+    if path.is_file():
+        with open(path, encoding="utf-8", errors="replace") as f:
+            if f.readline().rstrip("\n") == README_TITLE:
+                return None
+    return (f"--out {csv_path}: {path} is not a README the bench wrote (its first line is not "
+            f"{README_TITLE!r}), and the README written beside the CSV would replace it; give --out in "
+            "another folder")
+
+
 def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str,
                  ceilings: dict[str, float] | None = None) -> Path:
     """README.md beside the CSV: provenance (command, ``commit`` as it was when the run started, device,
@@ -488,7 +507,7 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
     inputs = sorted({r.inputs for r in rows if r.inputs})
     reps = sorted({f"{r.device} {r.width}x{r.height}: {r.warmup} warm-up + {r.reps} timed" for r in rows})
     lines = [
-        "# Inference speed (python -m mcd.bench)",
+        README_TITLE,
         "",
         f"- Command: `{command}`",
         f"- Commit: `{commit}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
@@ -548,6 +567,8 @@ def main(argv: list[str] | None = None) -> None:
     log.info("allocator: %s", allocator.apply(args.allocator))
     if not any(o.startswith("capacity=") for o in overrides):
         overrides.append("capacity=paper")
+    if (why := check_readme(args.out)) is not None:
+        parser.error(why)
     sizes = [s for s in args.sizes.split(",") if s]
     for s in sizes:
         try:
