@@ -7,6 +7,8 @@ frames' units, and frames near float32's largest value give finite outputs."""
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 
@@ -52,3 +54,24 @@ def test_frames_near_float32s_largest_value_give_finite_outputs(tmp_path):
     for path in paths:
         out = read_exr(tmp_path / "out" / path.name)
         assert np.isfinite(out).all() and out.mean(dtype=np.float64) > 1e37, path.name
+
+
+def test_a_sequence_that_fades_in_from_black_takes_its_exposure_from_its_first_lit_frame(tmp_path, caplog):
+    """Frame 0 black (a fade-in) left the exposure at 1, so frames of mean 1e5 after it came out about 13
+    times too bright; the exposure now comes from the first frame that is not black."""
+    paths = write_frames(tmp_path / "unit", n=3, size=(32, 32), seed=6)
+    _scaled_copy(paths, tmp_path / "lit", 1e5)
+    faded = tmp_path / "faded"
+    _scaled_copy(paths, faded, 1e5)
+    _scaled_copy(paths[:1], tmp_path / "black", 0.0)
+    (tmp_path / "black" / paths[0].name).replace(faded / paths[0].name)
+    lit = _denoise(tmp_path / "lit", tmp_path / "out_lit")
+    with caplog.at_level(logging.INFO, logger="mcd.denoise.frames"):
+        fade = _denoise(faded, tmp_path / "out_faded")
+    assert "frames 0-0 are black; exposure x" in caplog.text
+    assert fade["exposure"] == pytest.approx(lit["exposure"], rel=0.2)  # frame 1's mean, not frame 0's
+    for path in paths[1:]:  # the same inputs as the lit run's
+        a = read_exr(tmp_path / "out_faded" / path.name).astype(np.float64)
+        b = read_exr(tmp_path / "out_lit" / path.name).astype(np.float64)
+        assert abs(a.mean() / b.mean() - 1) < 0.05, (path.name, a.mean(), b.mean())
+    assert read_exr(tmp_path / "out_faded" / paths[0].name).max() == 0
