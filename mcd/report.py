@@ -253,6 +253,9 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
     from mcd.reporting import records
     from mcd.reporting.index import INDEX
 
+    for folder, what in ((out_root, "--out"), (out_dir, "the report folder")):
+        if folder is not None and folder.exists() and not folder.is_dir():
+            raise ReportOutError(f"{what} {folder} is a file, not a folder; give another --out (or --name)")
     for path, first, what in ((out_root / INDEX, "# Reports", f"the reports index of --out {out_root}"),
                               *(((out_dir / "README.md", "# Report `", f"the report's README in {out_dir}"),)
                                 if out_dir is not None else ())):

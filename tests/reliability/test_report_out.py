@@ -55,3 +55,18 @@ def test_a_report_into_a_run_or_sweep_it_reads_is_refused_and_a_regenerated_one_
     assert _report(str(sweep), "--out", str(reports), "--name", "r", *bench) is None
     assert _report(str(reports / "r" / "runs"), "--out", str(reports), "--name", "r", *bench) is None
     assert (reports / "r" / "table1.csv").is_file() and snapshot(tmp_path / "multirun") == before
+
+
+def test_an_output_folder_that_is_a_file_is_named(real_run, tmp_path):  # noqa: F811
+    sweep = tmp_path / "multirun" / "sw"
+    shutil.copytree(real_run, sweep / "unet")
+    (tmp_path / "notdir").write_text("x")
+    (tmp_path / "reports").mkdir()
+    (tmp_path / "reports" / "foo").write_text("x")
+    bench = ["--bench", str(tmp_path / "none")]
+    code = _report(str(sweep), "--out", str(tmp_path / "notdir"), *bench)
+    assert isinstance(code, str) and f"error: --out {tmp_path / 'notdir'} is a file, not a folder" in code
+    code = _report(str(sweep), "--out", str(tmp_path / "reports"), "--name", "foo", *bench)
+    assert isinstance(code, str) and f"the report folder {tmp_path / 'reports' / 'foo'} is a file" in code
+    assert (tmp_path / "notdir").read_text() == "x"
+    assert sorted(p.name for p in (tmp_path / "reports").iterdir()) == ["foo"]
