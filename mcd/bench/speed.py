@@ -186,6 +186,8 @@ def parse_size(size: str) -> tuple[int, int]:
         w, h = (int(v) for v in size.lower().split("x"))
     except ValueError:
         raise ValueError(f"size {size!r}: use one of {sorted(SIZES)} or <width>x<height>") from None
+    if min(w, h) < 1:
+        raise ValueError(f"size {size!r}: width and height must be at least 1")
     return h, w
 
 
@@ -530,6 +532,8 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
 def main(argv: list[str] | None = None) -> None:
     """The ``speed`` mode of ``python -m mcd.bench`` (mcd/bench/__main__.py): measure, write the CSV and its
     README."""
+    from mcd.denoise.arguments import int_in  # counts checked by the parser, naming the flag
+
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = argparse.ArgumentParser(
         prog="python -m mcd.bench [speed]", description=__doc__,
@@ -541,10 +545,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--methods", default=",".join(METHODS), help="experiments, comma-separated")
     parser.add_argument("--sizes", default="1080p,256", help="comma-separated: 1080p, 256 or <W>x<H>")
     parser.add_argument("--devices", default="cpu,cuda", help="cpu and/or cuda (cuda rows need a GPU)")
-    parser.add_argument("--warmup", type=int, default=3)
-    parser.add_argument("--reps", type=int, default=10)
-    parser.add_argument("--cpu-1080p-reps", type=int, default=2, help="timed calls on CPU at 1080p (slow)")
-    parser.add_argument("--cpu-1080p-warmup", type=int, default=2,
+    parser.add_argument("--warmup", type=int_in(0, 10**6), default=3)
+    parser.add_argument("--reps", type=int_in(1, 10**6), default=10)
+    parser.add_argument("--cpu-1080p-reps", type=int_in(1, 10**6), default=2,
+                        help="timed calls on CPU at 1080p (slow)")
+    parser.add_argument("--cpu-1080p-warmup", type=int_in(0, 10**6), default=2,
                         help="warm-up calls on CPU at 1080p (a kept heap settles over the first calls)")
     parser.add_argument(
         "--cpu-compile", action="store_true", help="also torch.compile on CPU (slow to build)"
@@ -569,6 +574,9 @@ def main(argv: list[str] | None = None) -> None:
         overrides.append("capacity=paper")
     if (why := check_readme(args.out)) is not None:
         parser.error(why)
+    if unknown := sorted({d for d in args.devices.split(",") if d} - {"cpu", "cuda"}):
+        parser.error(f"--devices {args.devices}: {', '.join(unknown)} is not a device this bench runs on; "
+                     "give cpu and/or cuda")
     sizes = [s for s in args.sizes.split(",") if s]
     for s in sizes:
         try:
