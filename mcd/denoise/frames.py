@@ -260,9 +260,8 @@ class FrameSequence:
 
     def _first_exposure(self, colour0: np.ndarray) -> float | None:
         """The exposure of the first frame that is not black (:func:`input_exposure`), logged where that is
-        not frame 0; None (a warning) when every frame is. A sequence that fades in from black took 1 from
-        its black frame 0, and its HDR frames reached the network at their own scale (13 times too bright
-        out, at 1e5)."""
+        not frame 0; None (a warning) when every frame is. A sequence that fades in from black must not take
+        1 from its black frame 0: its HDR frames would reach the network at their own scale."""
         for i, path in enumerate(self.paths):
             colour = colour0 if i == 0 else read_frame(path, set(), self.size)["colour"]
             exposure = input_exposure(colour, self.exposure_target, str(path))
