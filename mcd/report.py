@@ -207,6 +207,48 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
                              f"{why} and the default name is the runs' data profile (or give --name)")
 
 
+class ReportOutError(ValueError):
+    """``--out`` would overwrite a file that ``mcd.report`` did not write, or put the report inside a run or
+    sweep directory it reads (``mcd.report``: one line, nothing written)."""
+
+
+def _written_by_report(path: Path, first_line: str) -> bool:
+    """Whether ``path`` is a file whose first line starts with ``first_line`` (what mcd.report writes)."""
+    if not path.is_file():
+        return False
+    with open(path, encoding="utf-8", errors="replace") as f:
+        return f.readline().startswith(first_line)
+
+
+def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | None = None) -> None:
+    """ReportOutError, before anything is written, where ``<out>/README.md`` exists and is not a reports index
+    (:func:`mcd.reporting.index.write_index` replaced a user's own README.md with the index), where
+    ``out_dir/README.md`` exists and is not a report's, or where ``out_dir`` is one of the folders of runs
+    ``reads`` (run, sweep and given directories), lies inside one, or holds one other than below its own
+    ``runs/`` (the report's files joined a finished run's, and its ``runs/`` copies then made every later
+    report of the sweep refuse their clash). A report regenerated from its own ``runs/`` passes."""
+    from mcd.reporting import records
+    from mcd.reporting.index import INDEX
+
+    for folder, what in ((out_root, "--out"), (out_dir, "the report folder")):
+        if folder is not None and folder.exists() and not folder.is_dir():
+            raise ReportOutError(f"{what} {folder} is a file, not a folder; give another --out (or --name)")
+    for path, first, what in ((out_root / INDEX, "# Reports", f"the reports index of --out {out_root}"),
+                              *(((out_dir / "README.md", "# Report `", f"the report's README in {out_dir}"),)
+                                if out_dir is not None else ())):
+        if path.exists() and not _written_by_report(path, first):
+            raise ReportOutError(f"{path}: not written by mcd.report (its first line is not {first!r}), and "
+                                 f"{what} would replace it; give another --out (or --name)")
+    if out_dir is None:
+        return
+    where = out_dir.resolve()
+    for read in reads or []:
+        inside = where in read.parents and (where / records.RECORDS_DIR) not in (read, *read.parents)
+        if where == read or read in where.parents or inside:
+            raise ReportOutError(f"--out {out_root}: the report folder {out_dir} is, holds or lies inside "
+                                 f"{read}, a folder of runs the report reads; give an --out outside them")
+
+
 def make_report(
     dirs: list[Path],
     out_root: Path,
@@ -239,6 +281,8 @@ def make_report(
     scaling = kind == "scaling" or (kind == "auto" and is_scaling(runs))
     name = report_name(runs, name, scaling)
     out_dir = out_root / name
+    check_out(out_root, out_dir, [*(r.path for r in runs), *(s.path.resolve() for s in sweeps),
+                                  *(d.resolve() for d in dirs)])
     out_dir.mkdir(parents=True, exist_ok=True)
     root = Path.cwd().resolve()
     prov = Provenance.gather(sweeps, runs, command)
@@ -349,6 +393,10 @@ def main(argv: list[str] | None = None) -> None:
             sys.exit(f"error: {err}")
     if args.index:
         try:
+            check_out(args.out)
+        except ReportOutError as err:
+            sys.exit(f"error: {err}")
+        try:
             index.update_readme(readme, index.results_block(args.out / current, readme.parent))
         except FileNotFoundError as err:
             sys.exit(f"error: {err}")
@@ -360,7 +408,8 @@ def main(argv: list[str] | None = None) -> None:
     try:
         out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
                               not args.no_viewer, args.kind)
-    except (UnsafeNameError, NoRunsError) as err:  # a name leaving the output root, or nothing to report on:
+    except (UnsafeNameError, NoRunsError, ReportOutError) as err:  # a name leaving the output root, an --out
+        # over files it did not write, or nothing to report on:
         sys.exit(f"error: {err}")  # one line, and nothing was written
     print(f"report written to {out_dir}/README.md")
     print(f"index written to {index.write_index(args.out, current)}")

@@ -109,10 +109,20 @@ def resume_checkpoint(ckpt_path: str | None, out_dir: Path) -> str | None:
     """The checkpoint training resumes from: ``ckpt_path`` as given, or with ``ckpt_path=auto`` the run
     directory's own ``checkpoints/last.ckpt`` where a killed run left one (else None: a fresh start). The
     sweeps set ``auto`` (sweeps/_sweep_dirs.yaml), so a sweep run again after an interruption continues its
-    unfinished jobs where they stopped instead of training them from the start."""
+    unfinished jobs where they stopped instead of training them from the start.
+
+    Without ``ckpt_path``, a directory that holds an interrupted run (``last.ckpt``, no complete
+    ``metrics.json``) is refused with FileExistsError before anything is written: a fresh start there
+    replaced its ``last.ckpt``, losing the training it held, and left its best checkpoint beside the new
+    run's."""
+    last = out_dir / "checkpoints" / "last.ckpt"
+    if not ckpt_path and last.is_file() and not is_complete(out_dir / "metrics.json"):
+        raise FileExistsError(
+            f"{out_dir} holds an interrupted run ({last}, no metrics.json): resume it with ckpt_path=auto, "
+            "or give this run its own directory (hydra.run.dir=<dir>); to start it again from scratch, "
+            "delete the directory first")
     if ckpt_path != "auto":
         return ckpt_path or None
-    last = out_dir / "checkpoints" / "last.ckpt"
     if last.is_file():
         log.info("ckpt_path=auto: resuming the interrupted run from %s", last)
         return str(last)

@@ -186,6 +186,8 @@ def parse_size(size: str) -> tuple[int, int]:
         w, h = (int(v) for v in size.lower().split("x"))
     except ValueError:
         raise ValueError(f"size {size!r}: use one of {sorted(SIZES)} or <width>x<height>") from None
+    if min(w, h) < 1:
+        raise ValueError(f"size {size!r}: width and height must be at least 1")
     return h, w
 
 
@@ -480,6 +482,25 @@ def summary(rows: list[Row], ceilings: dict[str, float] | None = None) -> list[s
     return lines
 
 
+#: The first line of the README the bench writes beside its CSV.
+README_TITLE = "# Inference speed (python -m mcd.bench)"
+
+
+def check_readme(csv_path: Path) -> str | None:
+    """Why the README.md beside ``csv_path`` may not be written (it exists and is not one the bench wrote: a
+    user's own README.md in that folder was replaced), or None; asked before anything is measured."""
+    path = csv_path.parent / "README.md"
+    if not path.exists():
+        return None
+    if path.is_file():
+        with open(path, encoding="utf-8", errors="replace") as f:
+            if f.readline().rstrip("\n") == README_TITLE:
+                return None
+    return (f"--out {csv_path}: {path} is not a README the bench wrote (its first line is not "
+            f"{README_TITLE!r}), and the README written beside the CSV would replace it; give --out in "
+            "another folder")
+
+
 def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str,
                  ceilings: dict[str, float] | None = None) -> Path:
     """README.md beside the CSV: provenance (command, ``commit`` as it was when the run started, device,
@@ -488,7 +509,7 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
     inputs = sorted({r.inputs for r in rows if r.inputs})
     reps = sorted({f"{r.device} {r.width}x{r.height}: {r.warmup} warm-up + {r.reps} timed" for r in rows})
     lines = [
-        "# Inference speed (python -m mcd.bench)",
+        README_TITLE,
         "",
         f"- Command: `{command}`",
         f"- Commit: `{commit}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
@@ -511,6 +532,8 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
 def main(argv: list[str] | None = None) -> None:
     """The ``speed`` mode of ``python -m mcd.bench`` (mcd/bench/__main__.py): measure, write the CSV and its
     README."""
+    from mcd.denoise.arguments import int_in  # counts checked by the parser, naming the flag
+
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = argparse.ArgumentParser(
         prog="python -m mcd.bench [speed]", description=__doc__,
@@ -522,10 +545,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--methods", default=",".join(METHODS), help="experiments, comma-separated")
     parser.add_argument("--sizes", default="1080p,256", help="comma-separated: 1080p, 256 or <W>x<H>")
     parser.add_argument("--devices", default="cpu,cuda", help="cpu and/or cuda (cuda rows need a GPU)")
-    parser.add_argument("--warmup", type=int, default=3)
-    parser.add_argument("--reps", type=int, default=10)
-    parser.add_argument("--cpu-1080p-reps", type=int, default=2, help="timed calls on CPU at 1080p (slow)")
-    parser.add_argument("--cpu-1080p-warmup", type=int, default=2,
+    parser.add_argument("--warmup", type=int_in(0, 10**6), default=3)
+    parser.add_argument("--reps", type=int_in(1, 10**6), default=10)
+    parser.add_argument("--cpu-1080p-reps", type=int_in(1, 10**6), default=2,
+                        help="timed calls on CPU at 1080p (slow)")
+    parser.add_argument("--cpu-1080p-warmup", type=int_in(0, 10**6), default=2,
                         help="warm-up calls on CPU at 1080p (a kept heap settles over the first calls)")
     parser.add_argument(
         "--cpu-compile", action="store_true", help="also torch.compile on CPU (slow to build)"
@@ -547,6 +571,11 @@ def main(argv: list[str] | None = None) -> None:
     log.info("allocator: %s", allocator.apply(args.allocator))
     if not any(o.startswith("capacity=") for o in overrides):
         overrides.append("capacity=paper")
+    if (why := check_readme(args.out)) is not None:
+        parser.error(why)
+    if unknown := sorted({d for d in args.devices.split(",") if d} - {"cpu", "cuda"}):
+        parser.error(f"--devices {args.devices}: {', '.join(unknown)} is not a device this bench runs on; "
+                     "give cpu and/or cuda")
     sizes = [s for s in args.sizes.split(",") if s]
     for s in sizes:
         try:

@@ -165,6 +165,9 @@ def child(args: list[str]) -> dict[str, object]:
 
 
 def main(argv: list[str] | None = None) -> None:
+    from mcd.denoise.arguments import int_in  # the numbers are checked before any job starts (0 steps ran
+    # every job's warm-up, then failed each on a division by zero)
+
     ap = argparse.ArgumentParser(prog="python -m mcd.bench train", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("overrides", nargs="*", help="Hydra overrides for every job (default: capacity=cpu)")
@@ -173,9 +176,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--profile-methods", action="append", default=[], metavar="PROFILE=M1,M2",
                     help="methods for one profile instead of --methods (repeatable), e.g. small=A,C,F")
     ap.add_argument("--paths", default=",".join(PATHS))
-    ap.add_argument("--steps", type=int, default=30, help="timed optimiser steps per path")
-    ap.add_argument("--warmup", type=int, default=4)
-    ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--steps", type=int_in(1, 10**6), default=30, help="timed optimiser steps per path")
+    ap.add_argument("--warmup", type=int_in(0, 10**6), default=4)
+    ap.add_argument("--threads", type=int_in(1, 4096), default=os.cpu_count() or 1)
     ap.add_argument("--pair", action="store_true", help="also two concurrent 1-thread fp32 jobs")
     ap.add_argument("--out", type=Path, default=Path("outputs/bench/train.csv"),
                     help="CSV to write (default: outputs/bench/train.csv)")

@@ -29,6 +29,24 @@ def check_budget(cfg: DictConfig) -> float:
     return float(checked("budget", cfg.get("budget")))
 
 
+def check_scenes(cfg: DictConfig) -> None:
+    """ValueError naming the key when a run has no scene to test on (``data.test_scenes`` empty: it trained
+    to its budget, then failed writing ``metrics.json``), or a method that trains has none to train on
+    (``data.train_scenes`` empty: it rendered the test scenes, then failed in Lightning). A transfer job
+    takes both from ``data.transfer_scenes`` (:func:`mcd.lit.transfer.prepare`, which checks them)."""
+    transfer = cfg.get("transfer")
+    if transfer is not None and transfer.get("init_from"):
+        return
+    d = cfg.data
+    if not list(d.get("test_scenes") or []):
+        raise ValueError(f"data.test_scenes is empty (profile {d.get('name')}): a run is scored on its test "
+                         "scenes; name at least one, e.g. 'data.test_scenes=[cbox]'")
+    if cfg.method.get("trainable", True) and not list(d.get("train_scenes") or []):
+        raise ValueError(f"data.train_scenes is empty (profile {d.get('name')}) and method "
+                         f"{cfg.method.name} trains: name at least one, e.g. 'data.train_scenes=[cbox]', or "
+                         "test an untrained method (+experiment=noisy)")
+
+
 def check_image_size(cfg: DictConfig) -> None:
     """ValueError unless ``data.width`` and ``data.height`` are at least the SSIM window (tested whole)."""
     w, h = int(cfg.data.width), int(cfg.data.height)
@@ -123,6 +141,7 @@ def check_run(cfg: DictConfig) -> None:
     """Every key's own rule (:func:`mcd.core.config_rules.check_config`), then every check of this module, in
     the order a user would fix them."""
     check_config(cfg)
+    check_scenes(cfg)
     check_diagnostics(cfg)
     check_budget(cfg)
     check_image_size(cfg)

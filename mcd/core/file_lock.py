@@ -47,6 +47,21 @@ def exclusive(path: Path, *, blocking: bool = True) -> Iterator[TextIO | None]:
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
+def held_elsewhere(path: Path) -> bool:
+    """Whether another open file holds an exclusive ``flock`` on ``path`` now (False where ``path`` is not a
+    regular file). Probes with a shared lock, taken and dropped at once, and creates nothing."""
+    if not path.is_file():
+        return False
+    try:
+        with open(path, "rb") as f:
+            fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)  # dropped when f closes
+    except BlockingIOError:
+        return True
+    except OSError:  # unreadable: nothing to say about its holder
+        return False
+    return False
+
+
 @contextlib.contextmanager
 def exclusive_folder(path: Path) -> Iterator[bool]:
     """Try an exclusive ``flock`` on the folder ``path`` itself (an ``O_DIRECTORY`` descriptor) while the

@@ -60,13 +60,17 @@ def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> 
     A noisy frame may hold fireflies: one pixel of 1e6 in a 128x128 frame of mean 0.5 multiplies the plain
     mean by about 120, and so darkens every frame of the sequence the network sees by that factor. The mean
     here is winsorised: values above :data:`OUTLIER_FACTOR` times the :data:`OUTLIER_QUANTILE` of the positive
-    values are clamped to that bound (then to :data:`EXPOSURE_CLAMP`). On a frame without such outliers it is
-    the plain mean of :func:`auto_exposure` (the statistic the training data's exposure comes from). When the
-    clamp moves the mean by more than :data:`OUTLIER_WARN`, a warning names ``name``, the values clamped and
-    both exposures.
+    values are clamped to that bound. On a frame without such outliers it is the plain mean of
+    :func:`auto_exposure` (the statistic the training data's exposure comes from). When the clamp moves the
+    mean by more than :data:`OUTLIER_WARN`, a warning names ``name``, the values clamped and both exposures.
+
+    No absolute clamp (:data:`EXPOSURE_CLAMP`) applies here: the mean is taken in float64, which float32's
+    largest values cannot overflow, and a sequence whose values are all above such a clamp (physical units
+    of mean 1e9, say) must still reach the network at ``target``: clamped, it would reach it too bright, and
+    come out wrong (docs/reliability.md, "Campaign 5").
     """
     clean, _ = sanitise(np.asarray(frame0, dtype=np.float32), allow_negative=False)
-    clean = np.minimum(clean, np.float32(EXPOSURE_CLAMP))
+    clean = clean.astype(np.float64)
     positive = clean[clean > 0]
     if not positive.size:
         return None

@@ -105,7 +105,28 @@ class SceneSpec:
             raise SceneNotFoundError(f"scene {self.name!r} is not vendored in the repository and no scenes "
                                      f"folder is set: {self.missing_hint}")
         if self.kind == "xml" and not self.file.is_file():
-            raise SceneNotFoundError(f"scene {self.name!r}: file {self.file} not found; {self.missing_hint}")
+            what = "is a folder, not a scene file" if self.file.is_dir() else "not found"
+            raise SceneNotFoundError(f"scene {self.name!r}: file {self.file} {what}; {self.missing_hint}")
+
+    def check_readable(self) -> None:
+        """:meth:`check_exists`, then ValueError naming the file where an XML scene is not well-formed XML or
+        declares no ``<sensor>`` (and includes no other file that could): Mitsuba's parser error, or an
+        IndexError for the missing camera, came only when the scene's turn to render came, after the scenes
+        before it had rendered. Reads the XML only (no Mitsuba)."""
+        self.check_exists()
+        if self.kind != "xml":
+            return
+        import xml.etree.ElementTree as ET
+
+        try:
+            root = ET.parse(self.file).getroot()
+        except ET.ParseError as err:
+            raise ValueError(f"scene {self.name!r}: {self.file} is not well-formed XML ({err}); a Mitsuba 3 "
+                             "scene file is XML: fix or replace it (docs/scenes.md)") from None
+        tags = {el.tag for el in root.iter()}
+        if "sensor" not in tags and "include" not in tags:
+            raise ValueError(f"scene {self.name!r}: {self.file} declares no <sensor> (the camera every frame "
+                             "is rendered from): add one (docs/scenes.md)")
 
     def source(self) -> dict[str, Any]:
         """What the scene is made of, with a hash: recorded in the manifest; a change invalidates renders."""

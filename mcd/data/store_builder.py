@@ -281,7 +281,12 @@ class StoreBuilder(StoreReader):
         for name in scene_list:  # every scene file before the first render, not after the earlier scenes
             if name not in self.specs:
                 raise ValueError(f"scene {name!r} is not registered in data.scenes of profile {self.profile}")
-            self.specs[name].check_exists()
+            self.specs[name].check_readable()
+        try:  # the store's folder, before the first lock: paths.data_dir named where it cannot be made
+            self.root.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise ValueError(f"paths.data_dir={self.data_dir} (or MCD_DATA_DIR): cannot make the store's "
+                             f"folder {self.root} ({err.strerror or err}); give a writable folder") from None
         units = sel.units(scene_list, self.n_frames)
         tally = _Tally()
         t0 = time.perf_counter()

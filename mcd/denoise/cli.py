@@ -178,8 +178,10 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
         check_work(args.width, args.height)          # before the scene is loaded, where the size is given
     outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
+    output_folder.check_unrecorded(args.output, SUMMARY, outputs)
     output_folder.check_writable(args.output)
     folder_lock.enter_context(output_folder.hold(args.output))
+    output_folder.claim(args.output, SUMMARY)
     report = denoise_scene(loaded, args.scene, args.output, device, args.width, args.height,
                            args.frames, args.gbuffer_spp, args.seed, args.reference_spp,
                            progress=not args.no_progress, dtype=dtype, exposure=args.exposure,
@@ -204,6 +206,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     inputs = [f for p in paths for f in (p, *siblings(p))]     # what the outputs depend on
     outputs = [n for p in paths for n in frame_files(p.stem)]
     output_folder.check_apart(args.output, inputs + (refs or []), [SUMMARY, *outputs])
+    output_folder.check_unrecorded(args.output, SUMMARY, outputs)
     (h, w), _ = read_header(paths[0])
     work.check(h * w * len(paths), work.MAX_PIXELS, f"{len(paths)} frames of {w}x{h}: pixels to denoise",
                args.allow_large)
@@ -216,7 +219,8 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
                 "experiment": loaded.experiment, "budget": loaded.cfg.budget, "precision": args.precision,
                 "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap,
                 "exposure": args.exposure}
-    record = Record(args.output, settings)
+    record = Record(args.output, settings)  # reads a previous run's record, before claim writes a first one
+    output_folder.claim(args.output, SUMMARY)
     report = denoise_frames(loaded, paths, args.output, device, args.max_memory_mb, args.overlap,
                             progress=not args.no_progress, dtype=dtype, record=record, meta=meta,
                             references=refs, exposure=args.exposure)

@@ -13,9 +13,9 @@ Naming (one frame = one colour file, in name order):
 An input is a folder (every ``*.exr`` in it that is not a sibling layer file), one or more files, or a glob
 pattern. Every frame and layer must have one size. Colour and G-buffers go through
 :mod:`mcd.data.exposure` as the training data: colour scaled so that frame 0's mean (a robust one, fireflies
-clamped: :func:`mcd.data.exposure.input_exposure`) is the checkpoint's ``data.exposure_target`` (the same
-scale for the whole sequence, undone on output), depth divided by frame 0's median, NaN/Inf/negative values
-replaced by 0 and counted.
+clamped: :func:`mcd.data.exposure.input_exposure`; the first frame that is not black where frame 0 is) is the
+checkpoint's ``data.exposure_target`` (the same scale for the whole sequence, undone on output), depth
+divided by frame 0's median, NaN/Inf/negative values replaced by 0 and counted.
 """
 
 from __future__ import annotations
@@ -253,12 +253,25 @@ class FrameSequence:
             exposure = self.given_exposure
             log.info("exposure x%.4g for every frame and score (--exposure)", exposure)
         else:
-            exposure = input_exposure(first["colour"], self.exposure_target, str(self.paths[0]))
-        if exposure is None:
-            log.warning("%s: frame 0 is black; exposure left at 1", self.paths[0])
+            exposure = self._first_exposure(first["colour"])
         self.exposure = exposure or 1.0
         if "depth" in first:
             self.depth_scale = depth_scale(first["depth"])
+
+    def _first_exposure(self, colour0: np.ndarray) -> float | None:
+        """The exposure of the first frame that is not black (:func:`input_exposure`), logged where that is
+        not frame 0; None (a warning) when every frame is. A sequence that fades in from black must not take
+        1 from its black frame 0: its HDR frames would reach the network at their own scale."""
+        for i, path in enumerate(self.paths):
+            colour = colour0 if i == 0 else read_frame(path, set(), self.size)["colour"]
+            exposure = input_exposure(colour, self.exposure_target, str(path))
+            if exposure is not None:
+                if i:
+                    log.info("%s: frames 0-%d are black; exposure x%.4g from frame %d", self.paths[0], i - 1,
+                             exposure, i)
+                return exposure
+        log.warning("%s: every frame is black; exposure left at 1", self.paths[0])
+        return None
 
     def __len__(self) -> int:
         return len(self.paths)

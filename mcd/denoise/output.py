@@ -48,6 +48,14 @@ def write_json(path: Path, content: dict[str, Any]) -> None:
     atomic_write_json(path, content, default=str)
 
 
+def unexposed(img: np.ndarray, exposure: float) -> np.ndarray:
+    """``img`` in the input's own units (divided by ``exposure``), held within float32's finite range: a frame
+    near float32's largest values has a tiny exposure, and dividing by it must not write an Inf."""
+    with np.errstate(over="ignore"):
+        out = img / np.float32(exposure)
+    return np.minimum(out, np.finfo(np.float32).max)
+
+
 def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: float) -> list[Path]:
     """Write one frame's outputs (module docstring), each atomically; returns the EXR paths written."""
     from matplotlib.image import imsave
@@ -62,7 +70,7 @@ def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: floa
         img = hwc(out[name])
         base = out_dir / (stem if name == "output" else f"{stem}_{name}")
         exr = base.with_name(base.name + ".exr")
-        write_exr(exr, img / np.float32(exposure) if name in COLOUR else img, compress=name not in COLOUR)
+        write_exr(exr, unexposed(img, exposure) if name in COLOUR else img, compress=name not in COLOUR)
         preview = picture(name, img)
         atomic_write(base.with_name(base.name + ".png"), lambda tmp, p=preview: imsave(tmp, p, format="png"))
         written.append(exr)

@@ -3,8 +3,10 @@ docs/reliability.md, "Denoising your frames").
 
 Nothing a user gives is lost: the folder must be a folder that can be made and written to, must not be the
 folder of an input file, must not contain an input (at any depth, symlinks resolved both ways), and no file
-the run would write may be an input or a symlink. An output folder inside an input folder is allowed: frames
-are read from a folder's own ``*.exr``, never from its subfolders. One run at a time writes into a folder
+the run would write may be an input or a symlink, and a folder without a ``denoise.json`` (no ``mcd-denoise``
+run wrote there) must hold no file named like an output (:func:`check_unrecorded`: a user's own files were
+overwritten). An output folder inside an input folder is allowed: frames are read from a folder's own
+``*.exr``, never from its subfolders. One run at a time writes into a folder
 (:func:`hold`): a second ``mcd-denoise`` on the same ``-o`` is refused before it writes anything.
 """
 
@@ -17,6 +19,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from mcd.core import file_lock
+from mcd.core.atomic_write import atomic_write_json
 
 
 class OutputFolderError(ValueError):
@@ -84,3 +87,24 @@ def check_apart(out: Path, inputs: Iterable[Path], outputs: Iterable[str]) -> No
                 "are never written through a link. Remove it, or give another -o")
         if root / name in taken:
             raise OutputFolderError(f"{target}: is the input {taken[root / name]}; give another -o")
+
+
+def check_unrecorded(out: Path, record: str, outputs: Iterable[str]) -> None:
+    """Refuse ``out`` when it has no ``record`` (``denoise.json``: no ``mcd-denoise`` run wrote there) and yet
+    holds files named like this run's ``outputs``: they are someone's own files, which the run would
+    overwrite. :func:`claim` writes the record before the first output, so a stopped run's folder passes."""
+    if (out / record).exists():
+        return
+    found = [name for name in outputs if (out / name).exists()]
+    if found:
+        listed = ", ".join(found[:3]) + (f" and {len(found) - 3} more" if len(found) > 3 else "")
+        raise OutputFolderError(
+            f"-o {out}: holds {listed}, named like outputs of this run, and no {record}, so no mcd-denoise "
+            "run wrote them; they would be overwritten. Move them, or give another -o")
+
+
+def claim(out: Path, record: str) -> None:
+    """Write a first ``record`` (``denoise.json``, not complete) into ``out`` where there is none, before the
+    first output: the folder is then known as ``mcd-denoise``'s (:func:`check_unrecorded`)."""
+    if not (out / record).exists():
+        atomic_write_json(out / record, {"complete": False})

@@ -51,11 +51,18 @@ def is_finished(run_dir: str | Path) -> bool:
     return is_complete(Path(run_dir) / "metrics.json")
 
 
+def in_use(run_dir: str | Path) -> bool:
+    """Whether a live process holds ``run_dir``'s lock (:func:`hold`) now."""
+    return file_lock.held_elsewhere(Path(run_dir) / LOCK_NAME)
+
+
 def record_subdir(run_dir: str) -> str | None:
     """``hydra.output_subdir`` (``conf/config.yaml``): ``.hydra``, or None where ``run_dir`` holds a finished
-    run, so that Hydra, which saves its ``config.yaml``, ``hydra.yaml`` and ``overrides.yaml`` there before
-    any of our code runs, leaves a finished run's files as they are (a rerun is skipped or refused)."""
-    return None if is_finished(run_dir) else ".hydra"
+    run or one that a live process holds (:func:`in_use`), so that Hydra, which saves its ``config.yaml``,
+    ``hydra.yaml`` and ``overrides.yaml`` there before any of our code runs, leaves that run's files as they
+    are (a rerun is skipped or refused; a second process is refused by :func:`hold`, and its Hydra files
+    replaced the live run's, which the report then read as that run's config)."""
+    return None if is_finished(run_dir) or in_use(run_dir) else ".hydra"
 
 
 def run_log(run_dir: str, job_name: str) -> str:

@@ -340,10 +340,13 @@ def _widened(task: list[str], sweep_dir: Path) -> list[str]:
     """``task`` (a sweep's command-line overrides from its multirun.yaml) with each key its jobs ran with
     several values of widened to all of them. A sweep split over processes that share one directory keeps
     only the last process's command in multirun.yaml; widened, the command runs every job the directory
-    holds."""
+    holds. That process may have run no job at all (a rerun whose jobs were finished, and skipped), so a
+    key no job ran with is left out, and a value no job ran with is replaced by those they ran with (a
+    skipped rerun with ``capacity=paper`` named that in the report of runs trained with ``capacity=cpu``)."""
     seen: dict[str, list[str]] = {}
     for overrides in sorted(sweep_dir.glob("*/.hydra/overrides.yaml")):
-        for item in OmegaConf.load(overrides):
+        # as typed: an override like transfer.init_from=.../${experiment}_spp4 stays unresolved
+        for item in OmegaConf.to_container(OmegaConf.load(overrides), resolve=False):  # type: ignore[union-attr]
             key, _, value = str(item).partition("=")
             values = seen.setdefault(key, [])
             if value not in values:
@@ -352,7 +355,11 @@ def _widened(task: list[str], sweep_dir: Path) -> list[str]:
     for item in task:
         key, sep, value = item.partition("=")
         ran = seen.get(key, [])
-        if sep and len(ran) > 1:
+        if seen and not ran:  # only a process that ran no job had it
+            continue
+        if sep and ran and value not in ran and not set(value.split(",")) & set(ran):
+            value = ",".join(ran)
+        elif sep and len(ran) > 1:
             listed = value.split(",")
             value = ",".join([*listed, *sorted(v for v in ran if v not in listed)])
         out.append(f"{key}{sep}{value}")

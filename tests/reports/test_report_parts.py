@@ -395,7 +395,8 @@ def test_a_sweep_split_over_two_processes_reports_one_command_that_runs_every_jo
     for exp, seed in (("A", 1), ("A", 2), ("C", 1), ("C", 2)):
         d = _job(sweep, f"{exp}_s{seed}", experiment=exp)
         (d / ".hydra" / "overrides.yaml").write_text(
-            f"- +sweep=seeds\n- +experiment={exp}\n- seed={seed}\n- data.test_scenes=[cbox,room0]\n")
+            f"- +sweep=seeds\n- +experiment={exp}\n- seed={seed}\n- data.test_scenes=[cbox,room0]\n"
+            "- transfer.init_from=runs/${experiment}\n")  # as Hydra writes it: every task override, as typed
     # the last of the two processes wrote multirun.yaml: its own experiments only
     (sweep / "multirun.yaml").write_text(
         "hydra:\n  overrides:\n    task: ['+sweep=seeds', '+experiment=C', 'seed=1,2', "
