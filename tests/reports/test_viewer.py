@@ -10,8 +10,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,26 +21,16 @@ from mcd.report import make_report
 from mcd.reporting import viewer
 from mcd.reporting.runs import find_runs
 from mcd.reporting.strips import crop_box, samples
-from tests.reports.test_sweep_to_report import SMALL as TINY32
 
 REPO = Path(__file__).resolve().parents[2]
-LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
-#: The sweep-to-report test's 32x32 profile, its two test frames both saved as samples.
-SMALL = [*TINY32, "train.sample_frames=[0,1]"]
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory) -> tuple[Path, Path]:
-    """``(report dir, sweep dir)`` of a real report of rows A and F."""
+def report(ab_sweep, tmp_path_factory) -> tuple[Path, Path]:
+    """``(report dir, sweep dir)`` of a real report of rows A and F: the session's two-job sweep on the
+    sweep-to-report test's 32x32 profile, its two test frames both saved as samples (``ab_sweep``)."""
     tmp = tmp_path_factory.mktemp("viewer")
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    if LLVM.is_file():
-        env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
-    args = [sys.executable, "-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=A,F",
-            f"paths.data_dir={tmp / 'data'}", f"paths.scenes_dir={REPO / 'scenes'}", *SMALL]
-    proc = subprocess.run(args, cwd=tmp, env=env, capture_output=True, text=True, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-5000:]
-    sweep = tmp / "multirun" / "ablation" / "tiny"
+    sweep = ab_sweep / "multirun" / "ablation" / "tiny"
     out = make_report([sweep], tmp / "reports", name="t32", bench=None)
     return out, sweep
 
