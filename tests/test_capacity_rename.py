@@ -44,6 +44,7 @@ def test_the_new_group_composes():
     ["mcd.bench", "train", "model=cpu"],
     ["tools/bundle_scores.py", "model=cpu"],  # a lab tool (tools/README.md), run from the checkout
 ], ids=lambda c: " ".join(c))
+@pytest.mark.slow
 def test_a_command_line_naming_the_old_group_ends_in_one_error_line_before_any_work(tmp_path, command):
     """Exit status 2 and one line, ``error: <override>: ... give capacity...``, with no traceback and nothing
     written (a run's default directory would land in the working directory)."""

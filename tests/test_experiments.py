@@ -43,6 +43,7 @@ def test_each_rows_switches_come_from_the_table(monkeypatch):
     assert rest == {k: v for k, v in default.method.items() if k not in SWITCHES}
 
 
+@pytest.mark.slow
 def test_every_hydra_command_and_a_joblib_multirun_compose_rows_from_the_table(tmp_path):
     """``python -m mcd.plan -m +experiment=A,...,M hydra/launcher=joblib`` (a real multirun in worker
     processes, from a folder outside the checkout) records each row's switches as the table has them; the
