@@ -40,6 +40,7 @@ def denoised(tmp_path_factory):
     ("a_list", "a JSON list, not an object"),
     ("truncated", "not readable JSON: JSONDecodeError"),
 ])
+@pytest.mark.slow
 def test_defect25_a_damaged_denoise_json_is_named_with_its_fix(denoised, tmp_path, damage, why):
     frames, finished = denoised
     out = tmp_path / "out"
@@ -60,6 +61,7 @@ def test_defect25_a_damaged_denoise_json_is_named_with_its_fix(denoised, tmp_pat
 
 
 @pytest.mark.parametrize("kind", ["dev_zero", "fifo"])
+@pytest.mark.slow
 def test_defect26_a_checkpoint_that_is_not_a_regular_file_is_named_so(tmp_path, kind):
     write_frames(tmp_path / "in", n=1)
     if kind == "fifo":

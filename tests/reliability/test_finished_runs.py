@@ -23,6 +23,7 @@ def finished(unet_run, tmp_path):
     return run, base
 
 
+@pytest.mark.slow
 def test_a_rerun_of_the_same_job_with_another_capacity_is_skipped_and_changes_no_byte(finished):
     run, base = finished
     before = snapshot(run)
@@ -34,6 +35,7 @@ def test_a_rerun_of_the_same_job_with_another_capacity_is_skipped_and_changes_no
     assert "capacity: paper" not in (run / ".hydra" / "hydra.yaml").read_text()
 
 
+@pytest.mark.slow
 def test_a_rerun_of_another_job_is_refused_and_writes_nothing_there(finished):
     run, base = finished
     before = snapshot(run)
