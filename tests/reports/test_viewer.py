@@ -45,6 +45,7 @@ def _pixels(report_dir: Path, src: str) -> np.ndarray:
     return np.asarray(Image.open(report_dir / "viewer" / src).convert("RGB"), dtype=np.float64)
 
 
+@pytest.mark.slow
 def test_the_viewer_holds_every_saved_frame_with_the_runs_own_metrics(report):
     out, sweep = report
     assert viewer.index_path(out) == out / "viewer" / "index.html"
@@ -86,6 +87,7 @@ def test_the_viewer_holds_every_saved_frame_with_the_runs_own_metrics(report):
     assert "http://" not in page and "https://" not in page  # nothing from the network
 
 
+@pytest.mark.slow
 def test_a_large_frame_is_cut_to_its_noisiest_square(report, monkeypatch, tmp_path):
     out, sweep = report
     monkeypatch.setattr(viewer, "MAX_SIDE", 16)
@@ -107,6 +109,7 @@ def test_a_large_frame_is_cut_to_its_noisiest_square(report, monkeypatch, tmp_pa
     assert viewer.write([], tmp_path / "none", "cut") is None
 
 
+@pytest.mark.slow
 def test_a_report_regenerated_from_its_records_keeps_its_viewer(report):
     """The run records keep no samples: regenerating from them leaves the viewer (as the strips) and its
     link."""
@@ -143,6 +146,7 @@ def _browser():
     return sync_playwright, chromium
 
 
+@pytest.mark.slow
 def test_the_page_in_headless_chromium(report):
     out, _ = report
     sync_playwright, chromium = _browser()
@@ -263,6 +267,7 @@ def test_hdr_extremes_black_frames_and_odd_sizes_make_finite_pictures(tmp_path):
     assert all(0 <= im["flip"]["mean"] <= 1 for im in entry["images"][:2])
 
 
+@pytest.mark.slow
 def test_no_viewer_writes_none_and_removes_an_earlier_one(report, tmp_path):
     out, sweep = report
     shutil.copytree(out / "viewer", tmp_path / "nv" / "viewer")
