@@ -8,10 +8,23 @@
   temporary folder (about 5 s on 2 cores). Tests must not modify its files; make your own store for that.
 - ``cbox32`` (session): ``(scene, renderer)``: the Cornell box loaded at 32x32 in Mitsuba with a box-filter
   :class:`mcd.data.renderer.SceneRenderer` set to the scene's own camera, for direct renders.
+- ``ab_sweep`` (session): the folder of one real two-job sweep ``python -m mcd.run -m +sweep=ablation
+  +experiment=A,F`` on ``SWEEP32`` (its store in ``data/``, its runs in ``multirun/ablation/tiny``), run once
+  for the report tests. Tests must not modify it; ``copy_sweep`` gives a private copy to change.
+- ``unet_run`` (session): ``(run dir, overrides)`` of one ``python -m mcd.run +experiment=unet
+  capacity=cpu`` that finished one epoch on ``cbox_store``. Tests must not modify it; copy it
+  (``shutil.copytree``) to change.
+
+Session fixtures are what keeps the full suite short: each renders or trains once, and every test that reads
+the result shares it (a test that changes files works on its own copy).
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +34,30 @@ from mcd.config.compose import compose
 from mcd.core.paths import CONF_DIR as _CONF_DIR
 
 CONF_DIR = str(_CONF_DIR)
+REPO = Path(__file__).resolve().parents[1]
+LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
+#: The tiny profile cut to one 32x32 scene of 14 frames and a few training steps (the sweep of ``ab_sweep``).
+SWEEP32 = [
+    "data.width=32",
+    "data.height=32",
+    "data.segments=1",
+    "data.frames_per_segment=14",
+    "data.ref_spp=16",
+    "data.gbuffer_spp=4",
+    "data.train_scenes=[cbox]",
+    "data.test_scenes=[cbox]",
+    "~data.scenes.staircase2",
+    "data.train_crop=32",
+    "data.val_crop=32",
+    "train.epochs=1",
+    "train.batch_size=2",
+    "train.limit_train_batches=2",
+    "trainer.enable_progress_bar=false",
+]
+#: ``ab_sweep``'s command after ``python`` (and before ``paths.data_dir``), run in its folder: rows A and F,
+#: both test frames saved as samples.
+AB_SWEEP = ["-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=A,F",
+            f"paths.scenes_dir={REPO / 'scenes'}", *SWEEP32, "train.sample_frames=[0,1]"]
 
 
 def compose_cfg(*overrides: str):
@@ -77,3 +114,44 @@ def cbox32():
     renderer = SceneRenderer(scene, 32, 32, fov)
     renderer.set_camera(np.asarray(params["to_world"].matrix, dtype=np.float64).reshape(4, 4, -1)[..., 0])
     return scene, renderer
+
+
+def module_env() -> dict[str, str]:
+    """The environment of a ``python -m mcd...`` command run by a test: this checkout first, one thread."""
+    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
+    if LLVM.is_file():
+        env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
+    return env
+
+
+@pytest.fixture(scope="session")
+def ab_sweep(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("ab_sweep")
+    proc = subprocess.run([sys.executable, *AB_SWEEP, f"paths.data_dir={folder / 'data'}"], cwd=folder,
+                          env=module_env(), capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-5000:]
+    return folder
+
+
+def copy_sweep(sweep_folder: Path, to: Path) -> Path:
+    """A private copy of ``ab_sweep``'s folder (store and runs) in ``to``, for a test that changes it."""
+    for part in ("data", "multirun"):
+        shutil.copytree(sweep_folder / part, to / part, symlinks=True)
+    return to
+
+
+#: ``unet_run``'s settings after the store's: one epoch, no samples.
+UNET_RUN = ["train.epochs=1", "train.batch_size=1", "train.sample_frames=[]",
+            "trainer.enable_progress_bar=false"]
+
+
+@pytest.fixture(scope="session")
+def unet_run(cbox_store, tmp_path_factory) -> tuple[Path, list[str]]:
+    from tests.test_run import mcd_run
+
+    run = tmp_path_factory.mktemp("unet_run") / "run"
+    base = [*store32_overrides(cbox_store[1].data_dir), *UNET_RUN]
+    proc = mcd_run("+experiment=unet", "capacity=cpu", *base, f"hydra.run.dir={run}")
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert (run / "metrics.json").is_file() and (run / ".hydra" / "config.yaml").is_file()
+    return run, base

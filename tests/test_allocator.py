@@ -45,6 +45,7 @@ def probe(choice: str) -> tuple[str, list[int]]:
     return policy, [int(f) for f in faults]
 
 
+@pytest.mark.slow
 def test_keep_reuses_freed_pages_and_system_faults_them_in_every_frame():
     policy, system = probe("system")
     assert policy == allocator.SYSTEM

@@ -67,6 +67,7 @@ def test_no_lab_tool_is_in_the_wheel(wheel):
     assert [n for n in names if n.startswith("tools/") or Path(n).name in lab] == []
 
 
+@pytest.mark.slow
 def test_the_installed_package_runs_from_another_folder(wheel, tmp_path):
     """The wheel installed (not editable) into a folder of its own and run from a folder outside the checkout,
     with nothing of the checkout on the path: ``python -m mcd.run --help`` lists the groups (``paths``) and

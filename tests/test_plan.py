@@ -119,6 +119,7 @@ print(json.dumps({"line": line, "heavy": sorted(heavy)}))
 
 
 @pytest.mark.parametrize("what", ["mcd.run", "mcd.render"])
+@pytest.mark.slow
 def test_announce_counts_without_rendering_or_building_a_model(tmp_path, what):
     """The paper profile (which once made the announce render a pilot and build a second model to time a
     step): in a fresh interpreter the announce imports neither Mitsuba nor the renderer nor the method

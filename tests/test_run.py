@@ -87,6 +87,7 @@ def test_resume_from_a_checkpoint_continues_training(f_run):
     assert m["data"]["rendered"] == {}  # everything reused
 
 
+@pytest.mark.slow
 def test_auto_resume_continues_an_interrupted_run_in_its_own_directory(f_run):
     """ckpt_path=auto (the sweeps' setting): a run dir holding checkpoints/last.ckpt but no metrics.json (a
     killed job) continues from it; a fresh dir starts from scratch."""
@@ -108,6 +109,7 @@ def test_auto_resume_continues_an_interrupted_run_in_its_own_directory(f_run):
     assert json.loads((fresh / "metrics.json").read_text())["train_steps"] == 1
 
 
+@pytest.mark.slow
 def test_impossible_switches_fail_before_rendering_and_write_error_json(tmp_path):
     proc = mcd_run("+experiment=A", "method.KP=true", f"paths.data_dir={tmp_path / 'data'}",
                    f"hydra.run.dir={tmp_path / 'run'}")
@@ -118,6 +120,7 @@ def test_impossible_switches_fail_before_rendering_and_write_error_json(tmp_path
     assert err["traceback"] and not (tmp_path / "data").exists()
 
 
+@pytest.mark.slow
 def test_missing_resume_checkpoint_is_a_clear_error(tmp_path):
     proc = mcd_run("+experiment=A", f"ckpt_path={tmp_path / 'nope.ckpt'}", f"paths.data_dir={tmp_path / 'd'}",
                    f"hydra.run.dir={tmp_path / 'run'}")

@@ -97,6 +97,7 @@ def test_help_with_a_bad_override_names_it_and_exits_2():
     assert "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_denoising_frames_imports_neither_mitsuba_nor_lightning(tmp_path):
     from tests.denoise.helpers import render_sequence
 
@@ -108,6 +109,7 @@ def test_denoising_frames_imports_neither_mitsuba_nor_lightning(tmp_path):
     assert not modules & {"mitsuba", "drjit", "lightning", "pandas"}, sorted(modules)
 
 
+@pytest.mark.slow
 def test_denoising_a_scene_imports_no_lightning(tmp_path):
     code, modules, out = probe("mcd.denoise", "--scene", str(REPO / "scenes" / "cbox" / "scene.xml"), "-o",
                                str(tmp_path / "out"), "--checkpoint", "unet-cpu-small", "--width", "32",

@@ -203,6 +203,7 @@ def test_all_black_frames(tmp_path, monkeypatch, caplog):
     assert not store.load("cbox", 1, "ref").any()
 
 
+@pytest.mark.slow
 def test_killed_render_process_resumes(tmp_path):
     """A real `python -m mcd.render` killed (SIGKILL) mid-run: the next ensure keeps its finished frames."""
     import os

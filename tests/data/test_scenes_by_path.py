@@ -68,6 +68,7 @@ def test_a_scene_outside_the_repository_needs_the_scenes_folder(tmp_path, monkey
     assert "MCD_SCENES_DIR" in str(err.value) and "docs/scenes.md" in str(err.value)
 
 
+@pytest.mark.slow
 def test_render_of_a_transfer_run_renders_the_transfer_scene_only(tmp_path, my_scene):
     ckpt = tmp_path / "trained.ckpt"
     ckpt.write_bytes(b"not read by mcd.render")  # the run it mirrors would load it; rendering does not

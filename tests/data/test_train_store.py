@@ -219,6 +219,7 @@ def test_an_exr_store_lacking_a_buffer_is_named_before_any_work(cbox_store, tmp_
     assert not (tmp_path / "ts").exists()
 
 
+@pytest.mark.slow
 def test_a_killed_pack_loses_nothing_and_resumes(tmp_path):
     """kill -9 while packing a 480x270 synthetic store of 41 frames; the pack run again packs only what was
     not recorded, and the store equals one packed in one go."""

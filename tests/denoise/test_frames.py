@@ -38,6 +38,7 @@ def test_bundled_checkpoints_are_package_data_with_provenance():
         assert (BUNDLED_DIR / meta["weights_file"]).stat().st_size < 8e6
 
 
+@pytest.mark.slow
 def test_console_script_denoises_frames_from_disk_better_than_the_input(sequence, tmp_path):
     folder, refs = sequence
     out = tmp_path / "out"

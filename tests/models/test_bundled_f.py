@@ -68,6 +68,7 @@ def f_rows(data_dir) -> list[dict[str, object]]:
     return _rows(loaded.model, loaded.experiment, data_dir)
 
 
+@pytest.mark.slow
 def test_bundled_f_beats_its_input_without_a_colour_cast(f_rows):
     assert sorted({r["scene"] for r in f_rows}) == sorted(SCENES)
     for r in f_rows:
@@ -75,6 +76,7 @@ def test_bundled_f_beats_its_input_without_a_colour_cast(f_rows):
         assert r["colour_shift"] < 0.05, r
 
 
+@pytest.mark.slow
 def test_bundled_f_has_no_border_artefact(f_rows, data_dir):
     effect = _per_scene(f_rows, "edge_effect")
     assert np.mean(list(effect.values())) >= -1.0, effect

@@ -4,9 +4,12 @@
 
 from __future__ import annotations
 
+import pytest
+
 from mcd.complexity import SHARE_BAND, main, outside_band, shares, trained_methods
 
 
+@pytest.mark.slow
 def test_every_trained_method_keeps_an_equal_share_of_its_paper_macs():
     rows = shares("cpu")
     assert [r["name"] for r in rows] == trained_methods()
@@ -15,6 +18,7 @@ def test_every_trained_method_keeps_an_equal_share_of_its_paper_macs():
     assert all(0.1 < r["share"] < 0.3 for r in rows), rows  # about a fifth: small enough for 2 CPU cores
 
 
+@pytest.mark.slow
 def test_a_share_that_leaves_the_band_is_named():
     """RAE's encoder twice as wide: its share leaves the band, and the check names it with its figures."""
     rows = shares("cpu", ("capacity.rae.encoder=[26,40,54,72,96]",))

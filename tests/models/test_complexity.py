@@ -51,6 +51,7 @@ def test_command_writes_the_csv(tmp_path, capsys):
     assert "F" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_command_writes_nothing_without_out(tmp_path, monkeypatch, capsys):
     """A measuring command changes no file unless asked: without ``-o`` the table is only
     printed, so a run from the repository leaves the tracked reports/complexity.csv alone."""

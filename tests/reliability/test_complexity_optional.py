@@ -7,9 +7,12 @@ import csv
 import math
 import sys
 
+import pytest
+
 from mcd.complexity import main
 
 
+@pytest.mark.slow
 def test_complexity_without_pyoidn_lists_oidn_as_unavailable(tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyoidn", None)  # `import pyoidn` now raises ImportError
     out = tmp_path / "complexity.csv"

@@ -94,10 +94,12 @@ def test_defect30_help_into_a_closed_pipe_ends_quietly(tmp_path):
 
 @pytest.mark.parametrize("module", ["mcd.run", "mcd.render", "mcd.plan", "mcd.pack",
                                     "mcd.check_paths"])
+@pytest.mark.slow
 def test_every_hydra_command_checks_the_config_before_any_work(tmp_path, module):
     _assert_refused(tmp_path, _command(tmp_path, module, "data.clip_len=0"), "data.clip_len")
 
 
+@pytest.mark.slow
 def test_a_sweep_job_with_a_bad_value_writes_its_error_and_the_sweep_goes_on(tmp_path):
     """In a multirun the check is the job's: ``mcd.run`` writes its ``error.json`` (mcd/lit/hydra_callbacks.py
     then exits 1 naming the failed jobs), as for any job that fails."""

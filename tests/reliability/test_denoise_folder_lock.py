@@ -20,6 +20,7 @@ from tests.reliability.denoise_helpers import snapshot, write_frames
 REPO = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_a_second_run_into_a_folder_in_use_is_refused_and_the_first_finishes_alone(tmp_path, capsys):
     many, few, out = tmp_path / "many", tmp_path / "few", tmp_path / "out"
     write_frames(many, n=40, size=(256, 256), seed=1)

@@ -11,6 +11,8 @@ import shutil
 import subprocess
 import sys
 
+import pytest
+
 from tests.denoise.helpers import REPO
 from tests.reliability.denoise_helpers import write_frames
 
@@ -21,6 +23,7 @@ def _denoise(*argv: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_defect27_a_frame_named_like_a_layer_without_its_frame_is_named_in_the_log(tmp_path):
     frames = write_frames(tmp_path / "in", n=3)
     shutil.move(frames[2], tmp_path / "in" / "x.albedo.exr")  # a complete frame, every layer inside
@@ -34,6 +37,7 @@ def test_defect27_a_frame_named_like_a_layer_without_its_frame_is_named_in_the_l
     assert sorted(p.name for p in (tmp_path / "out").glob("*.exr")) == ["f0000.exr", "f0001.exr"]
 
 
+@pytest.mark.slow
 def test_defect28_exposure_is_honoured_in_frames_mode(tmp_path):
     """``--exposure`` was silently ignored on frames from disk: the network and the scores read frame 0's
     exposure. It is now the one exposure of both, recorded, and a setting that resuming compares."""

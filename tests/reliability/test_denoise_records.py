@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -23,16 +24,27 @@ def _denoise(frames, out):
                            "noisy", "--no-progress"], env=env, capture_output=True, text=True, timeout=300)
 
 
+@pytest.fixture(scope="module")
+def denoised(tmp_path_factory):
+    """``(frames, out)``: two frames and what a finished ``mcd-denoise`` run of them wrote; each test damages
+    its own copy of ``out``."""
+    folder = tmp_path_factory.mktemp("denoised")
+    write_frames(folder / "in", n=2)
+    assert _denoise(folder / "in", folder / "out").returncode == 0
+    return folder / "in", folder / "out"
+
+
 @pytest.mark.parametrize(("damage", "why"), [
     ("settings_a_list", "settings is a JSON list, not dict"),
     ("finished_an_object", "finished is a JSON dict, not list"),
     ("a_list", "a JSON list, not an object"),
     ("truncated", "not readable JSON: JSONDecodeError"),
 ])
-def test_defect25_a_damaged_denoise_json_is_named_with_its_fix(tmp_path, damage, why):
-    write_frames(tmp_path / "in", n=2)
+@pytest.mark.slow
+def test_defect25_a_damaged_denoise_json_is_named_with_its_fix(denoised, tmp_path, damage, why):
+    frames, finished = denoised
     out = tmp_path / "out"
-    assert _denoise(tmp_path / "in", out).returncode == 0
+    shutil.copytree(finished, out)
     record = out / "denoise.json"
     data = json.loads(record.read_text())
     text = {"settings_a_list": json.dumps({**data, "settings": [1, 2]}),
@@ -40,7 +52,7 @@ def test_defect25_a_damaged_denoise_json_is_named_with_its_fix(tmp_path, damage,
             "a_list": "[1, 2]", "truncated": record.read_text()[:40]}[damage]
     record.write_text(text)
     before = snapshot(out)
-    proc = _denoise(tmp_path / "in", out)
+    proc = _denoise(frames, out)
     assert proc.returncode == 2, proc.stderr[-3000:]
     assert "Traceback" not in proc.stderr, proc.stderr
     assert (f"mcd-denoise: error: {record}: not a record of mcd-denoise ({why}); delete it to denoise every "
@@ -49,6 +61,7 @@ def test_defect25_a_damaged_denoise_json_is_named_with_its_fix(tmp_path, damage,
 
 
 @pytest.mark.parametrize("kind", ["dev_zero", "fifo"])
+@pytest.mark.slow
 def test_defect26_a_checkpoint_that_is_not_a_regular_file_is_named_so(tmp_path, kind):
     write_frames(tmp_path / "in", n=1)
     if kind == "fifo":

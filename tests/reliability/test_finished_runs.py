@@ -5,26 +5,25 @@ the rerun's ``capacity=paper`` for a ``capacity=cpu`` run), and a rerun of anoth
 
 from __future__ import annotations
 
+import shutil
+
 import pytest
 
-from tests.conftest import store32_overrides
 from tests.reliability.denoise_helpers import snapshot
 from tests.test_run import mcd_run
 
-RUN = ["train.epochs=1", "train.batch_size=1", "train.sample_frames=[]", "trainer.enable_progress_bar=false"]
 
-
-@pytest.fixture(scope="module")
-def finished(cbox_store, tmp_path_factory):
-    """A run directory of ``+experiment=unet capacity=cpu`` that ``mcd.run`` finished."""
-    run = tmp_path_factory.mktemp("finished") / "run"
-    base = [*store32_overrides(cbox_store[1].data_dir), *RUN]
-    proc = mcd_run("+experiment=unet", "capacity=cpu", *base, f"hydra.run.dir={run}")
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    assert (run / "metrics.json").is_file() and (run / ".hydra" / "config.yaml").is_file()
+@pytest.fixture
+def finished(unet_run, tmp_path):
+    """A run directory of ``+experiment=unet capacity=cpu`` that ``mcd.run`` finished: this test's copy of the
+    session's ``unet_run``."""
+    shared, base = unet_run
+    run = tmp_path / "run"
+    shutil.copytree(shared, run, symlinks=True)
     return run, base
 
 
+@pytest.mark.slow
 def test_a_rerun_of_the_same_job_with_another_capacity_is_skipped_and_changes_no_byte(finished):
     run, base = finished
     before = snapshot(run)
@@ -36,6 +35,7 @@ def test_a_rerun_of_the_same_job_with_another_capacity_is_skipped_and_changes_no
     assert "capacity: paper" not in (run / ".hydra" / "hydra.yaml").read_text()
 
 
+@pytest.mark.slow
 def test_a_rerun_of_another_job_is_refused_and_writes_nothing_there(finished):
     run, base = finished
     before = snapshot(run)

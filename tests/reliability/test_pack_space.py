@@ -25,6 +25,7 @@ from tests.conftest import compose_cfg, store32_overrides
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_defect8_a_pack_onto_a_full_tmpfs_names_the_need_instead_of_dying(cbox_store, tmp_path):
     if subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode != 0:
         pytest.skip("no unprivileged mount namespace here (unshare -rm) to mount a small tmpfs")

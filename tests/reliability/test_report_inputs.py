@@ -65,6 +65,7 @@ GARBAGE = np.random.default_rng(0).bytes(4096)
     ("ssim_minus_5", "metrics.json", "ssim=-5 outside [-1, 1]"),
     ("config_bytes", ".hydra/config.yaml", "is corrupt (not a readable Hydra record"),
 ])
+@pytest.mark.slow
 def test_defect18_a_damaged_run_record_fails_that_run_and_the_report_goes_on(tmp_path, damage, file, why):
     sweep = tmp_path / "multirun"
     _job(sweep, "F_spp4", {"psnr": 30.5, "ssim": 0.9, "experiment": "F", "budget": 4})

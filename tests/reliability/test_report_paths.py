@@ -14,20 +14,14 @@ import shutil
 import pytest
 
 from mcd.report import main
-from tests.conftest import store32_overrides
 from tests.reliability.denoise_helpers import snapshot
-from tests.test_run import mcd_run
 
 
-@pytest.fixture(scope="module")
-def real_run(cbox_store, tmp_path_factory):
-    """A run directory that ``mcd.run`` finished (``+experiment=unet capacity=cpu``, the 32x32 store)."""
-    run = tmp_path_factory.mktemp("report_paths") / "run"
-    proc = mcd_run("+experiment=unet", "capacity=cpu", *store32_overrides(cbox_store[1].data_dir),
-                   "train.epochs=1", "train.batch_size=1", "train.sample_frames=[]",
-                   "trainer.enable_progress_bar=false", f"hydra.run.dir={run}")
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return run
+@pytest.fixture
+def real_run(unet_run):
+    """A run directory that ``mcd.run`` finished (``+experiment=unet capacity=cpu``, the 32x32 store): the
+    session's ``unet_run``, which each test copies before changing."""
+    return unet_run[0]
 
 
 def _victims(root):

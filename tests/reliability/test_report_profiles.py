@@ -8,6 +8,8 @@ from __future__ import annotations
 import json
 import shutil
 
+import pytest
+
 from mcd.report import main
 from tests.conftest import store32_overrides
 from tests.test_run import mcd_run
@@ -21,6 +23,7 @@ def _small(data_dir) -> list[str]:
             "data.transfer_scenes=[]"]
 
 
+@pytest.mark.slow
 def test_runs_of_two_profiles_give_no_cross_profile_finding_and_name_both(cbox_store, tmp_path):
     sweep = tmp_path / "multirun"
     tiny = mcd_run("+experiment=F", "capacity=cpu", *store32_overrides(cbox_store[1].data_dir), *RUN,

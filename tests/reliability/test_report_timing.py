@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from types import SimpleNamespace
 
+import pytest
 from omegaconf import OmegaConf
 
 from mcd.config.compose import compose
@@ -15,6 +16,7 @@ from mcd.reporting import speed
 from mcd.reporting.runs import find_runs
 
 
+@pytest.mark.slow
 def test_a_huge_runs_model_is_timed_at_the_capped_size_and_the_report_says_so(tmp_path, monkeypatch):
     d = tmp_path / "A_spp4"
     (d / ".hydra").mkdir(parents=True)

@@ -34,6 +34,7 @@ def test_a_manifest_that_breaks_the_schema_is_named_with_its_fix(own_store, dama
         StoreBuilder.from_cfg(cfg).ensure({"c1"}, progress=False)
 
 
+@pytest.mark.slow
 def test_following_the_fix_of_a_schema_break_repairs_the_store(own_store):
     cfg, store = own_store
     path = store.manifest_path("cbox")

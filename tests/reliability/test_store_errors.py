@@ -23,6 +23,7 @@ from tests.conftest import CONF_DIR, store32_overrides
 REPO = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_following_the_fix_command_repairs_the_same_store(own_store, tmp_path):
     cfg, _ = own_store
     overrides = [*store32_overrides(cfg.paths.data_dir), "+experiment=F", "train.epochs=1"]
@@ -57,6 +58,7 @@ def test_a_hydra_apps_overrides_reach_the_fix_command(tmp_path):
     assert store.overrides == [*shaping, f"paths.data_dir={tmp_path}"]
 
 
+@pytest.mark.slow
 def test_a_garbage_manifest_is_named_with_its_fix_which_verify_carries_out(own_store, caplog):
     cfg, store = own_store
     manifest = store.manifest_path("cbox")

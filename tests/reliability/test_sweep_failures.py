@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from mcd.lit.run_record import REQUIRED_KEYS, job_identity
 from tests.conftest import compose_cfg
 from tests.test_run import mcd_run
@@ -22,6 +24,7 @@ def _finished(run_dir: Path, *overrides: str) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_a_sweep_with_a_failed_job_runs_every_job_then_exits_1(tmp_path):
     sweep = tmp_path / "sweep"
     done = _finished(sweep / "1", "+experiment=A", "method.KP=false")  # job 1 finished earlier: skipped
@@ -35,6 +38,7 @@ def test_a_sweep_with_a_failed_job_runs_every_job_then_exits_1(tmp_path):
     assert f"1 job(s) of the sweep in {sweep} failed (each has an error.json): 0;" in log
 
 
+@pytest.mark.slow
 def test_a_run_dir_of_another_experiment_is_not_skipped(tmp_path):
     done = _finished(tmp_path / "run", "+experiment=F")
     before = done.read_text()

@@ -80,6 +80,7 @@ def _in_read_only_mount(folder, argv, cwd):
 
 
 @pytest.mark.parametrize("command", ["mcd.pack", "mcd.run"])
+@pytest.mark.slow
 def test_defect20_a_fully_packed_read_only_store_is_trained_from(cbox_store, tmp_path, command):
     _, store = cbox_store
     folder = tmp_path / "ts"

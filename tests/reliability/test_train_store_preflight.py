@@ -21,6 +21,7 @@ def _files(folder) -> set[str]:
     return {str(p.relative_to(folder)) for p in folder.rglob("*")}
 
 
+@pytest.mark.slow
 def test_defect9_a_store_packed_without_the_runs_buffers_is_refused_before_rendering(tmp_path):
     data, ts = tmp_path / "data", tmp_path / "ts"
     common = [*store32_overrides(data), "data.train_store.format=array", f"data.train_store.dir={ts}"]

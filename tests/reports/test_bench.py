@@ -16,6 +16,7 @@ from mcd.core import allocator
 INTERFACE = ["method", "device", "dtype", "compiled", "height", "width", "ms_median", "fps"]
 
 
+@pytest.mark.slow
 def test_bench_cpu_writes_the_interface_columns(tmp_path):
     out = tmp_path / "bench" / "bench.csv"
     bench.main(
@@ -77,6 +78,7 @@ def test_unknown_scene_is_named_before_any_work():
         bench.store_frame("tiny", "no_such_scene")
 
 
+@pytest.mark.slow
 def test_store_frames_are_read_through_the_store_and_tiled(cbox_store):
     """The inputs are what the models see (StoreBuilder.load: exposure, sanitised), tiled to size."""
     _, store = cbox_store

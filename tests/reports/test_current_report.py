@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from mcd.reporting import index
 
@@ -36,6 +37,7 @@ def _job(sweep: Path, exp: str, psnr: float) -> None:
                                                 "experiment": exp, "budget": 4, "train_steps": 3}))
 
 
+@pytest.mark.slow
 def test_the_report_stage_writes_the_report_the_index_and_the_readme_results(tmp_path):
     root = tmp_path / "multirun"
     _job(root / "ablation" / "tiny_current", "F", 21.0)

@@ -10,9 +10,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_loader_bench_json_reports_both_paths_in_one_run(tmp_path):
     cmd = [sys.executable, "-m", "mcd.bench", "loader", "--json", "--width", "320", "--height", "200",
            "--frames", "7", "--crop", "96", "--seconds", "0.5", "--dir", str(tmp_path)]

@@ -6,7 +6,6 @@ after the run, and `python -m mcd.report` producing every table and figure with 
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -17,45 +16,23 @@ import pytest
 
 from mcd.config.methods import COMPONENTS
 from mcd.reporting import finding
+from tests.conftest import AB_SWEEP, SWEEP32, copy_sweep, module_env
 
 REPO = Path(__file__).resolve().parents[2]
-LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
-#: The tiny profile cut to one 32x32 scene of 14 frames and a few training steps.
-SMALL = [
-    "data.width=32",
-    "data.height=32",
-    "data.segments=1",
-    "data.frames_per_segment=14",
-    "data.ref_spp=16",
-    "data.gbuffer_spp=4",
-    "data.train_scenes=[cbox]",
-    "data.test_scenes=[cbox]",
-    "~data.scenes.staircase2",
-    "data.train_crop=32",
-    "data.val_crop=32",
-    "train.epochs=1",
-    "train.batch_size=2",
-    "train.limit_train_batches=2",
-    "trainer.enable_progress_bar=false",
-]
-
 
 def _run(args: list[str], cwd: Path, returncode: int = 0) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    if LLVM.is_file():
-        env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
     proc = subprocess.run(
-        [sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+        [sys.executable, *args], cwd=cwd, env=module_env(), capture_output=True, text=True, timeout=600
     )
     assert proc.returncode == returncode, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
     return proc
 
 
 @pytest.mark.slow
-def test_two_job_sweep_failure_rerun_and_report(tmp_path):
+def test_two_job_sweep_failure_rerun_and_report(ab_sweep, tmp_path):
     data = [f"paths.data_dir={tmp_path / 'data'}", f"paths.scenes_dir={REPO / 'scenes'}"]
-    sweep = ["-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=A,F", *data, *SMALL]
-    _run(sweep, tmp_path)
+    sweep = [*AB_SWEEP, f"paths.data_dir={tmp_path / 'data'}"]  # the shared sweep's command, here
+    copy_sweep(ab_sweep, tmp_path)  # the two-job sweep, run once per session (tests/conftest.py)
     sweep_dir = tmp_path / "multirun" / "ablation" / "tiny"
     for exp in ("A", "F"):
         metrics = json.loads((sweep_dir / f"{exp}_spp4" / "metrics.json").read_text())
@@ -63,7 +40,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
 
     # a failing job (KP without AS) in the same sweep: recorded, then the command exits 1 naming it
     failed = _run(
-        ["-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=C", "method.AS=false", *data, *SMALL],
+        ["-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=C", "method.AS=false", *data, *SWEEP32],
         tmp_path,
         returncode=1,
     )
@@ -92,7 +69,7 @@ def test_two_job_sweep_failure_rerun_and_report(tmp_path):
             "transfer.finetune_epochs=0,1",
             f"transfer.init_from={sweep_dir / 'F_spp4'}",
             *data,
-            *SMALL,
+            *SWEEP32,
             *held_out,
         ],
         tmp_path,

@@ -6,11 +6,14 @@ from __future__ import annotations
 
 import csv
 
+import pytest
+
 from mcd.bench import train as train_bench
 from mcd.core import allocator
 from tests.conftest import store32_overrides
 
 
+@pytest.mark.slow
 def test_train_bench_times_real_steps_per_path(cbox_store, tmp_path, capsys):
     cfg, _ = cbox_store
     out = tmp_path / "train.csv"

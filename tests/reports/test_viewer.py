@@ -10,8 +10,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,26 +21,16 @@ from mcd.report import make_report
 from mcd.reporting import viewer
 from mcd.reporting.runs import find_runs
 from mcd.reporting.strips import crop_box, samples
-from tests.reports.test_sweep_to_report import SMALL as TINY32
 
 REPO = Path(__file__).resolve().parents[2]
-LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
-#: The sweep-to-report test's 32x32 profile, its two test frames both saved as samples.
-SMALL = [*TINY32, "train.sample_frames=[0,1]"]
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory) -> tuple[Path, Path]:
-    """``(report dir, sweep dir)`` of a real report of rows A and F."""
+def report(ab_sweep, tmp_path_factory) -> tuple[Path, Path]:
+    """``(report dir, sweep dir)`` of a real report of rows A and F: the session's two-job sweep on the
+    sweep-to-report test's 32x32 profile, its two test frames both saved as samples (``ab_sweep``)."""
     tmp = tmp_path_factory.mktemp("viewer")
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    if LLVM.is_file():
-        env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
-    args = [sys.executable, "-m", "mcd.run", "-m", "+sweep=ablation", "+experiment=A,F",
-            f"paths.data_dir={tmp / 'data'}", f"paths.scenes_dir={REPO / 'scenes'}", *SMALL]
-    proc = subprocess.run(args, cwd=tmp, env=env, capture_output=True, text=True, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-5000:]
-    sweep = tmp / "multirun" / "ablation" / "tiny"
+    sweep = ab_sweep / "multirun" / "ablation" / "tiny"
     out = make_report([sweep], tmp / "reports", name="t32", bench=None)
     return out, sweep
 
@@ -57,6 +45,7 @@ def _pixels(report_dir: Path, src: str) -> np.ndarray:
     return np.asarray(Image.open(report_dir / "viewer" / src).convert("RGB"), dtype=np.float64)
 
 
+@pytest.mark.slow
 def test_the_viewer_holds_every_saved_frame_with_the_runs_own_metrics(report):
     out, sweep = report
     assert viewer.index_path(out) == out / "viewer" / "index.html"
@@ -98,6 +87,7 @@ def test_the_viewer_holds_every_saved_frame_with_the_runs_own_metrics(report):
     assert "http://" not in page and "https://" not in page  # nothing from the network
 
 
+@pytest.mark.slow
 def test_a_large_frame_is_cut_to_its_noisiest_square(report, monkeypatch, tmp_path):
     out, sweep = report
     monkeypatch.setattr(viewer, "MAX_SIDE", 16)
@@ -119,6 +109,7 @@ def test_a_large_frame_is_cut_to_its_noisiest_square(report, monkeypatch, tmp_pa
     assert viewer.write([], tmp_path / "none", "cut") is None
 
 
+@pytest.mark.slow
 def test_a_report_regenerated_from_its_records_keeps_its_viewer(report):
     """The run records keep no samples: regenerating from them leaves the viewer (as the strips) and its
     link."""
@@ -155,6 +146,7 @@ def _browser():
     return sync_playwright, chromium
 
 
+@pytest.mark.slow
 def test_the_page_in_headless_chromium(report):
     out, _ = report
     sync_playwright, chromium = _browser()
@@ -275,6 +267,7 @@ def test_hdr_extremes_black_frames_and_odd_sizes_make_finite_pictures(tmp_path):
     assert all(0 <= im["flip"]["mean"] <= 1 for im in entry["images"][:2])
 
 
+@pytest.mark.slow
 def test_no_viewer_writes_none_and_removes_an_earlier_one(report, tmp_path):
     out, sweep = report
     shutil.copytree(out / "viewer", tmp_path / "nv" / "viewer")

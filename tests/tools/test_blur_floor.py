@@ -37,6 +37,7 @@ def _rows(text: str) -> dict[str, list[str]]:
     return rows
 
 
+@pytest.mark.slow
 def test_table_of_a_real_store_written_between_markers(cbox_store, tmp_path, capsys):
     _, store = cbox_store
     overrides = store32_overrides(store.root.parent)[1:]

@@ -12,6 +12,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -24,6 +26,7 @@ def digests(*args: str) -> dict[str, str]:
     return json.loads(proc.stdout[proc.stdout.index("{"):])
 
 
+@pytest.mark.slow
 def test_every_vendored_scene_renders_bit_identically_in_two_processes():
     first, second = digests(), digests("--threads", "1")
     assert {"cbox", "cornell-box-picture", "staircase2", "procedural"} <= set(first)
