@@ -7,9 +7,9 @@ commit and whether the tree was dirty, the data profile, the budget in samples p
 and why it stopped, the device, the test metrics from the run's ``metrics.json``), the SHA-256 of the ``.pt``
 and the configuration the model is built from (``experiment``, ``method``, ``model``, ``budget``, the data
 keys the inputs are normalised with). ``--checkpoint <name>`` of ``mcd-denoise`` then finds it. The weights
-are checked against the model they are built into before anything is written. A bundle of that name already
-in the folder (a shipped one included) is kept: the command refuses it unless ``--replace`` is given. Both files
-are written atomically (:mod:`mcd.core.atomic_write`), so a killed bundle leaves no half file.
+are checked against the model they are built into before anything is written. A bundle of that name
+already in the folder (a shipped one included) is kept: the command refuses it unless ``--replace`` is given.
+Both files are written atomically (:mod:`mcd.core.atomic_write`), so a killed bundle leaves no half file.
 """
 
 from __future__ import annotations
@@ -60,8 +60,8 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     taken = [p for p in (out_dir / f"{name}.pt", out_dir / f"{name}.json") if p.exists() or p.is_symlink()]
     if taken and not replace:
         raise BundleExistsError(
-            f"{' and '.join(map(str, taken))}: a bundle named {name!r} is already there; give another --name, "
-            "or --replace to write over it")
+            f"{' and '.join(map(str, taken))}: a bundle named {name!r} is already there; give another "
+            "--name, or --replace to write over it")
     metrics_path = run_dir / "metrics.json"
     if not metrics_path.is_file():
         raise FileNotFoundError(f"{metrics_path}: missing; bundle a finished run of python -m mcd.run")

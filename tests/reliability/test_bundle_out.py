@@ -1,7 +1,7 @@
 """``python -m mcd.bundle`` never writes over a bundle it was not asked to replace (campaign 6,
 docs/reliability.md): ``--name unet-cpu-small`` replaced the shipped bundle's ``.pt`` and ``.json`` with a
-2-step run's, exit 0, without a word. A bundle of the name in ``--out`` is now refused with one ``error:`` line
-(exit 2) and keeps its bytes; ``--replace`` writes over it; a bad ``--name`` or a run without
+2-step run's, exit 0, without a word. A bundle of the name in ``--out`` is now refused with one ``error:``
+line (exit 2) and keeps its bytes; ``--replace`` writes over it; a bad ``--name`` or a run without
 ``metrics.json`` is one ``error:`` line, not a traceback."""
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from tests.conftest import store32_overrides
 from tests.reliability.denoise_helpers import snapshot
 from tests.test_run import REPO, mcd_run
 
-RUN = ["train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]", "trainer.enable_progress_bar=false"]
+RUN = ["train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
+       "trainer.enable_progress_bar=false"]
 
 
 def _bundle(*args: str) -> subprocess.CompletedProcess:
@@ -29,7 +30,8 @@ def _bundle(*args: str) -> subprocess.CompletedProcess:
 def finished(cbox_store, tmp_path_factory):
     """A run directory of ``+experiment=unet`` that ``mcd.run`` finished."""
     run = tmp_path_factory.mktemp("bundle") / "run"
-    proc = mcd_run("+experiment=unet", *store32_overrides(cbox_store[1].data_dir), *RUN, f"hydra.run.dir={run}")
+    base = store32_overrides(cbox_store[1].data_dir)
+    proc = mcd_run("+experiment=unet", *base, *RUN, f"hydra.run.dir={run}")
     assert proc.returncode == 0, proc.stderr[-4000:]
     return run
 

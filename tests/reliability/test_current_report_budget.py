@@ -26,7 +26,8 @@ def test_a_session_with_another_budget_is_refused_before_any_job(tmp_path):
     before = mark.read_bytes()
     proc = _script(tmp_path, "seeds", BUDGET_STEPS="3000")
     assert proc.returncode == 2, proc.stderr[-3000:]
-    assert "train.max_steps=1000" in proc.stderr and "BUDGET_STEPS=3000" in proc.stderr and str(mark) in proc.stderr
+    assert "train.max_steps=1000" in proc.stderr and "BUDGET_STEPS=3000" in proc.stderr
+    assert str(mark) in proc.stderr
     assert not (tmp_path / "multirun" / "seeds").exists()  # nothing ran
     assert mark.read_bytes() == before
 
@@ -35,7 +36,7 @@ def test_the_report_stage_refuses_another_budget_and_states_the_recorded_one(tmp
     root = tmp_path / "multirun"
     _job(root / "ablation" / "tiny_current", "F", 21.0)
     mark = root / "tiny_current.commit"
-    mark.write_text("0123456789abcdef train.max_steps=3000\n")  # the report stage reads, never checks the code
+    mark.write_text("0123456789abcdef train.max_steps=3000\n")  # the report stage never checks the code
     proc = _script(tmp_path, "report")  # BUDGET_STEPS unset: 1000
     assert proc.returncode == 2 and "train.max_steps=3000" in proc.stderr, proc.stderr[-3000:]
     assert not (tmp_path / "reports").exists()
