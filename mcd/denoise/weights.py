@@ -36,7 +36,8 @@ ADAPTIVE = ("dasr", "ntasad")
 
 #: What to do with a checkpoint whose config is of an older schema than this version builds.
 RESAVE = ("save it again on today's config schema: python -m mcd.bundle RUN_DIR --name NAME "
-          "[--replace] from a run of this version, or check out the commit it records (docs/denoise.md, 'Bundled checkpoints')")
+          "[--replace] from a run of this version, or check out the commit it records (docs/denoise.md, "
+          "'Bundled checkpoints')")
 
 
 def _key_paths(tree: Any, prefix: str) -> set[str]:
