@@ -179,6 +179,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     store = StoreBuilder.from_cfg(cfg)
     # a packed training store of another config, or without a buffer of this run, before anything is rendered
     check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
+    trainer_kwargs = budget.trainer_kwargs(cfg)  # trainer.* (precision included) named before rendering
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     if train_store.format == "array":  # training clips from the packed store
@@ -197,7 +198,6 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     curve = budget.LearningCurve(out_dir / "curve.csv")
     segments = TrainingSegments(git_commit())
     recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
-    trainer_kwargs = budget.trainer_kwargs(cfg)
     trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
                         callbacks=[best, last, curve, segments, recorder, *budget.callbacks(cfg.train),
                                    *progress.callbacks(cfg)],
