@@ -5,9 +5,9 @@
 - CPU: ``bf16-mixed`` only where the CPU computes bf16 natively (``avx512_bf16`` or ``amx_bf16``) *and*
   :data:`CPU_BF16_PAYS` says the benchmark found it faster; else ``32-true``.
 Any other value of ``trainer.precision`` is Lightning's and passes through unchanged, with two exceptions
-checked before any work: ``16-mixed`` on the CPU, where Lightning trains in ``bf16-mixed`` instead, resolves to
-``bf16-mixed`` (so the run's record says what ran), and a value Lightning does not know, or a 64-bit one (the
-data are float32, so the first step fails), is refused naming the key. The choice is logged.
+checked before any work: ``16-mixed`` on the CPU, where Lightning trains in ``bf16-mixed`` instead, resolves
+to ``bf16-mixed`` (so the run's record says what ran), and a value Lightning does not know, or a 64-bit one
+(the data are float32, so the first step fails), is refused naming the key. The choice is logged.
 """
 
 from __future__ import annotations
@@ -57,8 +57,8 @@ def resolve(precision: str, accelerator: str) -> str:
         raise ValueError(f"trainer.precision={precision}: give one of {', '.join(CHOICES)} (64-bit training "
                          "is not supported: the data are float32)")
     if precision in ("16-mixed", "16") and on_cpu(accelerator):
-        log.info("trainer.precision=%s -> bf16-mixed (fp16 autocast is a GPU's; Lightning trains in bf16-mixed "
-                 "on the CPU)", precision)
+        log.info("trainer.precision=%s -> bf16-mixed (fp16 autocast is a GPU's; Lightning trains in "
+                 "bf16-mixed on the CPU)", precision)
         return "bf16-mixed"
     if precision != "auto":
         return precision
