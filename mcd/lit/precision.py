@@ -50,12 +50,17 @@ def on_cpu(accelerator: str) -> bool:
 CHOICES = ("auto", "32-true", "32", "bf16-mixed", "16-mixed", "bf16-true", "16-true", "bf16", "16")
 
 
-def resolve(precision: str, accelerator: str) -> str:
-    """Lightning's precision for ``trainer.precision`` (``auto`` resolved as the module docstring says);
-    ValueError naming the key for a value outside :data:`CHOICES`."""
+def check(precision: str) -> None:
+    """ValueError naming the key for a ``trainer.precision`` outside :data:`CHOICES`."""
     if precision not in CHOICES:
         raise ValueError(f"trainer.precision={precision}: give one of {', '.join(CHOICES)} (64-bit training "
                          "is not supported: the data are float32)")
+
+
+def resolve(precision: str, accelerator: str) -> str:
+    """Lightning's precision for ``trainer.precision`` (``auto`` resolved as the module docstring says);
+    ValueError naming the key for a value outside :data:`CHOICES` (:func:`check`)."""
+    check(precision)
     if precision in ("16-mixed", "16") and on_cpu(accelerator):
         log.info("trainer.precision=%s -> bf16-mixed (fp16 autocast is a GPU's; Lightning trains in "
                  "bf16-mixed on the CPU)", precision)
