@@ -7,7 +7,9 @@ commit and whether the tree was dirty, the data profile, the budget in samples p
 and why it stopped, the device, the test metrics from the run's ``metrics.json``), the SHA-256 of the ``.pt``
 and the configuration the model is built from (``experiment``, ``method``, ``model``, ``budget``, the data
 keys the inputs are normalised with). ``--checkpoint <name>`` of ``mcd-denoise`` then finds it. The weights
-are checked against the model they are built into before anything is written.
+are checked against the model they are built into before anything is written. A bundle of that name
+already in the folder (a shipped one included) is kept: the command refuses it unless ``--replace`` is given.
+Both files are written atomically (:mod:`mcd.core.atomic_write`), so a killed bundle leaves no half file.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +25,7 @@ import torch
 import yaml
 from omegaconf import DictConfig, OmegaConf
 
+from mcd.core.atomic_write import atomic_write
 from mcd.core.paths import check_folder_name
 from mcd.denoise.weights import BUNDLED_DIR, check_schema
 from mcd.lit import checkpoint
@@ -38,16 +42,26 @@ DATA_KEYS = ("name", "exposure_target", "max_depth", "gbuffer_spp", "ref_spp", "
              "train_scenes", "transfer_scenes", "augment")
 
 
+class BundleExistsError(FileExistsError):
+    """A bundle of the name is already in the output folder, and ``--replace`` was not given."""
+
+
 def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
-           source_commit: str | None = None) -> dict[str, Any]:
+           source_commit: str | None = None, replace: bool = False) -> dict[str, Any]:
     """Write ``<out_dir>/<name>.pt`` and ``.json`` from ``run_dir`` (module docstring); returns the JSON.
 
     ``source_commit``: the commit the run's code was exported from, for a run outside a git checkout (its
     ``metrics.json`` then says ``commit: unknown``); recorded as given, beside the run's own record.
+    ``replace``: write over a bundle of that name (else :class:`BundleExistsError`, before anything is read).
     """
     from mcd.models import build
 
     check_folder_name(name, "--name", f"the bundle is written as {out_dir}/<name>.pt and .json")
+    taken = [p for p in (out_dir / f"{name}.pt", out_dir / f"{name}.json") if p.exists() or p.is_symlink()]
+    if taken and not replace:
+        raise BundleExistsError(
+            f"{' and '.join(map(str, taken))}: a bundle named {name!r} is already there; give another "
+            "--name, or --replace to write over it")
     metrics_path = run_dir / "metrics.json"
     if not metrics_path.is_file():
         raise FileNotFoundError(f"{metrics_path}: missing; bundle a finished run of python -m mcd.run")
@@ -81,12 +95,11 @@ def write_bundle(weights: dict[str, torch.Tensor], cfg: DictConfig, name: str, p
         "budget": cfg.budget,
         "data": {k: _plain(cfg.data.get(k)) for k in DATA_KEYS},
     }
-    out_dir.mkdir(parents=True, exist_ok=True)
     pt = out_dir / f"{name}.pt"
-    torch.save(weights, pt)
+    atomic_write(pt, lambda tmp: torch.save(weights, tmp))
     meta = {"name": name, "weights_file": pt.name, "sha256": hashlib.sha256(pt.read_bytes()).hexdigest(),
             **provenance, "config": config}
-    (out_dir / f"{name}.json").write_text(json.dumps(meta, indent=1) + "\n")
+    atomic_write(out_dir / f"{name}.json", lambda tmp: tmp.write_text(json.dumps(meta, indent=1) + "\n"))
     return meta
 
 
@@ -102,8 +115,14 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--out", type=Path, default=BUNDLED_DIR,
                    help="folder (default: the package's mcd/bundled)")
     p.add_argument("--source-commit", help="the commit a run outside a git checkout was exported from")
+    p.add_argument("--replace", action="store_true",
+                   help="write over a bundle of the same name in --out (default: refuse it)")
     args = p.parse_args(argv)
-    meta = bundle(args.run_dir, args.name, args.out, args.source_commit)
+    try:
+        meta = bundle(args.run_dir, args.name, args.out, args.source_commit, args.replace)
+    except (OSError, ValueError) as err:  # the checks' messages name the file or flag and the fix
+        print(f"error: {err}", file=sys.stderr)
+        raise SystemExit(2) from None
     m = meta["metrics"]
     size = (args.out / meta["weights_file"]).stat().st_size / 1e6
     print(f"{args.out / args.name}.pt ({size:.2f} MB): "

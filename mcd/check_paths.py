@@ -1,11 +1,11 @@
 """``python -m mcd.check_paths data=<profile>``: no camera-path frame is rendered from inside a wall.
 
-Renders every frame of every scene of the profile at a low resolution and spp (``check.size``, ``check.spp``)
-with colour and first-hit depth, and flags a frame that is mostly black (its fraction of black pixels exceeds
-frame 0's, the scene's own camera, by 0.25), one colour (luminance varies by less than 2% across a frame that
-is not mostly black) or much closer to geometry than frame 0 (median depth under 5% of frame 0's): the signs
-of a camera inside or against a wall (docs/scenes.md, "Using them"). Exits non-zero when a
-frame is flagged.
+Renders every frame of every scene of the profile at a low resolution and spp (:func:`check_scene`'s
+``size`` and ``spp``, 24x24 at 16 spp; no config key changes them) with colour and first-hit depth, and
+flags a frame that is mostly black (its fraction of black pixels exceeds frame 0's, the scene's own camera,
+by 0.25), one colour (luminance varies by less than 2% across a frame that is not mostly black) or much
+closer to geometry than frame 0 (median depth under 5% of frame 0's): the signs of a camera inside or
+against a wall (docs/scenes.md, "Using them"). Exits non-zero when a frame is flagged.
 """
 
 from __future__ import annotations

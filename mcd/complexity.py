@@ -29,6 +29,9 @@ from omegaconf import DictConfig
 
 from mcd.config.compose import compose, experiment_names
 from mcd.config.methods import CATALOGUE, paper_complexity
+from mcd.core.config_rules import MAX_SIDE
+from mcd.core.paths import CONF_DIR
+from mcd.denoise.arguments import int_in
 from mcd.models.complexity import complexity
 
 #: How far each trained method's share of its paper-size MACs may be from F's, relative.
@@ -112,8 +115,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--capacity", default="paper", help="capacity profile (conf/capacity/<name>.yaml)")
     parser.add_argument("--experiments", nargs="*", default=None,
                         help="experiments to count (default: every one, rows A-M first)")
-    parser.add_argument("--height", type=int, default=1080)
-    parser.add_argument("--width", type=int, default=1920)
+    parser.add_argument("--height", type=int_in(1, MAX_SIDE), default=1080)
+    parser.add_argument("--width", type=int_in(1, MAX_SIDE), default=1920)
     parser.add_argument("-o", "--out", type=Path, default=None,
                         help="also write the table as CSV here (default: print only)")
     parser.add_argument("--shares", default="cpu",
@@ -121,6 +124,14 @@ def main(argv: list[str] | None = None) -> None:
                              "its ratio to F's ('none': skip)")
     parser.add_argument("--shares-out", type=Path, default=None, help="also write the shares as CSV here")
     args = parser.parse_args(argv)
+    capacities = sorted(p.stem for p in (CONF_DIR / "capacity").glob("*.yaml"))
+    for flag, value in (("--capacity", args.capacity), ("--shares", args.shares)):
+        if value not in capacities and not (flag == "--shares" and value == "none"):
+            parser.error(f"{flag} {value}: no such capacity profile (conf/capacity: {', '.join(capacities)})")
+    unknown = sorted(set(args.experiments or ()) - set(experiment_names()))
+    if unknown:
+        parser.error(f"--experiments: no experiment {', '.join(unknown)} (conf/experiment: "
+                     f"{', '.join(sorted(experiment_names()))})")
     unavailable: dict[str, str] = {}
     rows = table(args.experiments or experiment_names(), args.capacity, args.height, args.width, unavailable)
     print(f"capacity={args.capacity}, {args.width}x{args.height}, MACs = FlopCounterMode FLOPs / 2")

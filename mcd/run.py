@@ -145,7 +145,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from mcd.data.pack import pack
     from mcd.data.store import store_settings
     from mcd.data.train_store import TrainStoreSettings, pack_command
-    from mcd.lit import DenoiseModule, budget, checkpoint, progress, transfer
+    from mcd.lit import DenoiseModule, budget, checkpoint, precision, progress, transfer
     from mcd.lit.segments import TrainingSegments
     from mcd.lit.test_recorder import TestRecorder
     from mcd.losses import build_loss
@@ -179,6 +179,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     store = StoreBuilder.from_cfg(cfg)
     # a packed training store of another config, or without a buffer of this run, before anything is rendered
     check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
+    precision.check(str(cfg.trainer.get("precision", "auto")))  # named before anything is rendered
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     if train_store.format == "array":  # training clips from the packed store

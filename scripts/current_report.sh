@@ -18,8 +18,9 @@
 # stages resume (below). 3000 steps, the budget of the earlier converged reports, would take three times that.
 #
 # Resumable across sessions: a sweep skips its finished jobs and resumes unfinished ones from their last.ckpt
-# (ckpt_path=auto). The first stage records the commit in <MULTIRUN>/<DATA>_current.commit, and a later session
-# on other code (another commit, or uncommitted changes) is refused, so that the report is one commit's code.
+# (ckpt_path=auto). The first stage records the commit and BUDGET_STEPS in <MULTIRUN>/<DATA>_current.commit, and
+# a later session on other code (another commit, or uncommitted changes) or with another BUDGET_STEPS (the
+# report stage included) is refused, so that the report is one commit's code at one budget.
 # Each stage is one Hydra multirun on the joblib launcher (pip install 'mcd[cluster]'), JOBS (default 2) jobs
 # at a time with one thread each (docs/training.md "CPU threads"). Needs MCD_SCENES_DIR for the small profile's
 # scenes that are not vendored (docs/scenes.md).
@@ -47,10 +48,28 @@ one_commit() {  # the code every job of the report runs: recorded by the first s
   local mark="$ROOT/$DATA$TAG.commit" head
   head=$(git rev-parse HEAD)$(git diff --quiet HEAD -- mcd || echo +dirty)
   mkdir -p "$ROOT"
-  if [ ! -f "$mark" ]; then echo "$head" > "$mark"; fi
-  if [ "$(cat "$mark")" != "$head" ]; then
-    echo "error: $mark says the report's jobs run commit $(cat "$mark"); this checkout is $head." >&2
+  if [ ! -f "$mark" ]; then echo "$head train.max_steps=$STEPS" > "$mark"; fi
+  if [ "$(cut -d' ' -f1 "$mark")" != "$head" ]; then
+    echo "error: $mark says the report's jobs run commit $(cut -d' ' -f1 "$mark"); this checkout is $head." >&2
     echo "Check out that commit, or remove $mark and the job directories under $ROOT/*/$DATA$TAG to start over." >&2
+    exit 2
+  fi
+  one_budget record
+}
+
+one_budget() {  # the training budget of every job, recorded beside the commit: a session with another
+  # BUDGET_STEPS would skip the finished jobs, train the others to its own budget, and the report's note would
+  # state one budget for both
+  local mark="$ROOT/$DATA$TAG.commit" recorded
+  [ -f "$mark" ] || return 0
+  recorded=$(sed -n 's/.* train\.max_steps=\([^ ]*\).*/\1/p' "$mark")
+  if [ -z "$recorded" ]; then  # a mark of the script before it recorded the budget: a training stage records
+    if [ "${1:-}" = record ]; then echo "$(cut -d' ' -f1 "$mark") train.max_steps=$STEPS" > "$mark"; fi
+  elif [ "$recorded" != "$STEPS" ]; then
+    echo "error: $mark says the report's jobs train train.max_steps=$recorded; this session has" \
+      "BUDGET_STEPS=$STEPS." >&2
+    echo "Give BUDGET_STEPS=$recorded, or another MULTIRUN (or remove $mark and the job directories under" \
+      "$ROOT/*/$DATA$TAG) for another budget." >&2
     exit 2
   fi
 }
@@ -69,6 +88,7 @@ stage() {
     seeds) one_commit; sweep seeds A,B,C,F seed=1,2,3,4 ;;           # seed 0: the ablation jobs
     transfer) one_commit; sweep transfer F,A "transfer.init_from=$ROOT/ablation/$DATA$TAG/\${experiment}_spp4" ;;
     report)
+      one_budget
       local todo=() d  # the edge effect of each finished job not measured since it finished (tools/edge_effect.py)
       for d in "$ROOT"/*/"$DATA$TAG"/*/; do
         if [ -f "$d/metrics.json" ] && [ "$d/metrics.json" -nt "$d/edges.json" ]; then todo+=("$d"); fi
@@ -78,7 +98,7 @@ stage() {
       fi
       # shellcheck disable=SC2086  # REPORT_ARGS is a list of words
       "$PY" -m mcd.report "$ROOT"/*/"$DATA$TAG" --name "$NAME" --out "$OUT" ${REPORT_ARGS:-} \
-        --note "The current report: every sweep on data=$DATA at $CAPACITY, train=plateau with train.max_steps=$STEPS (cosine schedule to lr_min over them) for every trained job, at commit $(cat "$ROOT/$DATA$TAG.commit" 2>/dev/null || echo unknown), JOBS=${JOBS:-2} jobs at a time with OMP_NUM_THREADS=1 (scripts/current_report.sh)." ;;
+        --note "The current report: every sweep on data=$DATA at $CAPACITY, train=plateau with train.max_steps=$STEPS (cosine schedule to lr_min over them) for every trained job, at commit $(cut -d' ' -f1 "$ROOT/$DATA$TAG.commit" 2>/dev/null || echo unknown), JOBS=${JOBS:-2} jobs at a time with OMP_NUM_THREADS=1 (scripts/current_report.sh)." ;;
     *) echo "unknown stage $1 (ablation baselines spp seeds transfer report)" >&2; exit 2 ;;
   esac
 }

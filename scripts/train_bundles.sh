@@ -45,7 +45,7 @@ train() {
 for stage in ${STAGES:-train bundle score}; do
   case $stage in
     train) train "$@" ;;
-    bundle) for name in "${NAMES[@]}"; do "$PY" -m mcd.bundle "$OUT/$name" --name "$name" --out "$BUNDLE_DIR"; done ;;
+    bundle) for name in "${NAMES[@]}"; do "$PY" -m mcd.bundle "$OUT/$name" --name "$name" --out "$BUNDLE_DIR" --replace; done ;;
     score)
       bundles=()
       for name in "${NAMES[@]}"; do bundles+=(--bundle "$BUNDLE_DIR/$name.pt"); done

@@ -35,8 +35,9 @@ ADAPTIVE = ("dasr", "ntasad")
 
 
 #: What to do with a checkpoint whose config is of an older schema than this version builds.
-RESAVE = ("save it again on today's config schema: python -m mcd.bundle RUN_DIR --name NAME from a run of "
-          "this version, or check out the commit it records (docs/denoise.md, 'Bundled checkpoints')")
+RESAVE = ("save it again on today's config schema: python -m mcd.bundle RUN_DIR --name NAME "
+          "[--replace] from a run of this version, or check out the commit it records (docs/denoise.md, "
+          "'Bundled checkpoints')")
 
 
 def _key_paths(tree: Any, prefix: str) -> set[str]:

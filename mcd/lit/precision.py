@@ -4,7 +4,10 @@
 - CUDA: ``bf16-mixed`` where the GPU supports bf16, else ``32-true``.
 - CPU: ``bf16-mixed`` only where the CPU computes bf16 natively (``avx512_bf16`` or ``amx_bf16``) *and*
   :data:`CPU_BF16_PAYS` says the benchmark found it faster; else ``32-true``.
-Any other value of ``trainer.precision`` is Lightning's and passes through unchanged. The choice is logged.
+Any other value of ``trainer.precision`` is Lightning's and passes through unchanged, with two exceptions
+checked before any work: ``16-mixed`` on the CPU, where Lightning trains in ``bf16-mixed`` instead, resolves
+to ``bf16-mixed`` (so the run's record says what ran), and a value Lightning does not know, or a 64-bit one
+(the data are float32, so the first step fails), is refused naming the key. The choice is logged.
 """
 
 from __future__ import annotations
@@ -43,8 +46,25 @@ def on_cpu(accelerator: str) -> bool:
     return accelerator == "cpu" or (accelerator == "auto" and not torch.cuda.is_available())
 
 
+#: The values of ``trainer.precision`` a run may have (``auto`` and Lightning's, less the 64-bit ones).
+CHOICES = ("auto", "32-true", "32", "bf16-mixed", "16-mixed", "bf16-true", "16-true", "bf16", "16")
+
+
+def check(precision: str) -> None:
+    """ValueError naming the key for a ``trainer.precision`` outside :data:`CHOICES`."""
+    if precision not in CHOICES:
+        raise ValueError(f"trainer.precision={precision}: give one of {', '.join(CHOICES)} (64-bit training "
+                         "is not supported: the data are float32)")
+
+
 def resolve(precision: str, accelerator: str) -> str:
-    """Lightning's precision for ``trainer.precision`` (``auto`` resolved as the module docstring says)."""
+    """Lightning's precision for ``trainer.precision`` (``auto`` resolved as the module docstring says);
+    ValueError naming the key for a value outside :data:`CHOICES` (:func:`check`)."""
+    check(precision)
+    if precision in ("16-mixed", "16") and on_cpu(accelerator):
+        log.info("trainer.precision=%s -> bf16-mixed (fp16 autocast is a GPU's; Lightning trains in "
+                 "bf16-mixed on the CPU)", precision)
+        return "bf16-mixed"
     if precision != "auto":
         return precision
     if not on_cpu(accelerator):

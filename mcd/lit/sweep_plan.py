@@ -7,6 +7,7 @@ three additions, all read from the root config's ``sweep_plan`` block:
 
 - ``seeds_only_where``: a job of a seed other than the config's ``seed`` runs only where each listed key has
   one of the listed values (the scaling study: seeds 1 and 2 only at 3000 steps on ``small`` and ``medium``);
+  the plan says how many jobs of the grid it leaves out;
 - before any job starts, the plan: every job's CPU-hours of training, ``train.max_steps`` x the seconds of
   one optimiser step measured here (:func:`mcd.lit.workload.train_step`: CPU seconds of one thread at batch 1,
   times ``train.batch_size``, the rule of ``python -m mcd.plan``), per cell and in all; rendering the stores
@@ -106,6 +107,11 @@ class PlannedSweeper(BasicSweeper):
         only = OmegaConf.to_container(only) if only is not None else None
         grid = [list(j) for batch in BasicSweeper.split_arguments(overrides, None) for j in batch]
         jobs = [j for j in grid if keep(job_values(j), base, only)]  # type: ignore[arg-type]
+        if len(jobs) < len(grid):  # named, so that seeds typed on the command line do not vanish unsaid
+            log.info("sweep_plan.seeds_only_where=%s leaves out %d of the grid's %d jobs (seeds other than "
+                     "seed=%d outside those cells; sweep_plan.seeds_only_where=null runs them)",
+                     OmegaConf.to_container(settings.get("seeds_only_where")), len(grid) - len(jobs),
+                     len(grid), base)
         loader, config = self.hydra_context.config_loader, self.config
 
         def job_config(job: list[str]) -> DictConfig:

@@ -104,16 +104,22 @@ class Grid:
 
 def read(runs: list[Run]) -> Grid:
     """Every finished run at 4 spp at its scale point (module docstring). Of two runs of one cell and seed
-    (runs of one job that differ in other overrides) the first by path is kept, the other left out."""
-    rows, left_out, seen = [], [], {}
+    (runs of one job that differ in other overrides) the first by path is kept, the other left out; so is a
+    run without a PSNR, and one whose data settings or capacity profile differ from its data profile's first
+    run's (it would be averaged and compared with another recipe's runs)."""
+    rows, left_out, seen, firsts = [], [], {}, {}
     for r in sorted((r for r in runs if r.status == "ok"), key=lambda r: str(r.path)):
         steps = steps_of(r)
         why = ("a transfer job" if r.transfer is not None else
                f"{r.budget:g} spp, the study is at {TABLE1_BUDGET:g}" if r.budget != TABLE1_BUDGET else
-               "no step budget recorded (train.max_steps, train_steps)" if steps is None else None)
+               "no step budget recorded (train.max_steps, train_steps)" if steps is None else
+               "no PSNR (metrics.json `psnr` is null: a NaN score), so its seed would count without a value"
+               if math.isnan(metric(r, "psnr")) else None)
         key = (r.data_profile, steps, r.experiment, r.seed or 0)
         if why is None and key in seen:
             why = f"the same data, steps, experiment and seed as {seen[key]}; the first by path is kept"
+        if why is None:  # a profile's runs are one recipe: the data and capacity of its first run
+            why = _other_recipe(r, firsts.setdefault(r.data_profile, r))
         if why is not None:
             left_out.append(f"`{r.path}`: {why}")
             continue
@@ -127,6 +133,19 @@ def read(runs: list[Run]) -> Grid:
     columns = ["data", "train_scenes", "steps", "experiment", "method", "seed", *SCORES, "ssim",
                "train_steps", "stop_reason", "path"]
     return Grid(pd.DataFrame(rows, columns=columns), left_out)
+
+
+def _other_recipe(run: Run, first: Run) -> str | None:
+    """Why ``run`` does not belong beside ``first``, the first run of its data profile: another capacity
+    profile, or other data settings (``metrics.json`` ``data_settings``: frame size, samples, scenes, ...;
+    compared where both records have them); None when it belongs."""
+    keys = [k for k in ("data_settings", "capacity_profile")
+            if run.metrics.get(k) is not None and first.metrics.get(k) is not None
+            and run.metrics[k] != first.metrics[k]]
+    return (None if not keys else
+            f"other {' and '.join(keys)} (metrics.json) than `{first.path}`, the first run of data profile "
+            f"{first.data_profile}: the seeds, steps and methods compared on one profile must share its data "
+            "and capacity")
 
 
 def _se(values: pd.Series) -> float:
