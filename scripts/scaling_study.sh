@@ -2,7 +2,8 @@
 # The scaling study's legs (docs/benchmark.md "Scaling study"; the plan and the legs kept or dropped, with their
 # CPU-hours, in notes/scaling_plan.md), in priority order, each one Hydra multirun of `+sweep=scaling` with JOBS
 # jobs at a time, one thread each:
-#   1. F and NTASAD at 1000 steps on tiny and small (the first points of both curves);
+#   1. F and NTASAD at 1000 steps on tiny and small (the first points of both curves), the diagnostics' seed 0
+#      (below) while `small` still renders;
 #   2. the diagnostics of the F - NTASAD gap at tiny x 1000 steps, seeds 0-2: NTASAD without its warp, without
 #      its previous output, and F whose F_d reads the warped previous output (docs/method.md); and F with a
 #      per-pixel identity channel (F_pixel_switch), there and at 1000 and 3000 steps on small;
@@ -38,11 +39,12 @@ wait_render() {  # a profile's store is complete once its render command has fin
 
 if [ -n "${WAIT_PID:-}" ]; then while kill -0 "$WAIT_PID" 2>/dev/null; do sleep 30; done; fi
 GAP='sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[1000]}'  # seeds 0-2 at the diagnostics' point
+DIAGNOSTICS=+experiment=F,ntasad,ntasad_no_warp,ntasad_no_previous,F_warp_previous,F_pixel_switch
 leg data=tiny train.max_steps=1000 +experiment=F,ntasad seed=0
+leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0  # while `small` renders
 wait_render small
 leg data=small train.max_steps=1000 +experiment=F,ntasad seed=0
-leg data=tiny train.max_steps=1000 \
-  +experiment=F,ntasad,ntasad_no_warp,ntasad_no_previous,F_warp_previous,F_pixel_switch seed=0,1,2 "$GAP"
+leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0,1,2 "$GAP"
 leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
