@@ -158,7 +158,7 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     if args.inputs:
         raise ValueError("give either EXR frames or --scene, not both")
     from mcd.data.buffers import uniform_buffer
-    from mcd.data.scenes import path_scene_name
+    from mcd.data.scenes import SceneSpec, path_scene_name
     from mcd.denoise.scene import denoise_scene, report_lines
 
     name = path_scene_name(args.scene)
@@ -176,6 +176,9 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
 
     if args.width is not None and args.height is not None:
         check_work(args.width, args.height)          # before the scene is loaded, where the size is given
+    # a missing or unreadable scene file is named before -o is claimed (its first denoise.json was left)
+    SceneSpec(name, "xml", file=Path(args.scene).resolve(),
+              missing_hint="check the path given to --scene").check_readable()
     outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
     output_folder.check_unrecorded(args.output, SUMMARY, outputs)
