@@ -340,7 +340,11 @@ def make_report(
                              "and a scaling report has no Table 1; give the scaling report another --name")
     check_out(out_root, out_dir, [*(r.path for r in runs), *(s.path.resolve() for s in sweeps),
                                   *(d.resolve() for d in dirs)], scaling)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # a read-only or full disk: named, nothing written (it was a traceback)
+        raise ReportOutError(f"--out {out_root}: cannot make the report folder {out_dir} ({err.strerror}); "
+                             "give a writable --out") from err
     with exclusive_folder(out_dir) as held:
         if not held:
             raise ReportOutError(f"{out_dir}: another mcd.report is writing this report now; wait for it to "

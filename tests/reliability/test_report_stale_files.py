@@ -76,3 +76,28 @@ def test_a_second_report_into_a_folder_being_written_is_refused(one_run, tmp_pat
             main([str(one_run), "--out", str(out), "--name", "x", "--bench", str(tmp_path / "none"),
                   "--no-viewer"])
     assert list((out / "x").iterdir()) == []
+
+
+@pytest.mark.slow
+def test_a_read_only_out_is_one_error_line(one_run, tmp_path):
+    """``--out`` on a read-only mount: one ``error:`` line naming it (an OSError traceback before)."""
+    import os
+    import shlex
+    import subprocess
+    import sys
+
+    from tests.test_run import REPO
+
+    if subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode != 0:
+        pytest.skip("no unprivileged mount namespace here (unshare -rm) to make a read-only mount")
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    q = shlex.quote(str(ro))
+    argv = [sys.executable, "-m", "mcd.report", str(one_run), "--out", str(ro / "reports"), "--no-viewer",
+            "--bench", str(tmp_path / "none")]
+    script = f"mount --bind {q} {q} && mount -o remount,ro,bind {q} && exec {shlex.join(argv)}"
+    proc = subprocess.run(["unshare", "-rm", "sh", "-c", script], capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"})
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    assert f"error: --out {ro / 'reports'}: cannot make the report folder" in proc.stderr
+    assert "Traceback" not in proc.stderr and list(ro.iterdir()) == []
