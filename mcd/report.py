@@ -36,6 +36,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mcd.core.file_lock import exclusive_folder
 from mcd.core.paths import UnsafeNameError, check_folder_name
 
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
@@ -207,6 +208,49 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
                              f"{why} and the default name is the runs' data profile (or give --name)")
 
 
+#: What only a standard report writes at the top of its folder, and what only a scaling report writes
+#: (docs/benchmark.md "Reports"); ``runs/``, ``viewer/``, ``findings.json`` and ``README.md`` are both kinds'.
+#: A report removes the other kind's files, and its own optional ones it did not write this time
+#: (:func:`remove_stale`): an earlier report's ``table1.csv`` left beside a scaling report became README.md's
+#: results of the current report.
+STANDARD_FILES = ("table1.md", "table1.csv", "components.md", "components.csv", "transfer.md",
+                  "transfer.csv", "seeds.md", "seeds.csv", "seeds_differences.csv", "spp.png", "spp.csv",
+                  "speed_vs_error.png", "speed_vs_error.csv", "speed_bench.csv", "curves.csv", "curves.png",
+                  "per_frame", "strips")
+SCALING_FILES = ("scaling.png", "scaling_cells.csv", "scaling_cells.md", "scaling_gaps.csv",
+                 "scaling_gaps.md", "scaling_fits.csv", "scaling_fits.md", "scaling_crossings.csv",
+                 "scaling_jobs.csv")
+#: The first line of the ``notes.md`` that a scaling report writes (:mod:`mcd.reporting.scaling.notes`); a
+#: ``notes.md`` that does not start with it is the user's own, which a report never writes or removes.
+GENERATED_NOTES = "# Scaling study: generated notes"
+
+
+def remove_stale(out_dir: Path, written: list[Path], scaling: bool) -> list[str]:
+    """Remove from ``out_dir`` what an earlier report wrote there and this one did not: the other kind's
+    files (:data:`STANDARD_FILES`, :data:`SCALING_FILES`, a generated ``notes.md``) and this kind's optional
+    ones absent from ``written``; a standard report keeps ``strips/`` (kept as measured where the runs saved
+    no samples, like the viewer). Returns the names removed. Nothing else of the folder is touched."""
+    import shutil
+
+    kept = {p.relative_to(out_dir).parts[0] for p in written}
+    ours, theirs = (SCALING_FILES, STANDARD_FILES) if scaling else (STANDARD_FILES, SCALING_FILES)
+    stale = list(theirs)
+    stale += [n for n in ours if n not in kept and not (n == "strips" and not scaling)]
+    if not scaling and _written_by_report(out_dir / "notes.md", GENERATED_NOTES):
+        stale.append("notes.md")
+    removed = []
+    for name in stale:
+        path = out_dir / name
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        elif path.exists() or path.is_symlink():
+            path.unlink()
+        else:
+            continue
+        removed.append(name)
+    return removed
+
+
 class ReportOutError(ValueError):
     """``--out`` would overwrite a file that ``mcd.report`` did not write, or put the report inside a run or
     sweep directory it reads (``mcd.report``: one line, nothing written)."""
@@ -220,13 +264,16 @@ def _written_by_report(path: Path, first_line: str) -> bool:
         return f.readline().startswith(first_line)
 
 
-def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | None = None) -> None:
+def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | None = None,
+              scaling: bool = False) -> None:
     """ReportOutError, before anything is written, where ``<out>/README.md`` exists and is not a reports index
     (:func:`mcd.reporting.index.write_index` replaced a user's own README.md with the index), where
     ``out_dir/README.md`` exists and is not a report's, or where ``out_dir`` is one of the folders of runs
     ``reads`` (run, sweep and given directories), lies inside one, or holds one other than below its own
     ``runs/`` (the report's files joined a finished run's, and its ``runs/`` copies then made every later
-    report of the sweep refuse their clash). A report regenerated from its own ``runs/`` passes."""
+    report of the sweep refuse their clash). A report regenerated from its own ``runs/`` passes. A scaling
+    report (``scaling``) is refused where ``out_dir/notes.md`` is the user's own (:data:`GENERATED_NOTES`):
+    it writes its generated notes there."""
     from mcd.reporting import records
     from mcd.reporting.index import INDEX
 
@@ -241,6 +288,11 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
                                  f"{what} would replace it; give another --out (or --name)")
     if out_dir is None:
         return
+    notes = out_dir / "notes.md"
+    if scaling and notes.exists() and not _written_by_report(notes, GENERATED_NOTES):
+        raise ReportOutError(f"{notes}: hand-written notes (its first line is not {GENERATED_NOTES!r}), "
+                             "and a scaling report writes its generated notes.md there; give another --name "
+                             "(or move the notes)")
     where = out_dir.resolve()
     for read in reads or []:
         inside = where in read.parents and (where / records.RECORDS_DIR) not in (read, *read.parents)
@@ -258,14 +310,16 @@ def make_report(
     command: str | None = None,
     with_viewer: bool = True,
     kind: str = "auto",
+    current: str | None = None,
 ) -> Path:
     """Write the whole report for the runs under `dirs`; returns the report directory. ``with_viewer=False``
     writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``). ``kind``: ``scaling``
     writes the scaling study's report (``mcd.reporting.scaling``), ``standard`` the report above, ``auto``
     the scaling report where a run is a job of the scaling sweep (``mcd.reporting.scaling.grid.is_scaling``).
+    ``current``: the current report's name, whose Table 1 README.md's results show; a scaling report, which
+    has none, is refused under it before anything is written.
     """
-    from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
-    from mcd.reporting.provenance import Provenance
+    from mcd.reporting import records
     from mcd.reporting.runs import NoRunsError, find_runs, find_sweeps
     from mcd.reporting.scaling.grid import is_scaling
 
@@ -281,9 +335,31 @@ def make_report(
     scaling = kind == "scaling" or (kind == "auto" and is_scaling(runs))
     name = report_name(runs, name, scaling)
     out_dir = out_root / name
+    if scaling and name == current:
+        raise ReportOutError(f"--name {name} is the current report, whose Table 1 README.md's results show, "
+                             "and a scaling report has no Table 1; give the scaling report another --name")
     check_out(out_root, out_dir, [*(r.path for r in runs), *(s.path.resolve() for s in sweeps),
-                                  *(d.resolve() for d in dirs)])
-    out_dir.mkdir(parents=True, exist_ok=True)
+                                  *(d.resolve() for d in dirs)], scaling)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # a read-only or full disk: named, nothing written (it was a traceback)
+        raise ReportOutError(f"--out {out_root}: cannot make the report folder {out_dir} ({err.strerror}); "
+                             "give a writable --out") from err
+    with exclusive_folder(out_dir) as held:
+        if not held:
+            raise ReportOutError(f"{out_dir}: another mcd.report is writing this report now; wait for it to "
+                                 "finish, or give another --name")
+        _write(runs, sweeps, out_dir, name, bench, notes, command, with_viewer, scaling, started)
+    return out_dir
+
+
+def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench: Path | None,
+           notes: list[str] | None, command: str | None, with_viewer: bool, scaling: bool,
+           started: float) -> None:
+    """:func:`make_report`'s writing, with ``out_dir`` locked: every file, then :func:`remove_stale`."""
+    from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
+    from mcd.reporting.provenance import Provenance
+
     root = Path.cwd().resolve()
     prov = Provenance.gather(sweeps, runs, command)
     if scaling:
@@ -293,7 +369,8 @@ def make_report(
                              _regenerate_command(out_dir, name, root) + " --kind scaling", notes or [],
                              started, with_viewer)
         records.keep(runs, sweeps, out_dir)
-        return out_dir
+        remove_stale(out_dir, [out_dir / n for n in SCALING_FILES if (out_dir / n).exists()], scaling=True)
+        return
 
     results = tables.write_all(runs, out_dir, root)
     results.update(seeds.write(runs, out_dir))
@@ -331,7 +408,7 @@ def make_report(
         found,
         viewer_page,
     )
-    return out_dir
+    remove_stale(out_dir, files, scaling=False)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -407,7 +484,7 @@ def main(argv: list[str] | None = None) -> None:
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     try:
         out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
-                              not args.no_viewer, args.kind)
+                              not args.no_viewer, args.kind, current)
     except (UnsafeNameError, NoRunsError, ReportOutError) as err:  # a name leaving the output root, an --out
         # over files it did not write, or nothing to report on:
         sys.exit(f"error: {err}")  # one line, and nothing was written

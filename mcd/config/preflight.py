@@ -20,7 +20,7 @@ from omegaconf import DictConfig
 
 from mcd.core.config_rules import check_config, checked
 from mcd.core.metrics import SSIM_WINDOW
-from mcd.data.splits import check_crops, clip_stride
+from mcd.data.splits import check_crops, clip_stride, split_of
 
 
 def check_budget(cfg: DictConfig) -> float:
@@ -60,6 +60,18 @@ def check_clip_stride(cfg: DictConfig) -> None:
     """ValueError naming the key unless ``data.train_clip_stride`` is null or 1 to ``data.clip_len``
     (:func:`mcd.data.splits.clip_stride`)."""
     clip_stride(int(cfg.data.clip_len), cfg.data.get("train_clip_stride"))
+
+
+def check_split(cfg: DictConfig) -> None:
+    """ValueError (:func:`mcd.data.splits.split_frames`: the frames left after the test frames and what to
+    raise or lower) unless a sequence of the profile (``data.segments`` x ``data.frames_per_segment``)
+    holds the test frames, ``data.val_clips`` validation clips and one training clip, where the run has
+    training or test scenes: the datamodule splits each of them so, after every scene was rendered (with
+    ``data=medium`` and 12-frame sequences, all four of its scenes rendered before the error)."""
+    d = cfg.data
+    if not (list(d.get("train_scenes") or []) or list(d.get("test_scenes") or [])):
+        return
+    split_of(int(d.segments) * int(d.frames_per_segment), d)
 
 
 def check_augment(cfg: DictConfig, buffers: Iterable[str] | None = None) -> None:
@@ -147,5 +159,6 @@ def check_run(cfg: DictConfig) -> None:
     check_image_size(cfg)
     check_crops(cfg)
     check_clip_stride(cfg)
+    check_split(cfg)
     check_augment(cfg)
     check_warmup(cfg)

@@ -76,6 +76,11 @@ def check_name(name: str, key: str) -> str:
     return check_folder_name(name, key, "the store writes <paths.data_dir>/<data.name>/<scene>/")
 
 
+class StoreReplacedError(RuntimeError):
+    """A store's scene was rendered again with other settings while a process read it (the message names
+    the settings that changed and the fix)."""
+
+
 def manifest_problem(man: object) -> str | None:
     """What makes ``man`` (a parsed ``manifest.json``) unusable, or None: the schema the store reads, checked
     on read so that damage is named with its fix instead of failing later (docs/data.md, "The store"):
@@ -248,6 +253,27 @@ class StoreReader:
         return [Camera.from_dict(c) for c in self.manifest(scene)["cameras"]]
 
     # --------------------------------------------------------------------------------------------- reading
+    def _check_not_replaced(self, scene: str, man: dict, path: Path) -> None:
+        """StoreReplacedError where ``scene``'s manifest on disk records other settings than ``man``, the one
+        this process read: another command rendered the store again with other ``data.*`` settings under the
+        same ``data.name`` while this one used it (a run then failed at its test, after training, on
+        "truncated or corrupt EXR" with a render command that would have re-rendered it back)."""
+        try:
+            now = json.loads(self.manifest_path(scene).read_text())
+        except (OSError, ValueError):
+            return
+        was = man.get("settings") or {}
+        new = now.get("settings") if isinstance(now, dict) else None
+        if not isinstance(new, dict) or new == was:
+            return
+        changed = ", ".join(f"{k} {was.get(k)} -> {new.get(k)}" for k in sorted({*was, *new})
+                            if was.get(k) != new.get(k))
+        raise StoreReplacedError(
+            f"{path}: the store {self.root} was rendered again with other settings ({changed}) while this "
+            "process read it: another mcd.render or mcd.run used the same data.name with other data.* "
+            "settings. Give each setting its own data.name, then run this again (an interrupted run resumes "
+            "with ckpt_path=auto)")
+
     def load(self, scene: str, frame: int, buffer: str, verify: bool | None = None) -> np.ndarray:
         """One stored buffer as float32 ``(H, W, C)``: checked, sanitised, exposure / depth normalised.
 
@@ -266,6 +292,7 @@ class StoreReader:
             )
         size = p.stat().st_size
         if size != rec["bytes"]:
+            self._check_not_replaced(scene, man, p)
             raise CorruptEXRError(p, f"{size} bytes, the manifest says {rec['bytes']}",
                                   self.fix_command(buffer))
         seen = (str(p), size, p.stat().st_mtime_ns)
@@ -274,6 +301,7 @@ class StoreReader:
             verify = self.verify_mode == "always" or once
         if verify:
             if sha256(p) != rec["sha256"]:
+                self._check_not_replaced(scene, man, p)
                 raise CorruptEXRError(p, "checksum differs from the manifest", self.fix_command(buffer))
             self._verified.add(seen)
         img = read_exr(p, self.fix_command(buffer))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import logging
 import sys
 from pathlib import Path
@@ -143,6 +144,15 @@ def _run(args: argparse.Namespace, folder_lock: contextlib.ExitStack) -> dict:
     except (ValueError, FileNotFoundError, RuntimeError, ImportError) as err:  # ImportError: a missing extra
         print(f"mcd-denoise: error: {err}", file=sys.stderr)
         raise SystemExit(2) from err
+    except OSError as err:
+        if err.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        # a disk that filled during the work: each output is written whole or not at all (atomic), and
+        # denoise.json lists the frames finished with their checksums, so the same command resumes
+        print(f"mcd-denoise: error: {err.filename or args.output}: {err.strerror}; the frames finished "
+              f"before are kept in -o {args.output} (denoise.json); free space there (or give another -o) "
+              "and run the same command again: it resumes", file=sys.stderr)
+        raise SystemExit(1) from err
     report.update(meta)
     record = report.pop("record", None)
     if record is not None:
@@ -158,7 +168,7 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     if args.inputs:
         raise ValueError("give either EXR frames or --scene, not both")
     from mcd.data.buffers import uniform_buffer
-    from mcd.data.scenes import path_scene_name
+    from mcd.data.scenes import SceneSpec, path_scene_name
     from mcd.denoise.scene import denoise_scene, report_lines
 
     name = path_scene_name(args.scene)
@@ -176,6 +186,9 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
 
     if args.width is not None and args.height is not None:
         check_work(args.width, args.height)          # before the scene is loaded, where the size is given
+    # a missing or unreadable scene file is named before -o is claimed (its first denoise.json was left)
+    SceneSpec(name, "xml", file=Path(args.scene).resolve(),
+              missing_hint="check the path given to --scene").check_readable()
     outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
     output_folder.check_unrecorded(args.output, SUMMARY, outputs)
@@ -211,6 +224,8 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     work.check(h * w * len(paths), work.MAX_PIXELS, f"{len(paths)} frames of {w}x{h}: pixels to denoise",
                args.allow_large)
     output_folder.check_writable(args.output)
+    main_files = [n for p in paths for n in frame_files(p.stem)[:2]]  # every method writes these two
+    output_folder.check_space(args.output, [n for n in main_files if not (args.output / n).is_file()], h * w)
     folder_lock.enter_context(output_folder.hold(args.output))
     size = check_frames(paths, wanted_layers(loaded))
     if refs:

@@ -225,6 +225,11 @@ def check_frames(paths: list[Path], want: set[str]) -> tuple[int, int]:
         _layout(p, want, size)
     for p in paths:
         read_frame(p, want, size)
+    alpha = [p for p in paths if any(n == "A" or n.endswith(".A") for n in read_header(p)[1])]
+    if alpha:  # the outputs are RGB: a user compositing with the input's alpha must know it is not carried
+        log.warning("%s%s: an alpha channel (A), which is not denoised and not written to the outputs (they "
+                    "hold R, G, B); copy it over from the input where you composite", alpha[0],
+                    f" and {len(alpha) - 1} more frame(s)" if len(alpha) > 1 else "")
     return size
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -108,3 +109,26 @@ def claim(out: Path, record: str) -> None:
     first output: the folder is then known as ``mcd-denoise``'s (:func:`check_unrecorded`)."""
     if not (out / record).exists():
         atomic_write_json(out / record, {"complete": False})
+
+
+#: Bytes one output file of a frame of one pixel takes at most (a float32 RGB EXR without compression), and
+#: what each file takes beside its pixels (headers, the PNG's own, a margin).
+BYTES_PER_PIXEL = 12
+BYTES_PER_FILE = 65536
+
+
+def check_space(out: Path, outputs: list[str], pixels: int) -> None:
+    """OutputFolderError, before any work, where the disk of ``out`` has less free space than ``outputs``
+    (files that every method writes and that are still to write, each of a frame of ``pixels``) take at
+    most: a disk that filled half-way stopped the run on an OSError traceback after the frames before. A
+    method's extra outputs (F's maps) are not counted, so a run that may fit is never refused; a disk that
+    fills all the same ends in one error line (``mcd.denoise.cli``), and a rerun resumes."""
+    if not outputs:
+        return
+    need = len(outputs) * (pixels * BYTES_PER_PIXEL + BYTES_PER_FILE)
+    where = next(p for p in (out, *out.parents) if p.exists())
+    free = shutil.disk_usage(where).free
+    if free < need:
+        raise OutputFolderError(f"-o {out}: the {len(outputs)} output file(s) still to write need up to "
+                                f"{need / 1e6:.1f} MB and its disk ({where}) has {free / 1e6:.1f} MB free; "
+                                "free space there, or give an -o on a disk with room")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import lightning as L
 import torch
-from lightning.pytorch.callbacks import Callback, EarlyStopping, ModelCheckpoint
+from lightning.pytorch.callbacks import Callback, EarlyStopping, ModelCheckpoint, Timer
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.core.config_rules import checked
@@ -115,9 +115,14 @@ def callbacks(train: DictConfig) -> list[Callback]:
 
 
 def stop_reason(trainer: L.Trainer, train: DictConfig, seconds: float) -> str:
-    """Why training ended: ``plateau``, ``max_steps``, ``max_minutes``, ``epochs`` (or ``interrupted``)."""
+    """Why training ended: ``plateau``, ``max_steps``, ``max_minutes``, ``epochs`` (or ``interrupted``).
+    ``seconds`` is this process's time; the time budget is Lightning's ``Timer``'s, which a resumed run
+    restores from its checkpoint, so a run resumed and then stopped by its budget says ``max_minutes`` (it
+    said ``interrupted``: this process alone had not used the budget)."""
     if any(isinstance(c, EarlyStopping) and c.stopped_epoch > 0 for c in trainer.callbacks):
         return "plateau"
+    timers = [c.time_elapsed("train") for c in trainer.callbacks if isinstance(c, Timer)]
+    seconds = max([seconds, *timers])
     steps, minutes = _limit(train, "max_steps"), _limit(train, "max_minutes")
     if steps is not None and trainer.global_step >= steps:
         return "max_steps"

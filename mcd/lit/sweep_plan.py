@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import Override
 from omegaconf import DictConfig, OmegaConf
 
@@ -95,6 +96,19 @@ def measured_step_seconds(cfg: DictConfig) -> float:
 
 class PlannedSweeper(BasicSweeper):
     """Hydra's basic sweeper with the job rule, the printed plan and its limit (module docstring)."""
+
+    def sweep(self, arguments: list[str]) -> Any:
+        """Hydra's sweep; a dry run (``sweep_plan.dry_run=true``) prints the plan and writes nothing: Hydra's
+        sweep saves ``<sweep dir>/multirun.yaml`` first, which replaced a finished sweep's record with the
+        command of a sweep that ran no job."""
+        assert self.config is not None and self.hydra_context is not None
+        if not (self.config.get("sweep_plan") or {}).get("dry_run", False):
+            return super().sweep(arguments)
+        params = [*self._parse_config(), *arguments]
+        parser = OverridesParser.create(config_loader=self.hydra_context.config_loader)
+        overrides = parser.parse_overrides(params)
+        self.split_arguments(overrides, self.max_batch_size)
+        return []
 
     def split_arguments(self, overrides: list[Override],  # type: ignore[override]
                         max_batch_size: int | None) -> list[list[list[str]]]:
