@@ -95,6 +95,23 @@ def depth_scale(depth0: np.ndarray) -> float:
     return float(np.median(pos)) if pos.size else 1.0
 
 
+def scale(img: np.ndarray, factor: float) -> np.ndarray:
+    """``img`` (float32) times ``factor``, as float32: in place where ``factor`` is a normal float32, else via
+    float64 into a new array. Values beyond float32's range become Inf, for the caller to sanitise or clamp.
+
+    The exposure of frames near float32's largest values is about 1e-39, below float32's smallest normal
+    number: a process that flushes denormals to zero (``torch.set_flush_denormal``, which CPU training sets,
+    :func:`mcd.lit.budget.trainer_kwargs`) reads that float32 as 0, and the frame would reach the network
+    black and come back NaN (docs/denoise.md, "Frames from disk"). In float64 it is a normal number.
+    """
+    info = np.finfo(np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if factor == 0 or info.tiny <= abs(factor) <= info.max:
+            img *= np.float32(factor)
+            return img
+        return (img.astype(np.float64) * factor).astype(np.float32)
+
+
 def normalise(img: np.ndarray, buffer: str, exposure: float, depth_scale: float,
               colour: bool) -> tuple[np.ndarray, int]:
     """``img`` scaled as a network expects (colour x ``exposure``, ``depth`` / ``depth_scale``), then
@@ -104,8 +121,7 @@ def normalise(img: np.ndarray, buffer: str, exposure: float, depth_scale: float,
     """
     img = np.array(img, dtype=np.float32)
     if colour:
-        with np.errstate(over="ignore", invalid="ignore"):
-            img *= np.float32(exposure)
+        img = scale(img, exposure)
     elif buffer == "depth":
         with np.errstate(over="ignore", invalid="ignore"):
             img /= np.float32(depth_scale)

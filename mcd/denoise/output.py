@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mcd.core.atomic_write import atomic_write, atomic_write_json
+from mcd.data.exposure import scale
 from mcd.data.exr import write_exr
 
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
@@ -49,11 +50,10 @@ def write_json(path: Path, content: dict[str, Any]) -> None:
 
 
 def unexposed(img: np.ndarray, exposure: float) -> np.ndarray:
-    """``img`` in the input's own units (divided by ``exposure``), held within float32's finite range: a frame
-    near float32's largest values has a tiny exposure, and dividing by it must not write an Inf."""
-    with np.errstate(over="ignore"):
-        out = img / np.float32(exposure)
-    return np.minimum(out, np.finfo(np.float32).max)
+    """``img`` in the input's own units (divided by ``exposure``; ``img`` itself unchanged), held within
+    float32's finite range: a frame near float32's largest values has a tiny exposure (a float32 subnormal,
+    :func:`mcd.data.exposure.scale`), and dividing by it must not write an Inf."""
+    return np.minimum(scale(img.copy(), 1.0 / exposure), np.finfo(np.float32).max)
 
 
 def write_frame(out_dir: Path, stem: str, out: dict[str, Tensor], exposure: float) -> list[Path]:

@@ -22,6 +22,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from mcd.data.exposure import scale
 from mcd.data.exr import read_exr
 from mcd.denoise.frame_scores import Scorer
 from mcd.denoise.frames import LAYERS, FrameError, FrameSequence
@@ -115,7 +116,7 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
                 out = tiled(inputs(i))
             if scorer is not None:
                 denoised = (hwc(out["output"]) if not finished or stateful
-                            else read_exr(out_dir / f"{stem}.exr") * np.float32(seq.exposure))
+                            else scale(read_exr(out_dir / f"{stem}.exr"), seq.exposure))
                 scorer.score(i, stem, hwc(frame(i)[key]), denoised)
             if finished:
                 resumed.append(stem)

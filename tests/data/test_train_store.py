@@ -83,7 +83,7 @@ def test_the_datamodule_reads_the_same_clips_from_either_store(cbox_store, tmp_p
     cfg_exr, store = cbox_store
     cfg = _array_cfg(store.data_dir, tmp_path / "ts", "data.num_workers=2")
     buffers = ["c1_in", "c4", "normal"]
-    with pytest.raises(TrainStoreError, match=r"no training store.*pack it first: python -m mcd\.data\.pack"):
+    with pytest.raises(TrainStoreError, match=r"no training store.*pack it first: python -m mcd\.pack"):
         MCDDataModule(cfg, store, buffers)
     pack(cfg, store, BUFFERS)  # a superset of what the datamodule reads
     dm_exr, dm = MCDDataModule(cfg_exr, store, buffers), MCDDataModule(cfg, store, buffers)
@@ -181,7 +181,7 @@ def test_a_re_rendered_exr_file_makes_its_frame_stale(cbox_store, tmp_path):
     man_path.write_text(json.dumps(man))
     reader = StoreReader.from_cfg(cfg)
     with pytest.raises(TrainStoreError, match=r"0 frame\(s\) not packed .* and 1 packed from EXR files "
-                                              r"re-rendered since \(e\.g\. \[7\]\).*mcd\.data\.pack"):
+                                              r"re-rendered since \(e\.g\. \[7\]\).*python -m mcd\.pack "):
         MCDDataModule(cfg, reader, ["c1_in"]).setup()
     assert pack(cfg, reader, ["c1_in", "ref"]) | {"seconds": 0} == {
         "root": str(tmp_path / "ts"), "packed": 1, "reused": 9, "clamped": 0, "seconds": 0}

@@ -137,8 +137,12 @@ def test_register_loss_makes_a_loss_buildable_by_name():
         losses.LOSSES.unregister("test_only_l1")
 
 
-def test_an_old_config_naming_its_module_still_builds():
-    """Run configs written before mcd/losses/ carry ``loss.module`` (a Python module path): ignored."""
-    loss = losses.build_loss(OmegaConf.create({"loss": {"name": "mse", "module": "mcd.lit.baseline_losses",
-                                                        "space": "log1p"}}))
-    assert type(loss).__name__ == "MSELoss"
+def test_an_old_config_naming_its_module_is_refused_naming_the_key_and_the_loss_file():
+    """Run configs written before mcd/losses/ carry ``loss.module`` (a Python module path): no longer dropped,
+    refused before any work with the settings and the loss's YAML; without it the same loss builds."""
+    old = {"loss": {"name": "mse", "module": "mcd.lit.baseline_losses", "space": "log1p"}}
+    with pytest.raises(ValueError, match=r"loss 'mse': its settings \['module', 'space'\] do not fit .*"
+                                         r"unexpected keyword argument 'module'.*see conf/loss/mse\.yaml"):
+        losses.build_loss(OmegaConf.create(old))
+    del old["loss"]["module"]
+    assert type(losses.build_loss(OmegaConf.create(old))).__name__ == "MSELoss"

@@ -27,7 +27,10 @@ def row_cfg(row: str, profile: str = "cpu", budget: float = 4):
 
 
 def switch_cfg(bits: str, profile: str = "cpu", budget: float = 4):
-    method = {"name": "two_stage", **{s: b == "1" for s, b in zip(SWITCHES, bits, strict=True)}}
+    """The run config of any switches ``bits`` (``UN AS KP PP FG SA``), possible or not: every other key of
+    conf/method/two_stage.yaml (the factory's knobs have no defaults of their own), + the profile."""
+    switches = {s: b == "1" for s, b in zip(SWITCHES, bits, strict=True)}
+    method = OmegaConf.merge(OmegaConf.load(CONF / "method" / "two_stage.yaml"), switches)
     model = OmegaConf.load(CONF / "capacity" / f"{profile}.yaml")
     return OmegaConf.create({"method": method, "budget": budget, "capacity": model})
 

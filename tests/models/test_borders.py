@@ -1,7 +1,7 @@
 """The sampling network at the frame's border (``method.sampler_padding``; docs/method.md "Adaptive sampling",
 step 6): with replicate padding a flat input gives a flat map up to the border, so no sample goes to the
-border for being the border; with zero padding (configs from before the option) the border looks like an
-edge."""
+border for being the border; with zero padding (``F_paper``'s, the paper's plain convolutions) the border
+looks like an edge. A config without the key (one written before the option) is refused, naming it."""
 
 import pytest
 import torch
@@ -64,15 +64,19 @@ def _padding_modes(model: torch.nn.Module) -> set[str]:
             if isinstance(m, torch.nn.Conv2d) and m.padding != (0, 0)}
 
 
-def test_row_f_pads_its_sampler_by_replication_and_old_configs_keep_zeros():
+def test_row_f_pads_its_sampler_by_replication_and_a_config_without_the_key_is_refused():
     cfg = row_cfg("F")
     assert cfg.method.sampler_padding == "replicate"
     assert _padding_modes(build(cfg)) == {"replicate"}
-    del cfg.method["sampler_padding"]   # a config written before the option (the bundled F's)
+    cfg.method.sampler_padding = "zeros"   # as conf/experiment/F_paper.yaml sets it
     model = build(cfg)
     assert _padding_modes(model) == {"zeros"}
     with torch.no_grad():
         assert torch.isfinite(model.eval()(frame(24, 24))["output"]).all()
+    del cfg.method["sampler_padding"]   # a config written before the option: no default stands in for it
+    with pytest.raises(ValueError, match=r"method two_stage needs sampler_padding: set them in method\.\* "
+                                         r"\(conf/method/two_stage\.yaml\)"):
+        build(cfg)
 
 
 def test_the_denoiser_reads_the_frame_reflected_by_its_margin_outside_training_only():

@@ -24,7 +24,8 @@ from mcd.run import build, run_test
 from tests.conftest import compose_cfg, store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]
-#: Row A on the shared 32x32 store (12 frames): 6 test frames, two validation clips (one per rank, so ranks
+#: Row A on a copy of the shared 32x32 store (12 frames; a copy, since 6 test frames re-render the references
+#: of frames 2-5 at the test frames' quality): 6 test frames, two validation clips (one per rank, so ranks
 #: that did not average their validation metrics would see different scores), one training clip; three
 #: epochs of one step, each validated; fp32, so that the one-process test repeats the numbers to 1e-6 (bf16
 #: autocast, the default on a CPU with native bf16, differs in the sixth digit with the summation order).
@@ -36,8 +37,8 @@ DDP = ["trainer=ddp", "trainer.devices=2", "trainer.accelerator=cpu"]
 
 
 @pytest.mark.slow
-def test_two_process_ddp_tests_every_frame_once_on_one_best_checkpoint(cbox_store, tmp_path):
-    overrides = [*store32_overrides(cbox_store[1].data_dir), *SPLIT]
+def test_two_process_ddp_tests_every_frame_once_on_one_best_checkpoint(own_store, tmp_path):
+    overrides = [*store32_overrides(own_store[1].data_dir), *SPLIT]
     run = tmp_path / "ddp"
     env = {**os.environ, "OMP_NUM_THREADS": "1", "HYDRA_FULL_ERROR": "1"}
     proc = subprocess.run([sys.executable, "-m", "mcd.run", *overrides, *DDP, f"hydra.run.dir={run}"],

@@ -47,7 +47,28 @@ def test_frames_in_large_units_denoise_as_the_same_frames_in_small_ones(tmp_path
         assert np.abs(a - b).max() < 1e-4 * np.abs(b).max(), (path.name, a.mean(), b.mean())
 
 
-def test_frames_near_float32s_largest_value_give_finite_outputs(tmp_path):
+def _flushing() -> bool:
+    """Whether this process flushes denormal floats to zero (``torch.set_flush_denormal``)."""
+    return bool(np.array([1e-39], np.float32)[0] * np.float32(1.0) == 0)
+
+
+@pytest.fixture
+def flush_denormal(request):
+    """``torch.set_flush_denormal(request.param)`` for the test, the process's own setting restored after."""
+    import torch
+
+    before = _flushing()
+    if not torch.set_flush_denormal(request.param) and request.param:
+        pytest.skip("this CPU cannot flush denormals to zero")
+    yield request.param
+    torch.set_flush_denormal(before)
+
+
+@pytest.mark.parametrize("flush_denormal", [False, True], indirect=True, ids=["denormals", "flushed"])
+def test_frames_near_float32s_largest_value_give_finite_outputs(tmp_path, flush_denormal):
+    """Their exposure (about 5e-39) is a float32 denormal; a process that flushes denormals (CPU training
+    sets it, mcd.lit.budget) read it as 0: black inputs and NaN outputs after any test that trained."""
+    assert _flushing() == flush_denormal
     paths = write_frames(tmp_path / "unit", n=2, size=(16, 24), seed=5)
     _scaled_copy(paths, tmp_path / "huge", 1e38)  # mean about 1e38, values up to float32's largest
     _denoise(tmp_path / "huge", tmp_path / "out")

@@ -26,7 +26,7 @@ def _report(root: Path, name: str, psnr_f: float) -> Path:
         (d / ".hydra" / "config.yaml").write_text(
             f"experiment: {exp}\nbudget: 4\nsweep_name: baselines\ndata:\n  name: tiny\n")
         (d / ".hydra" / "hydra.yaml").write_text(
-            "hydra:\n  runtime:\n    choices:\n      model: cpu\n      train: plateau\n")
+            "hydra:\n  runtime:\n    choices:\n      capacity: cpu\n      train: plateau\n")
         (d / ".hydra" / "overrides.yaml").write_text(f"- +experiment={exp}\n")
         (d / "metrics.json").write_text(json.dumps(
             {"psnr": psnr, "ssim": 0.8, "rmse": 0.05, "flip": 0.1, "experiment": exp, "budget": 4,

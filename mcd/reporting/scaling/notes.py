@@ -92,8 +92,8 @@ def answer(found: list[Finding]) -> str:
             for pair in MAIN}
     points = sorted({p for by in gaps.values() for p in by})
     if not points:
-        parts.append("No scale point has F beside NTASAD or the U-Net (row A) yet, so the question cannot be "
-                     "answered from these runs.")
+        parts.append(f"No scale point has F beside {display_name('ntasad')} or the {display_name('unet')} "
+                     "(row A) yet, so the question cannot be answered from these runs.")
         return " ".join(parts)
     for (a, b), by in gaps.items():
         name = f"{display_name(a)} - {display_name(b)}"
@@ -115,7 +115,8 @@ def answer(found: list[Finding]) -> str:
         return all(by[p].values["mean"] > 0 for by in gaps.values() if p in by)
 
     where = [p for p in points if holds(p)]
-    ordering = "the paper's ordering (F above NTASAD and the U-Net, where each ran)"
+    ordering = (f"the paper's ordering (F above {display_name('ntasad')} and the {display_name('unet')}, "
+                "where each ran)")
     if len(where) == len(points):
         verdict = f"yes: {ordering} holds at every scale point measured ({len(points)})"
     elif holds(points[-1]) and not holds(points[0]):

@@ -153,7 +153,8 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
                          "PSNR = a + b log10(steps) by least squares through the cell means (one point per "
                          "budget); `b`: dB per tenfold steps; `rms residual`: root mean square distance of "
                          "the points from the line (0 by construction with two budgets). Below, where F's "
-                         "fit meets NTASAD's and the U-Net's (docs/benchmark.md \"Scaling report\").",
+                         f"fit meets {display_name('ntasad')}'s and the {display_name('unet')}'s "
+                         "(docs/benchmark.md \"Scaling report\").",
                          to_markdown(fit_table) + "\n" + to_markdown(cross_table)),
     }
     for stem, (title, note, body) in sections.items():
