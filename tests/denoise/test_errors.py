@@ -142,8 +142,8 @@ def test_scene_that_does_not_load(tmp_path, capsys):
     f = untrained_bundle(tmp_path, "f", "+experiment=F", "capacity=cpu")
     bad = tmp_path / "broken" / "scene.xml"
     bad.parent.mkdir()
-    bad.write_text('<scene version="3.0.0"><shape type="obj"><string name="filename" value="gone.obj"/>'
-                   "</shape></scene>")
+    bad.write_text('<scene version="3.0.0"><sensor type="perspective"/><shape type="obj">'
+                   '<string name="filename" value="gone.obj"/></shape></scene>')  # a camera, a missing mesh
     err = refused(capsys, "--scene", str(bad), "-o", str(tmp_path / "out"), "--checkpoint", str(f),
                   "--width", "32", "--height", "32")
     assert f"{bad}: the scene did not load in Mitsuba 3" in err and "docs/scenes.md" in err
