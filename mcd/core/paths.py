@@ -8,6 +8,7 @@ key.
 from __future__ import annotations
 
 import re
+import shutil
 from pathlib import Path
 
 #: A name that becomes one folder under an output root (a store's profile or scene, a report, a bundle):
@@ -89,3 +90,11 @@ def check_folder_name(name: object, key: str, why: str) -> str:
         raise UnsafeNameError(f"{key}={name!r}: not a plain folder name (letters, digits, '_', '-', '.', not "
                               f"leading '.'); {why}, so a name must not hold '/' or '..'")
     return name
+
+
+def free_space(path: Path) -> tuple[Path, int]:
+    """``(where, bytes)``: the free space of the disk that ``path`` is, or will be made, on, read at its
+    nearest existing folder (``where``, named in the callers' messages). The one free-space reading of the
+    checks that run before a write (the training store's pack, ``mcd-denoise``'s outputs)."""
+    where = next(p for p in (path, *path.parents) if p.exists())
+    return where, shutil.disk_usage(where).free

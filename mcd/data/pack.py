@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import logging
 import os
-import shutil
 import time
 import zlib
 from collections.abc import Iterable
@@ -29,6 +28,7 @@ from omegaconf import DictConfig
 
 from mcd.core import file_lock
 from mcd.core.atomic_write import atomic_write, atomic_write_json, leftovers
+from mcd.core.paths import free_space
 from mcd.data.buffers import BUFFERS
 from mcd.data.splits import split_of
 from mcd.data.store import StoreReader
@@ -127,8 +127,7 @@ def check_free_space(store: TrainStore, reader: StoreReader, todo: dict[str, lis
     if not count:
         return
     need = count * per_frame + SPACE_MARGIN
-    where = next(p for p in (store.root, *store.root.parents) if p.exists())
-    free = shutil.disk_usage(where).free
+    where, free = free_space(store.root)
     if free < need:
         raise OSError(f"data.train_store.dir={store.root}: packing {count} frame(s) needs "
                       f"{need / 1e6:.1f} MB and its disk ({where}) has {free / 1e6:.1f} MB free; free space "

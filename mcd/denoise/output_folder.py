@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import contextlib
 import os
-import shutil
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from mcd.core import file_lock
 from mcd.core.atomic_write import atomic_write_json
+from mcd.core.paths import free_space
 
 
 class OutputFolderError(ValueError):
@@ -126,8 +126,7 @@ def check_space(out: Path, outputs: list[str], pixels: int) -> None:
     if not outputs:
         return
     need = len(outputs) * (pixels * BYTES_PER_PIXEL + BYTES_PER_FILE)
-    where = next(p for p in (out, *out.parents) if p.exists())
-    free = shutil.disk_usage(where).free
+    where, free = free_space(out)
     if free < need:
         raise OutputFolderError(f"-o {out}: the {len(outputs)} output file(s) still to write need up to "
                                 f"{need / 1e6:.1f} MB and its disk ({where}) has {free / 1e6:.1f} MB free; "
