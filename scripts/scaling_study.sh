@@ -8,9 +8,11 @@
 #      its previous output, and F whose F_d reads the warped previous output (docs/method.md); and F with a
 #      per-pixel identity channel (F_pixel_switch), there and at 1000 and 3000 steps on small;
 #   3. F and NTASAD at 3000 steps (seed 0), then F_paper, C and A at 1000 and 3000 on tiny and small;
-#   4. seeds 1-2 of F and NTASAD at 3000 on small, then 10000 steps on small;
-#   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A and NTASAD at 10000 (the bundles'
-#      candidates, docs/denoise.md), seeds 1-2 at 3000.
+#   4. seeds 1-2 of F and NTASAD at 3000 on small, F without SA (row E) at 3000 on small with seeds 0-2 (the
+#      fourth diagnostic, paired with F's seeds), then 10000 steps on small;
+#   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A, NTASAD and row E at 10000 (F, A and
+#      NTASAD are the bundles' candidates, docs/denoise.md; E is F without SA at the largest scale), seeds 1-2
+#      at 3000.
 #
 #   scripts/scaling_study.sh            # every leg; a rerun skips finished jobs and resumes the rest
 #   python -m mcd.report $STUDY_DIR/*   # the report (docs/benchmark.md "Scaling study")
@@ -50,8 +52,9 @@ leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A,F_pixel_switch seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=1,2
+leg data=small train.max_steps=3000 +experiment=E seed=0,1,2
 leg data=small train.max_steps=10000 +experiment=F,ntasad seed=0
 wait_render medium
 leg data=medium train.max_steps=1000,3000 +experiment=F,ntasad seed=0
-leg data=medium train.max_steps=10000 +experiment=F,A,ntasad seed=0
+leg data=medium train.max_steps=10000 +experiment=F,A,ntasad,E seed=0
 leg data=medium train.max_steps=3000 +experiment=F,ntasad seed=1,2

@@ -19,8 +19,10 @@ import pytest
 from mcd.reporting import finding
 from mcd.reporting.finding import Finding
 from mcd.reporting.scaling import coverage, notes
+from mcd.reporting.scaling import gaps as scaling_gaps
 from mcd.reporting.scaling.fit import HORIZON, crossing, fit_log_steps
 from mcd.reporting.scaling.gaps import difference
+from mcd.reporting.scaling.grid import Grid
 from tests.conftest import store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]
@@ -83,6 +85,25 @@ def _gap(pair: tuple[str, str], data: str, scenes: int, steps: int, mean: float,
                    {"mean": mean, "se": se, "flip mean": math.nan, "flip se": math.nan}, 4.0,
                    detail={"data": data, "train_scenes": scenes, "steps": steps, "rule": "paired, 3 seeds",
                            "seeds": dict.fromkeys(pair, "0,1,2"), "claim": "F above"})
+
+
+def test_f_without_sa_is_measured_against_f_where_row_e_ran():
+    """Row E (F without semantic alignment) is the issue's fourth diagnostic: ``E - F`` is listed, paired by
+    seed, at the scale points where E ran, and nowhere else."""
+    psnr = {("F", 0): 27.0, ("F", 1): 26.5, ("F", 2): 27.5, ("E", 0): 26.0, ("E", 1): 26.1, ("E", 2): 26.9}
+    points = pd.DataFrame([{"data": "small", "train_scenes": 5, "steps": 3000, "experiment": e, "seed": s,
+                            "psnr": v, "flip": 0.1} for (e, s), v in psnr.items()]
+                          + [{"data": "small", "train_scenes": 5, "steps": 1000, "experiment": "F", "seed": 0,
+                              "psnr": 25.0, "flip": 0.2}])
+    table = scaling_gaps.table(Grid(points), [("small", 1000), ("small", 3000)])
+    e_rows = table[(table["a"] == "E") & (table["b"] == "F")]
+    (row,) = e_rows.to_dict("records")
+    d = [psnr["E", s] - psnr["F", s] for s in range(3)]
+    assert row["steps"] == 3000 and row["rule"] == "paired, 3 seeds"
+    assert row["PSNR dB"] == pytest.approx(sum(d) / 3)
+    assert row["PSNR se"] == pytest.approx(pd.Series(d).std(ddof=1) / math.sqrt(3))
+    (found,) = [f for f in scaling_gaps.findings(table) if f.subjects == ("E", "F")]
+    assert found.verdict == "measured"
 
 
 @pytest.mark.parametrize("signs, words", [

@@ -2,8 +2,8 @@
 
 The paper's ordering puts F above NTASAD and above the U-Net (row A): :data:`MAIN` pairs are listed at every
 scale point of the plan and of the runs, a cell without runs saying so. The paper's F against ours
-(``F_paper - F``) and each diagnostic against its method (``ntasad_no_warp - ntasad``, ...) follow where the
-first of the two ran.
+(``F_paper - F``), each diagnostic against its method (``ntasad_no_warp - ntasad``, ...) and F without SA
+against F (row E, :data:`COMPONENT_DIAGNOSTICS`) follow where the first of the two ran.
 
 The rule for a difference of PSNR (and FLIP) between two cells, :func:`difference`:
 
@@ -33,8 +33,11 @@ from mcd.reporting.tables import TABLE1_BUDGET
 MAIN = (("F", "ntasad"), ("F", "A"))
 #: Pairs shown where their first experiment ran: each variant of F (the paper's F, the per-pixel identity
 #: channel) and each diagnostic against its method (``mcd.config.methods``: ``variant_of``).
-EXTRA = tuple((m.experiment, str(m.variant_of)) for m in BY_EXPERIMENT.values()
-              if m.variant_of and (m.diagnostic or m.variant_of == "F"))
+#: Component rows that answer a diagnostic of the F - NTASAD gap: row E is F without semantic alignment
+#: (Sec. 4.4; docs/method.md "Diagnostics"), so ``E - F`` is minus what SA adds at a scale point.
+COMPONENT_DIAGNOSTICS = (("E", "F"),)
+EXTRA = (*((m.experiment, str(m.variant_of)) for m in BY_EXPERIMENT.values()
+           if m.variant_of and (m.diagnostic or m.variant_of == "F")), *COMPONENT_DIAGNOSTICS)
 
 
 def difference(a: dict[int, float], b: dict[int, float]) -> tuple[float, float, str]:
