@@ -4,8 +4,8 @@ in the benchmarks. Tables, reports, the bench and ``python -m mcd.complexity`` d
 :data:`CATALOGUE`; nothing else lists methods.
 
 The paper's numbers (docs/benchmark.md "The paper's numbers") are data here: Table 1 in each entry's
-``paper``, the component study A-M in :data:`COMPONENTS`. Mitsuba scenes, 4 spp, 1920x1080; PSNR dB, SSIM
-x1e2, L_t x1e2, rMSE x1e3, GMACs, M params.
+``paper``, the component study A-M in :data:`COMPONENTS` (whose switches are read from the rows' config
+files). Mitsuba scenes, 4 spp, 1920x1080; PSNR dB, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params.
 
 What a method reads (its buffers) is declared by its model (``required_buffers()``), not here.
 """
@@ -14,6 +14,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import yaml
+
+from mcd.core.paths import CONF_DIR
 from mcd.models.switches import SWITCHES
 
 
@@ -96,36 +99,52 @@ def display_name(experiment: str) -> str:
     return entry.display if entry is not None else experiment
 
 
-_COMPONENT_ROWS = """
-A 100000 31.92 86.00 2.51 5.58 316.52 0.972
-B 110000 32.13 86.81 2.52 5.09 464.87 1.348
-C 111000 33.11 87.31 2.27 4.03 526.05 1.471
-D 111100 33.29 87.51 2.17 3.79 526.40 1.471
-E 111110 33.34 87.56 2.18 3.70 478.54 1.324
-F 111111 33.39 87.65 2.16 3.67 478.22 1.285
-G 111010 33.22 87.33 2.20 3.89 478.34 1.324
-H 111011 33.19 87.36 2.22 3.90 478.02 1.284
-I 111101 33.15 87.40 2.22 4.00 525.94 1.432
-J 111001 33.14 87.29 2.25 4.06 525.74 1.432
-K 110100 32.46 86.94 2.43 4.73 465.07 1.348
-L 110010 32.43 86.88 2.43 4.72 439.43 1.269
-M 110001 32.39 87.02 2.48 4.68 464.56 1.309
+#: The paper's component study (Sec. 5.3), its numbers per row: PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs,
+#: M params. Which switches each row has is its config file's alone (:func:`row_switches`).
+_COMPONENT_NUMBERS = """
+A 31.92 86.00 2.51 5.58 316.52 0.972
+B 32.13 86.81 2.52 5.09 464.87 1.348
+C 33.11 87.31 2.27 4.03 526.05 1.471
+D 33.29 87.51 2.17 3.79 526.40 1.471
+E 33.34 87.56 2.18 3.70 478.54 1.324
+F 33.39 87.65 2.16 3.67 478.22 1.285
+G 33.22 87.33 2.20 3.89 478.34 1.324
+H 33.19 87.36 2.22 3.90 478.02 1.284
+I 33.15 87.40 2.22 4.00 525.94 1.432
+J 33.14 87.29 2.25 4.06 525.74 1.432
+K 32.46 86.94 2.43 4.73 465.07 1.348
+L 32.43 86.88 2.43 4.72 439.43 1.269
+M 32.39 87.02 2.48 4.68 464.56 1.309
 """
+
+
+def row_switches(row: str) -> dict[str, bool]:
+    """The six switches of component row ``row`` as its experiment file, ``conf/experiment/<row>.yaml``, sets
+    them: the one place a row's switches are written (the file every run of the row composes). ValueError
+    naming the file where it does not set each switch to true or false."""
+    path = CONF_DIR / "experiment" / f"{row}.yaml"
+    method = (yaml.safe_load(path.read_text()) or {}).get("method") or {}
+    if set(method) != set(SWITCHES) or not all(isinstance(v, bool) for v in method.values()):
+        raise ValueError(f"{path}: a component row's file sets method.{{{','.join(SWITCHES)}}} to true or "
+                         f"false and no other method key; it sets {sorted(method)}")
+    return {s: method[s] for s in SWITCHES}
 
 
 def _components() -> dict[str, dict]:
     rows = {}
-    for line in _COMPONENT_ROWS.strip().splitlines():
-        name, bits, psnr, ssim, lt, rmse, gmacs, params = line.split()
-        rows[name] = {"switches": {s: b == "1" for s, b in zip(SWITCHES, bits, strict=True)},
+    for line in _COMPONENT_NUMBERS.strip().splitlines():
+        name, psnr, ssim, lt, rmse, gmacs, params = line.split()
+        rows[name] = {"switches": row_switches(name),
                       "psnr": float(psnr), "ssim": float(ssim), "lt": float(lt), "rmse": float(rmse),
                       "gmacs": float(gmacs), "params_m": float(params)}
     return rows
 
 
-#: Component study A-M: switches, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params. Each row's
-#: experiment, ``conf/experiment/<row>.yaml``, is row F's method with the row's switches
-#: (tests/test_experiments.py holds the files to this table).
+#: Component study A-M: each row's switches (from its file, :func:`row_switches`) and the paper's numbers for
+#: it, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params. Each row's experiment,
+#: ``conf/experiment/<row>.yaml``, is row F's method with the row's switches and nothing else
+#: (tests/test_experiments.py); ``tests/models/test_complexity.py`` holds each row's counted size under the
+#: ``paper`` capacity profile to the paper's.
 COMPONENTS: dict[str, dict] = _components()
 
 
