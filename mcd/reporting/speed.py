@@ -28,6 +28,7 @@ import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
 from mcd.config.methods import BY_EXPERIMENT, display_name  # noqa: E402
+from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import metric, pick  # noqa: E402
@@ -39,6 +40,9 @@ PATH = "CPU fp32 eager"
 NO_NETWORK = ("noisy",)
 #: The largest side a run's model is timed at; a larger test frame is timed scaled down to it.
 MAX_TIMED_SIDE = 1024
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+CSV, PNG, BENCH_CSV = writes("standard", "speed_vs_error.csv", "speed_vs_error.png", "speed_bench.csv")
 
 
 def timed_size(height: int, width: int) -> tuple[int, int]:
@@ -157,9 +161,9 @@ def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenan
     """``speed_vs_error.png`` and ``speed_vs_error.csv`` (the plotted points), and ``speed_bench.csv`` from
     ``bench_csv`` when it is a file (see the module docstring)."""
     df = speed_frame(runs)
-    df.to_csv(out_dir / "speed_vs_error.csv", index=False)
+    df.to_csv(out_dir / CSV, index=False)
     if bench_csv is not None and bench_csv.is_file():
-        best_paths(pd.read_csv(bench_csv)).to_csv(out_dir / "speed_bench.csv", index=False)
+        best_paths(pd.read_csv(bench_csv)).to_csv(out_dir / BENCH_CSV, index=False)
     timed = df[df["status"] == "ok"] if not df.empty else df
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     for ax, key, label in (
@@ -177,5 +181,5 @@ def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenan
         ax.grid(True, alpha=0.3)
     empty = "Speed against error: no finished 4-spp run"
     fig.suptitle(_title(df, prov) if not df.empty else empty, fontsize=8)
-    prov.save(fig, out_dir / "speed_vs_error.png")
+    prov.save(fig, out_dir / PNG)
     return df

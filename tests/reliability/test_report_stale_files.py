@@ -1,14 +1,17 @@
 """A report rewritten under the same ``--name`` states only what its own runs give (``mcd.report``
 ``remove_stale``, ``check_out``, the folder lock; docs/reliability.md, "Campaign 7"): a scaling report written
 over a standard one left its ``table1.csv``, which README.md's results then showed as the current report's
-Table 1; it replaced a hand-written ``notes.md``; two reports at once into one folder mixed their files."""
+Table 1; it replaced a hand-written ``notes.md``; two reports at once into one folder mixed their files. What
+each kind may leave is what its writers declare (``mcd.reporting.outputs``): a real report of each kind writes
+nothing that no writer declares, so a new output file cannot be missed by the stale-file removal."""
 
 from __future__ import annotations
 
 import pytest
 
 from mcd.core.file_lock import exclusive_folder
-from mcd.report import SCALING_FILES, main
+from mcd.report import main
+from mcd.reporting.outputs import declared
 from tests.conftest import store32_overrides
 from tests.test_run import mcd_run
 
@@ -32,17 +35,20 @@ def test_a_report_of_the_other_kind_under_one_name_leaves_no_earlier_file(one_ru
     args = [str(one_run), "--out", str(out), "--name", "x", "--bench", str(tmp_path / "none"), "--no-viewer"]
     main(args)
     assert (report / "table1.csv").is_file() and (report / "strips").is_dir()
+    standard, scaling, both = declared("standard"), declared("scaling"), declared("both")
+    assert {p.name for p in report.iterdir()} <= {*standard, *both}, "a report file that no writer declares"
     (report / "analysis.md").write_text("mine\n")
 
     main([*args, "--kind", "scaling"])
     left = {p.name for p in report.iterdir()}
     assert {"table1.csv", "table1.md", "components.csv", "spp.csv", "per_frame", "strips"}.isdisjoint(left)
-    assert set(SCALING_FILES) - {"scaling.png"} <= left and "notes.md" in left
+    assert set(scaling) - {"scaling.png"} <= left and "notes.md" in left
+    assert left - {"analysis.md"} <= {*scaling, *both}, "a scaling report file that no writer declares"
     assert (report / "analysis.md").read_text() == "mine\n"  # the user's own file stays
 
     main(args)  # and back: the scaling files and the generated notes go
     left = {p.name for p in report.iterdir()}
-    assert left.isdisjoint(SCALING_FILES) and "notes.md" not in left and "table1.csv" in left
+    assert left.isdisjoint(scaling) and "notes.md" not in left and "table1.csv" in left
     assert (report / "analysis.md").read_text() == "mine\n"
 
 
