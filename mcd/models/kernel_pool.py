@@ -176,18 +176,25 @@ class KernelPool(nn.Module):
 HEAD_OUTPUTS = ("tanh", "rms_centred", "rms_soft")
 
 
-def kp_options_of(options: dict | None) -> dict[str, Any]:
-    """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ..., "skip_misses":
-    ...}`` (defaults ``rms_centred``, None and False: a config from before ``highlight`` filters every value,
-    one from before ``skip_misses`` filters across pixels that saw no geometry; conf/method/two_stage.yaml
-    sets 1.0 and false, and docs/method.md "Kernel pool" says why ``skip_misses`` stays off).
+#: The keys of ``method.kp``, each without a default of its own: conf/method/two_stage.yaml gives them.
+KP_OPTIONS = ("head_output", "highlight", "skip_misses")
 
-    An unknown key is refused, naming it.
+
+def kp_options_of(options: dict) -> dict[str, Any]:
+    """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ..., "skip_misses":
+    ...}``, every key given (conf/method/two_stage.yaml holds their values, and docs/method.md "Kernel pool"
+    says why ``skip_misses`` stays off).
+
+    A missing, unknown or out-of-range key is refused, naming it.
     """
-    options = dict(options or {})
-    head_output = str(options.pop("head_output", "rms_centred"))
-    highlight = options.pop("highlight", None)
-    skip_misses = options.pop("skip_misses", False)
+    options = dict(options)
+    missing = [k for k in KP_OPTIONS if k not in options]
+    if missing:
+        raise ValueError(f"method.kp lacks {', '.join(missing)}: give each of {', '.join(KP_OPTIONS)} "
+                         "(conf/method/two_stage.yaml has them)")
+    head_output = str(options.pop("head_output"))
+    highlight = options.pop("highlight")
+    skip_misses = options.pop("skip_misses")
     if options:
         raise ValueError(f"method.kp: unknown option(s) {sorted(options)}; the options are head_output "
                          f"({' | '.join(HEAD_OUTPUTS)}), highlight (a linear value > 0, or null) and "

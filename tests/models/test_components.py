@@ -217,20 +217,25 @@ def test_the_soft_identity_channel_is_continuous_where_rms_centred_flips_every_p
 
 
 def test_kernel_pool_options_are_checked_by_name():
-    """``method.kp``: a value outside its range is refused naming the key, and an unknown key (the options
-    removed before the bundled checkpoints were saved again included) is refused."""
+    """``method.kp``: a missing key (the options have no defaults of their own: the YAML gives them) or a
+    value outside its range is refused naming the key, and an unknown key (the options removed before the
+    bundled checkpoints were saved again included) is refused."""
     from mcd.models.kernel_pool import kp_options_of
 
-    assert kp_options_of(None) == {"head_output": "rms_centred", "highlight": None, "skip_misses": False}
-    assert kp_options_of({"highlight": 4, "skip_misses": True}) == {"head_output": "rms_centred",
-                                                                    "highlight": 4.0, "skip_misses": True}
+    given = {"head_output": "rms_centred", "highlight": 4, "skip_misses": True}
+    assert kp_options_of(given) == {**given, "highlight": 4.0}
+    assert kp_options_of({**given, "highlight": None})["highlight"] is None
+    with pytest.raises(ValueError, match="method.kp lacks head_output, highlight, skip_misses"):
+        kp_options_of({})
+    with pytest.raises(ValueError, match="method.kp lacks highlight"):
+        kp_options_of({"head_output": "tanh", "skip_misses": False})
     with pytest.raises(ValueError, match="method.kp.highlight"):
-        kp_options_of({"highlight": 0})
+        kp_options_of({**given, "highlight": 0})
     with pytest.raises(ValueError, match="method.kp.skip_misses"):
-        kp_options_of({"skip_misses": "yes"})
+        kp_options_of({**given, "skip_misses": "yes"})
     for removed in ({"denoiser_reads_adaptive": False}, {"temperature": 1.0}, {"head_outptu": "tanh"}):
         with pytest.raises(ValueError, match="unknown option"):
-            kp_options_of(removed)
+            kp_options_of({**given, **removed})
 
 
 @pytest.mark.parametrize("ceiling", [None, 4.0])
