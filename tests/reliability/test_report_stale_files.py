@@ -12,20 +12,13 @@ import pytest
 from mcd.core.file_lock import exclusive_folder
 from mcd.report import main
 from mcd.reporting.outputs import declared
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
-
-RUN = ["train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
-       "trainer.enable_progress_bar=false"]
 
 
 @pytest.fixture
-def one_run(cbox_store, tmp_path):
-    sweep = tmp_path / "multirun"
-    done = mcd_run("+experiment=unet", "capacity=cpu", *store32_overrides(cbox_store[1].data_dir), *RUN,
-                   f"hydra.run.dir={sweep / 'unet'}")
-    assert done.returncode == 0, done.stderr[-4000:]
-    return sweep
+def one_run(unet_run):
+    """The session's finished ``unet_run`` (tests/conftest.py), which the reports here only read: each writes
+    under its own ``--out``."""
+    return unet_run[0]
 
 
 @pytest.mark.slow
