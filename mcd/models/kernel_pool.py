@@ -138,10 +138,11 @@ def identity_weight(h: Tensor) -> Tensor:
 
 
 class KernelPool(nn.Module):
-    """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features."""
+    """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features; its sizes are the
+    capacity profile's ``capacity.two_stage.kernel_pool`` (conf/capacity/), without defaults of their own."""
 
-    def __init__(self, coarse_channels: int, q: int = 128, size: int = 5, lift_hidden: int = 128,
-                 alpha_hidden: int = 64, window: int = 5, descriptor: int = 16) -> None:
+    def __init__(self, coarse_channels: int, *, q: int, size: int, lift_hidden: int, alpha_hidden: int,
+                 window: int, descriptor: int) -> None:
         super().__init__()
         self.q, self.size = q, size
         taps = size * size
@@ -210,10 +211,11 @@ def kp_options_of(options: dict) -> dict[str, Any]:
 
 class KernelMapHead(nn.Module):
     """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor); ``padding`` is
-    the last convolution's ``padding_mode`` (``block`` has its own: mcd.models.sampler.SamplingNetwork)."""
+    the last convolution's ``padding_mode`` (``block`` has its own: mcd.models.sampler.SamplingNetwork) and
+    ``output`` is ``method.kp.head_output``, both without defaults of their own."""
 
-    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms_centred",
-                 padding: str = "zeros") -> None:
+    def __init__(self, cin: int, widths: list[int], block: BlockFactory, *, output: str,
+                 padding: str) -> None:
         super().__init__()
         if output not in HEAD_OUTPUTS:
             raise ValueError(f"method.kp.head_output={output!r}: expected one of {HEAD_OUTPUTS}")

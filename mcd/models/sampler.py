@@ -46,7 +46,7 @@ class SamplingNetwork(nn.Module):
         self.head: KernelMapHead | None = None
         if kernel_pool:
             kp = dict(kp_cfg or {})
-            head_widths = list(kp.pop("head_widths", [32, 32]))
+            head_widths = list(kp.pop("head_widths"))
             options = kp_options_of(kp_options or {})
             self.pool = KernelPool(widths[-1], **kp)
             head_in = widths[0] + 7 + 3 + self.pool.describe.out_channels
