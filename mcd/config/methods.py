@@ -12,7 +12,9 @@ What a method reads (its buffers) is declared by its model (``required_buffers()
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from pathlib import Path
 
 import yaml
 
@@ -20,25 +22,46 @@ from mcd.core.paths import CONF_DIR
 from mcd.models.switches import SWITCHES
 
 
+def _yaml(path: Path) -> dict:
+    return yaml.safe_load(path.read_text()) or {}
+
+
+@functools.cache
+def experiment_method(experiment: str) -> str:
+    """The ``method.name`` experiment ``experiment`` runs, as its file chooses it: the method file of its
+    ``defaults`` (``override /method: <name>``), else the root config's (``conf/config.yaml``: ``two_stage``,
+    the rows A-M and the variants of F)."""
+    for entry in _yaml(CONF_DIR / "experiment" / f"{experiment}.yaml").get("defaults") or []:
+        if isinstance(entry, dict) and "override /method" in entry:
+            return str(entry["override /method"])
+    return next(str(e["method"]) for e in _yaml(CONF_DIR / "config.yaml")["defaults"]
+                if isinstance(e, dict) and "method" in e)
+
+
+@functools.cache
+def method_trainable(method: str) -> bool:
+    """Whether method ``method`` has weights to train: its ``conf/method/<method>.yaml``'s ``trainable``
+    (true where the file does not set it), the key ``mcd.run`` reads."""
+    return bool(_yaml(CONF_DIR / "method" / f"{method}.yaml").get("trainable", True))
+
+
 @dataclass(frozen=True)
 class Method:
     """One method of the benchmark.
 
     ``experiment``: ``+experiment=<experiment>`` (``conf/experiment/<experiment>.yaml``); ``display``: its
-    name in tables and legends; ``method``: ``method.name`` (``conf/method/<method>.yaml``, the model
-    registry's name); ``trainable``: it has weights to train; ``paper``: Table 1's numbers (psnr, ssim, gmacs,
-    params_m) or None; ``table1``: a row of Table 1 (in :data:`CATALOGUE`'s order); ``variant_of``: the Table
-    1 row it varies (same paper numbers, shown after it, only where it ran); ``stand_in``: the experiment
-    whose run stands in where this one has none (the same network); ``bench``: measured by default by ``python
-    -m mcd.bench``; ``train_bench``: measured by default by ``python -m mcd.bench train``; ``diagnostic``: a
-    variant that asks which input carries a method's score, not a method of the paper's or a baseline's
-    (docs/method.md "Diagnostics"): findings do not count it as a baseline.
+    name in tables and legends; ``paper``: Table 1's numbers (psnr, ssim, gmacs, params_m) or None;
+    ``table1``: a row of Table 1 (in :data:`CATALOGUE`'s order); ``variant_of``: the Table 1 row it varies
+    (same paper numbers, shown after it, only where it ran); ``stand_in``: the experiment whose run stands in
+    where this one has none (the same network); ``bench``: measured by default by ``python -m mcd.bench``;
+    ``train_bench``: measured by default by ``python -m mcd.bench train``; ``diagnostic``: a variant that asks
+    which input carries a method's score, not a method of the paper's or a baseline's (docs/method.md
+    "Diagnostics"): findings do not count it as a baseline. Its ``method`` and whether it is ``trainable``
+    are read from its config files, the one place each is written.
     """
 
     experiment: str
     display: str
-    method: str
-    trainable: bool
     paper: dict[str, float] | None = None
     table1: bool = False
     variant_of: str | None = None
@@ -47,35 +70,46 @@ class Method:
     train_bench: bool = False
     diagnostic: bool = False
 
+    @property
+    def method(self) -> str:
+        """``method.name`` (``conf/method/<method>.yaml``, the model registry's name):
+        :func:`experiment_method`."""
+        return experiment_method(self.experiment)
+
+    @property
+    def trainable(self) -> bool:
+        """It has weights to train: :func:`method_trainable` of its method."""
+        return method_trainable(self.method)
+
 
 #: Every method, Table 1's rows in the paper's order first. Rows A-M of the component study are the
 #: ``two_stage`` method with switches (:data:`COMPONENTS`); F, the full method, is also Table 1's "Ours".
 CATALOGUE: tuple[Method, ...] = (
-    Method("unet", "U-Net", "unet", True, table1=True, stand_in="A", bench=True,
+    Method("unet", "U-Net", table1=True, stand_in="A", bench=True,
            paper={"psnr": 31.91, "ssim": 86.00, "gmacs": 316.52, "params_m": 0.972}),
-    Method("fastdvdnet", "FastDVDnet", "fastdvdnet", True, table1=True, bench=True, train_bench=True,
+    Method("fastdvdnet", "FastDVDnet", table1=True, bench=True, train_bench=True,
            paper={"psnr": 32.07, "ssim": 86.02, "gmacs": 1083.5, "params_m": 1.867}),
-    Method("rae", "RAE", "rae", True, table1=True, bench=True, train_bench=True,
+    Method("rae", "RAE", table1=True, bench=True, train_bench=True,
            paper={"psnr": 31.96, "ssim": 86.07, "gmacs": 432.61, "params_m": 1.864}),
-    Method("dasr", "DASR", "dasr", True, table1=True, bench=True, train_bench=True,
+    Method("dasr", "DASR", table1=True, bench=True, train_bench=True,
            paper={"psnr": 31.97, "ssim": 86.08, "gmacs": 558.00, "params_m": 1.577}),
-    Method("dasr_paper_loss", "DASR (paper's loss)", "dasr", True, variant_of="dasr"),
-    Method("ntasad", "NTASAD", "ntasad", True, table1=True, bench=True, train_bench=True,
+    Method("dasr_paper_loss", "DASR (paper's loss)", variant_of="dasr"),
+    Method("ntasad", "NTASAD", table1=True, bench=True, train_bench=True,
            paper={"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578}),
-    Method("ntasad_no_warp", "NTASAD, no warp (diagnostic)", "ntasad", True, variant_of="ntasad",
+    Method("ntasad_no_warp", "NTASAD, no warp (diagnostic)", variant_of="ntasad",
            diagnostic=True),
-    Method("ntasad_no_previous", "NTASAD, no previous output (diagnostic)", "ntasad", True,
+    Method("ntasad_no_previous", "NTASAD, no previous output (diagnostic)",
            variant_of="ntasad", diagnostic=True),
-    Method("F", "Ours (F)", "two_stage", True, table1=True, bench=True, train_bench=True,
+    Method("F", "Ours (F)", table1=True, bench=True, train_bench=True,
            paper={"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}),
-    Method("F_paper", "Ours (F, paper's text)", "two_stage", True, variant_of="F"),
-    Method("F_pixel_switch", "F, per-pixel identity channel", "two_stage", True, variant_of="F"),
-    Method("F_warp_previous", "F + warped previous output (not the paper's)", "two_stage", True,
+    Method("F_paper", "Ours (F, paper's text)", variant_of="F"),
+    Method("F_pixel_switch", "F, per-pixel identity channel", variant_of="F"),
+    Method("F_warp_previous", "F + warped previous output (not the paper's)",
            variant_of="F", diagnostic=True),
-    Method("oidn", "OIDN", "oidn", False, table1=True, bench=True),
-    Method("noisy", "Noisy input", "noisy", False, table1=True, bench=True),
-    Method("A", "A", "two_stage", True, train_bench=True),
-    Method("C", "C", "two_stage", True, train_bench=True),
+    Method("oidn", "OIDN", table1=True, bench=True),
+    Method("noisy", "Noisy input", table1=True, bench=True),
+    Method("A", "A", train_bench=True),
+    Method("C", "C", train_bench=True),
 )
 #: Experiment -> its entry.
 BY_EXPERIMENT: dict[str, Method] = {m.experiment: m for m in CATALOGUE}
