@@ -384,7 +384,7 @@ def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench
     results = tables.write_all(runs, out_dir, root)
     results.update(seeds.write(runs, out_dir))
     results["spp"] = spp.write(runs, out_dir, prov, root)
-    speed.write(runs, bench, out_dir, prov)
+    speed_files = speed.write(runs, bench, out_dir, prov)
     strip_files = strips.write(runs, out_dir, prov)
     frame_files = frames.write(runs, out_dir, prov)
     curve_files = curves.write(runs, out_dir, prov)
@@ -404,9 +404,7 @@ def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench
         files += [out_dir / "seeds.md", out_dir / "seeds.csv"]
         if not results["seeds_differences"].empty:
             files.append(out_dir / "seeds_differences.csv")
-    files += [out_dir / f for f in ("spp.png", "spp.csv", "speed_vs_error.png", "speed_vs_error.csv")]
-    if (out_dir / "speed_bench.csv").is_file():
-        files.append(out_dir / "speed_bench.csv")
+    files += [out_dir / spp.PNG, out_dir / spp.CSV, *speed_files]  # this report's, not an earlier one's
     files += curve_files + strip_files + frame_files
     if frame_files:
         files.append(out_dir / "per_frame" / "per_frame.csv")

@@ -157,13 +157,15 @@ def _title(df: pd.DataFrame, prov: Provenance) -> str:
             f"{timed['device_name'].iloc[0]}; error: 4-spp runs ({prov.config_groups})")
 
 
-def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenance) -> pd.DataFrame:
+def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenance) -> list[Path]:
     """``speed_vs_error.png`` and ``speed_vs_error.csv`` (the plotted points), and ``speed_bench.csv`` from
-    ``bench_csv`` when it is a file (see the module docstring)."""
+    ``bench_csv`` when it is a file (see the module docstring); returns the files written."""
     df = speed_frame(runs)
+    written = [out_dir / PNG, out_dir / CSV]
     df.to_csv(out_dir / CSV, index=False)
     if bench_csv is not None and bench_csv.is_file():
         best_paths(pd.read_csv(bench_csv)).to_csv(out_dir / BENCH_CSV, index=False)
+        written.append(out_dir / BENCH_CSV)
     timed = df[df["status"] == "ok"] if not df.empty else df
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     for ax, key, label in (
@@ -182,4 +184,4 @@ def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenan
     empty = "Speed against error: no finished 4-spp run"
     fig.suptitle(_title(df, prov) if not df.empty else empty, fontsize=8)
     prov.save(fig, out_dir / PNG)
-    return df
+    return written

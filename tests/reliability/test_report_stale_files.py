@@ -100,3 +100,20 @@ def test_a_read_only_out_is_one_error_line(one_run, tmp_path):
     assert proc.returncode == 1, proc.stderr[-3000:]
     assert f"error: --out {ro / 'reports'}: cannot make the report folder" in proc.stderr
     assert "Traceback" not in proc.stderr and list(ro.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_an_earlier_reports_bench_table_goes_when_the_report_has_no_bench(one_run, tmp_path):
+    """``speed_bench.csv`` is the latencies of the ``--bench`` CSV; a report rewritten without one kept the
+    earlier report's (it listed every ``speed_bench.csv`` it found as its own), beside runs it never timed."""
+    bench = tmp_path / "bench.csv"  # what python -m mcd.bench writes, the columns the report reads
+    bench.write_text("method,device,dtype,compiled,height,width,ms_median,fps\n"
+                     "unet,cpu,float32,False,32,32,1.5,666.7\n")
+    out = tmp_path / "reports"
+    args = [str(one_run), "--out", str(out), "--name", "x", "--no-viewer"]
+    main([*args, "--bench", str(bench)])
+    assert "unet" in (out / "x" / "speed_bench.csv").read_text()
+    assert "speed_bench.csv" in (out / "x" / "README.md").read_text()
+    main([*args, "--bench", str(tmp_path / "none")])
+    assert not (out / "x" / "speed_bench.csv").exists()
+    assert "speed_bench.csv" not in (out / "x" / "README.md").read_text()
