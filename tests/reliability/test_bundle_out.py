@@ -1,8 +1,8 @@
-"""``python -m mcd.bundle`` never writes over a bundle it was not asked to replace (campaign 6,
-docs/reliability.md): ``--name unet-cpu-small`` replaced the shipped bundle's ``.pt`` and ``.json`` with a
-2-step run's, exit 0, without a word. A bundle of the name in ``--out`` is now refused with one ``error:``
-line (exit 2) and keeps its bytes; ``--replace`` writes over it; a bad ``--name`` or a run without
-``metrics.json`` is one ``error:`` line, not a traceback."""
+"""``python -m mcd.bundle`` never writes over a bundle it was not asked to replace (docs/reliability.md,
+"Campaign fixes"): ``--name unet-cpu-small`` replaced the shipped bundle's ``.pt`` and ``.json`` with a 2-step
+run's, exit 0, without a word. A bundle of the name in ``--out`` is now refused with one ``error:`` line (exit
+2) and keeps its bytes; ``--replace`` writes over it; a bad ``--name`` or a run without ``metrics.json`` is
+one ``error:`` line, not a traceback."""
 
 from __future__ import annotations
 

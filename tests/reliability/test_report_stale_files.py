@@ -1,9 +1,10 @@
 """A report rewritten under the same ``--name`` states only what its own runs give (``mcd.report``
-``remove_stale``, ``check_out``, the folder lock; docs/reliability.md, "Campaign 7"): a scaling report written
-over a standard one left its ``table1.csv``, which README.md's results then showed as the current report's
-Table 1; it replaced a hand-written ``notes.md``; two reports at once into one folder mixed their files. What
-each kind may leave is what its writers declare (``mcd.reporting.outputs``): a real report of each kind writes
-nothing that no writer declares, so a new output file cannot be missed by the stale-file removal."""
+``remove_stale``, ``check_out``, the folder lock; docs/reliability.md, "Campaign fixes"): a scaling report
+written over a standard one left its ``table1.csv``, which README.md's results then showed as the current
+report's Table 1; it replaced a hand-written ``notes.md``; two reports at once into one folder mixed their
+files. What each kind may leave is what its writers declare (``mcd.reporting.outputs``): a real report of each
+kind writes nothing that no writer declares, so a new output file cannot be missed by the stale-file
+removal."""
 
 from __future__ import annotations
 
