@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 from mcd.core.file_lock import exclusive_folder
 from mcd.core.paths import UnsafeNameError, check_folder_name
+from mcd.reporting.outputs import writes
 
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
     import pandas as pd
@@ -47,6 +48,8 @@ if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/archi
     from mcd.reporting.runs import Run, Sweep
 
 DEFAULT_BENCH = Path("reports/bench/bench.csv")
+#: Every report's README (both kinds: the standard one here, the scaling one in mcd.reporting.scaling.report).
+README, = writes("both", "README.md")
 
 
 def _failures(runs: list[Run], root: Path) -> pd.DataFrame:
@@ -139,7 +142,7 @@ def write_readme(
     lines += [to_markdown(fails) if not fails.empty else "None."]
     lines += ["", "## Files", ""]
     lines += [f"- [{p.relative_to(out_dir)}]({p.relative_to(out_dir)})" for p in files]
-    path = out_dir / "README.md"
+    path = out_dir / README
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -208,39 +211,32 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
                              f"{why} and the default name is the runs' data profile (or give --name)")
 
 
-#: What only a standard report writes at the top of its folder, and what only a scaling report writes
-#: (docs/benchmark.md "Reports"); ``runs/``, ``viewer/``, ``findings.json`` and ``README.md`` are both kinds'.
-#: A report removes the other kind's files, and its own optional ones it did not write this time
-#: (:func:`remove_stale`): an earlier report's ``table1.csv`` left beside a scaling report became README.md's
-#: results of the current report.
-STANDARD_FILES = ("table1.md", "table1.csv", "components.md", "components.csv", "transfer.md",
-                  "transfer.csv", "seeds.md", "seeds.csv", "seeds_differences.csv", "spp.png", "spp.csv",
-                  "speed_vs_error.png", "speed_vs_error.csv", "speed_bench.csv", "curves.csv", "curves.png",
-                  "per_frame", "strips")
-SCALING_FILES = ("scaling.png", "scaling_cells.csv", "scaling_cells.md", "scaling_gaps.csv",
-                 "scaling_gaps.md", "scaling_fits.csv", "scaling_fits.md", "scaling_crossings.csv",
-                 "scaling_jobs.csv")
 #: The first line of the ``notes.md`` that a scaling report writes (:mod:`mcd.reporting.scaling.notes`); a
 #: ``notes.md`` that does not start with it is the user's own, which a report never writes or removes.
 GENERATED_NOTES = "# Scaling study: generated notes"
 
 
 def remove_stale(out_dir: Path, written: list[Path], scaling: bool) -> list[str]:
-    """Remove from ``out_dir`` what an earlier report wrote there and this one did not: the other kind's
-    files (:data:`STANDARD_FILES`, :data:`SCALING_FILES`, a generated ``notes.md``) and this kind's optional
-    ones absent from ``written``; a standard report keeps ``strips/`` (kept as measured where the runs saved
-    no samples, like the viewer). Returns the names removed. Nothing else of the folder is touched."""
+    """Remove from ``out_dir`` what an earlier report wrote there and this one did not: the names the other
+    kind's writers declare and this kind's that are absent from ``written`` (:mod:`mcd.reporting.outputs`;
+    an earlier standard report's ``table1.csv`` left beside a scaling report became README.md's results of the
+    current report). A standard report keeps ``strips/`` (kept as measured where the runs saved no samples,
+    like the viewer), and a ``notes.md`` goes only where a report generated it (:data:`GENERATED_NOTES`).
+    Returns the names removed. Nothing else of the folder is touched."""
     import shutil
 
+    from mcd.reporting import outputs, strips
+    from mcd.reporting.scaling import notes
+
     kept = {p.relative_to(out_dir).parts[0] for p in written}
-    ours, theirs = (SCALING_FILES, STANDARD_FILES) if scaling else (STANDARD_FILES, SCALING_FILES)
-    stale = list(theirs)
-    stale += [n for n in ours if n not in kept and not (n == "strips" and not scaling)]
-    if not scaling and _written_by_report(out_dir / "notes.md", GENERATED_NOTES):
-        stale.append("notes.md")
+    ours, theirs = ("scaling", "standard") if scaling else ("standard", "scaling")
+    stale = [*outputs.declared(theirs),
+             *(n for n in outputs.declared(ours) if n not in kept and not (n == strips.DIR and not scaling))]
     removed = []
     for name in stale:
         path = out_dir / name
+        if name == notes.FILE and not _written_by_report(path, GENERATED_NOTES):
+            continue  # the user's own notes (or none)
         if path.is_dir() and not path.is_symlink():
             shutil.rmtree(path)
         elif path.exists() or path.is_symlink():
@@ -357,7 +353,19 @@ def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench
            notes: list[str] | None, command: str | None, with_viewer: bool, scaling: bool,
            started: float) -> None:
     """:func:`make_report`'s writing, with ``out_dir`` locked: every file, then :func:`remove_stale`."""
-    from mcd.reporting import curves, finding, frames, records, seeds, speed, spp, strips, tables, viewer
+    from mcd.reporting import (
+        curves,
+        finding,
+        frames,
+        outputs,
+        records,
+        seeds,
+        speed,
+        spp,
+        strips,
+        tables,
+        viewer,
+    )
     from mcd.reporting.provenance import Provenance
 
     root = Path.cwd().resolve()
@@ -369,13 +377,14 @@ def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench
                              _regenerate_command(out_dir, name, root) + " --kind scaling", notes or [],
                              started, with_viewer)
         records.keep(runs, sweeps, out_dir)
-        remove_stale(out_dir, [out_dir / n for n in SCALING_FILES if (out_dir / n).exists()], scaling=True)
+        remove_stale(out_dir, [out_dir / n for n in outputs.declared("scaling") if (out_dir / n).exists()],
+                     scaling=True)
         return
 
     results = tables.write_all(runs, out_dir, root)
     results.update(seeds.write(runs, out_dir))
     results["spp"] = spp.write(runs, out_dir, prov, root)
-    speed.write(runs, bench, out_dir, prov)
+    speed_files = speed.write(runs, bench, out_dir, prov)
     strip_files = strips.write(runs, out_dir, prov)
     frame_files = frames.write(runs, out_dir, prov)
     curve_files = curves.write(runs, out_dir, prov)
@@ -395,9 +404,7 @@ def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench
         files += [out_dir / "seeds.md", out_dir / "seeds.csv"]
         if not results["seeds_differences"].empty:
             files.append(out_dir / "seeds_differences.csv")
-    files += [out_dir / f for f in ("spp.png", "spp.csv", "speed_vs_error.png", "speed_vs_error.csv")]
-    if (out_dir / "speed_bench.csv").is_file():
-        files.append(out_dir / "speed_bench.csv")
+    files += [out_dir / spp.PNG, out_dir / spp.CSV, *speed_files]  # this report's, not an earlier one's
     files += curve_files + strip_files + frame_files
     if frame_files:
         files.append(out_dir / "per_frame" / "per_frame.csv")

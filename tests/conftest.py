@@ -1,4 +1,4 @@
-"""Shared fixtures: real tiny Mitsuba renders for tests (owned by the data path, issue 2).
+"""Shared fixtures: real tiny Mitsuba renders for tests.
 
 - ``compose_cfg(*overrides)``: the full Hydra config of ``conf/config.yaml`` (what ``python -m mcd.run``
   sees).

@@ -1,41 +1,33 @@
-"""Rows A-M of the component study are the files ``conf/experiment/A.yaml`` .. ``M.yaml``, each written as
-:func:`row_file` makes it from the paper's table (:data:`mcd.config.methods.COMPONENTS`): the default
-config (row F) with the row's switches and nothing else; every way a config is composed (``compose``, the
-Hydra commands, ``mcd-denoise --experiment``) reads them as it reads every experiment file
-(docs/architecture.md, "Config")."""
+"""Rows A-M of the component study are the files ``conf/experiment/A.yaml`` .. ``M.yaml``, the one place each
+row's switches are written (:func:`mcd.config.methods.row_switches` reads them into
+:data:`mcd.config.methods.COMPONENTS`, beside the paper's numbers): each is the default config (row F) with
+the row's switches and nothing else; every way a config is composed (``compose``, the Hydra commands,
+``mcd-denoise --experiment``) reads them as it reads every experiment file (docs/architecture.md, "Config").
+The switches are held to the paper by tests/lit/test_switches.py (docs/method.md's rows) and by each row's
+size under the ``paper`` profile (tests/models/test_complexity.py)."""
 
 from __future__ import annotations
 
 import pytest
 from omegaconf import OmegaConf
 
+from mcd.config import methods
 from mcd.config.compose import compose, experiment_names
-from mcd.config.methods import COMPONENTS
-from mcd.core.paths import CONF_DIR
-from mcd.models.switches import SWITCHES
+from mcd.config.methods import COMPONENTS, row_switches
+
+SIX = "UN: true, AS: true, KP: true, PP: false, FG: false, SA: false"
 
 
-def row_file(row: str) -> str:
-    """The text of ``conf/experiment/<row>.yaml`` for component row ``row``, from the table alone."""
-    switches = COMPONENTS[row]["switches"]
-    bits = "".join("1" if switches[s] else "0" for s in SWITCHES)
-    return "\n".join([
-        "# @package _global_",
-        f"# Component row {row} ({bits}) of the paper's study (Sec. 5.3; docs/method.md \"Component",
-        "# study\"): the default two-stage method (conf/method/two_stage.yaml, row F) with these switches.",
-        "# Its paper numbers: mcd/config/methods.py (COMPONENTS), which tests/test_experiments.py holds this",
-        "# file to.",
-        f"experiment: {row}",
-        "method:",
-        *(f"  {s}: {str(switches[s]).lower()}" for s in SWITCHES)]) + "\n"
-
-
-@pytest.mark.parametrize("row", list(COMPONENTS))
-def test_each_rows_file_is_the_tables_row(row):
-    path = CONF_DIR / "experiment" / f"{row}.yaml"
-    assert path.is_file(), f"write {path}:\n{row_file(row)}"
-    assert path.read_text() == row_file(row), f"{path} differs from mcd/config/methods.py's row; write:\n" \
-        f"{row_file(row)}"
+@pytest.mark.parametrize("text", ["experiment: C\nmethod:\n  UN: true\n  AS: true\n",  # two of six
+                                  f"experiment: C\nmethod: {{{SIX.replace('AS: true', 'AS: 1')}}}\n",
+                                  f"experiment: C\nmethod: {{{SIX}, colour: none}}\n"])
+def test_a_row_file_without_exactly_its_six_switches_is_named(text, tmp_path, monkeypatch):
+    (tmp_path / "experiment").mkdir()
+    (tmp_path / "experiment" / "C.yaml").write_text(text)
+    monkeypatch.setattr(methods, "CONF_DIR", tmp_path)
+    with pytest.raises(ValueError, match=r"experiment/C.yaml: a component row's file sets "
+                                         r"method.\{UN,AS,KP,PP,FG,SA\} to true or false"):
+        row_switches("C")
 
 
 def test_the_rows_come_first_and_are_the_default_config_with_their_switches():

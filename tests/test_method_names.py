@@ -1,5 +1,5 @@
-"""Each method's display name has one definition, its entry in :mod:`mcd.config.methods` (issue 31,
-docs/architecture.md "Methods"): no other string in ``mcd/`` spells it, so that a table, legend, label or
+"""Each method's display name has one definition, its entry in :mod:`mcd.config.methods` (docs/architecture.md
+"Methods"): no other string in ``mcd/`` spells it, so that a table, legend, label or
 printed comparison cannot drift from the catalogue. Docstrings that cite a name and error messages (inside
 ``raise``) are prose about the method, not its label, and are not counted."""
 

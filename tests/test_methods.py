@@ -1,6 +1,6 @@
-"""The method catalogue (mcd/config/methods.py) agrees with the configs and the model registry: every entry
-composes
-from its experiment to its ``method.name`` and builds, and every experiment that is not a component row has
+"""The method catalogue (mcd/config/methods.py) agrees with the configs and the model registry: the
+``method.name`` and ``trainable`` each entry reads from the config files without composing are what its
+experiment composes to, the registry holds the method, and every experiment that is not a component row has
 an entry, so tables, the bench and the reports cannot miss a method."""
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from mcd.models import METHODS
 def test_each_entry_composes_to_its_method(entry):
     cfg = compose([f"+experiment={entry.experiment}"])
     assert cfg.method.name == entry.method
+    assert cfg.method.get("trainable", True) is entry.trainable
     assert entry.method in METHODS.names()
 
 

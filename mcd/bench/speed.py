@@ -605,6 +605,3 @@ def main(argv: list[str] | None = None) -> None:
     write_readme(rows, args.out, command, time.perf_counter() - started, commit, ceilings)
     print(f"{len(rows)} rows -> {args.out}")
 
-
-if __name__ == "__main__":
-    main()

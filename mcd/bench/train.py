@@ -157,7 +157,7 @@ def applicable(method: str, path: str) -> str | None:
 def child(args: list[str]) -> dict[str, object]:
     """Runs :func:`measure` in a fresh process; returns its row."""
     env = dict(os.environ)
-    out = subprocess.run([sys.executable, "-m", "mcd.bench.train", "--child", *args],
+    out = subprocess.run([sys.executable, "-m", "mcd.bench", "train", "--child", *args],
                          capture_output=True, text=True, env=env, cwd=REPO_ROOT)
     if out.returncode != 0:
         raise RuntimeError(f"training benchmark {args[:3]} failed:\n{out.stderr[-3000:]}")
@@ -219,7 +219,7 @@ def main(argv: list[str] | None = None) -> None:
                     log.info("%s %s %-13s %-6s %.2f steps/s", method, profile, path, memory,
                              row["steps_per_s"])
             if args.pair:
-                cmd = [sys.executable, "-m", "mcd.bench.train", "--child", f"--methods={method}",
+                cmd = [sys.executable, "-m", "mcd.bench", "train", "--child", f"--methods={method}",
                        f"--profiles={profile}", "--paths=fp32", "--threads=1",
                        f"--allocators={allocators[0]}", *common]
                 procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, cwd=REPO_ROOT)
@@ -249,6 +249,3 @@ def main(argv: list[str] | None = None) -> None:
     for line in failed:
         print(f"failed: {line}")
 
-
-if __name__ == "__main__":
-    main()

@@ -3,8 +3,8 @@ command and tests, :func:`hydra_main` for the Hydra commands (``mcd.run``, ``mcd
 ``mcd.pack``, ``mcd.check_paths``), so that every one sees exactly what a run sees.
 
 The experiment group is the files of ``conf/experiment/``: rows A-M of the component study (each the paper's
-switches of its row, which tests/test_experiments.py holds to :data:`mcd.config.methods.COMPONENTS`), the
-baselines, the references and the variants (docs/architecture.md, "Config").
+switches of its row, which :data:`mcd.config.methods.COMPONENTS` reads), the baselines, the references and the
+variants (docs/architecture.md, "Config").
 """
 
 from __future__ import annotations

@@ -4,17 +4,45 @@ in the benchmarks. Tables, reports, the bench and ``python -m mcd.complexity`` d
 :data:`CATALOGUE`; nothing else lists methods.
 
 The paper's numbers (docs/benchmark.md "The paper's numbers") are data here: Table 1 in each entry's
-``paper``, the component study A-M in :data:`COMPONENTS`. Mitsuba scenes, 4 spp, 1920x1080; PSNR dB, SSIM
-x1e2, L_t x1e2, rMSE x1e3, GMACs, M params.
+``paper``, the component study A-M in :data:`COMPONENTS` (whose switches are read from the rows' config
+files). Mitsuba scenes, 4 spp, 1920x1080; PSNR dB, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params.
 
 What a method reads (its buffers) is declared by its model (``required_buffers()``), not here.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from pathlib import Path
 
+import yaml
+
+from mcd.core.paths import CONF_DIR
 from mcd.models.switches import SWITCHES
+
+
+def _yaml(path: Path) -> dict:
+    return yaml.safe_load(path.read_text()) or {}
+
+
+@functools.cache
+def experiment_method(experiment: str) -> str:
+    """The ``method.name`` experiment ``experiment`` runs, as its file chooses it: the method file of its
+    ``defaults`` (``override /method: <name>``), else the root config's (``conf/config.yaml``: ``two_stage``,
+    the rows A-M and the variants of F)."""
+    for entry in _yaml(CONF_DIR / "experiment" / f"{experiment}.yaml").get("defaults") or []:
+        if isinstance(entry, dict) and "override /method" in entry:
+            return str(entry["override /method"])
+    return next(str(e["method"]) for e in _yaml(CONF_DIR / "config.yaml")["defaults"]
+                if isinstance(e, dict) and "method" in e)
+
+
+@functools.cache
+def method_trainable(method: str) -> bool:
+    """Whether method ``method`` has weights to train: its ``conf/method/<method>.yaml``'s ``trainable``
+    (true where the file does not set it), the key ``mcd.run`` reads."""
+    return bool(_yaml(CONF_DIR / "method" / f"{method}.yaml").get("trainable", True))
 
 
 @dataclass(frozen=True)
@@ -22,20 +50,18 @@ class Method:
     """One method of the benchmark.
 
     ``experiment``: ``+experiment=<experiment>`` (``conf/experiment/<experiment>.yaml``); ``display``: its
-    name in tables and legends; ``method``: ``method.name`` (``conf/method/<method>.yaml``, the model
-    registry's name); ``trainable``: it has weights to train; ``paper``: Table 1's numbers (psnr, ssim, gmacs,
-    params_m) or None; ``table1``: a row of Table 1 (in :data:`CATALOGUE`'s order); ``variant_of``: the Table
-    1 row it varies (same paper numbers, shown after it, only where it ran); ``stand_in``: the experiment
-    whose run stands in where this one has none (the same network); ``bench``: measured by default by ``python
-    -m mcd.bench``; ``train_bench``: measured by default by ``python -m mcd.bench train``; ``diagnostic``: a
-    variant that asks which input carries a method's score, not a method of the paper's or a baseline's
-    (docs/method.md "Diagnostics"): findings do not count it as a baseline.
+    name in tables and legends; ``paper``: Table 1's numbers (psnr, ssim, gmacs, params_m) or None;
+    ``table1``: a row of Table 1 (in :data:`CATALOGUE`'s order); ``variant_of``: the Table 1 row it varies
+    (same paper numbers, shown after it, only where it ran); ``stand_in``: the experiment whose run stands in
+    where this one has none (the same network); ``bench``: measured by default by ``python -m mcd.bench``;
+    ``train_bench``: measured by default by ``python -m mcd.bench train``; ``diagnostic``: a variant that asks
+    which input carries a method's score, not a method of the paper's or a baseline's (docs/method.md
+    "Diagnostics"): findings do not count it as a baseline. Its ``method`` and whether it is ``trainable``
+    are read from its config files, the one place each is written.
     """
 
     experiment: str
     display: str
-    method: str
-    trainable: bool
     paper: dict[str, float] | None = None
     table1: bool = False
     variant_of: str | None = None
@@ -44,35 +70,46 @@ class Method:
     train_bench: bool = False
     diagnostic: bool = False
 
+    @property
+    def method(self) -> str:
+        """``method.name`` (``conf/method/<method>.yaml``, the model registry's name):
+        :func:`experiment_method`."""
+        return experiment_method(self.experiment)
+
+    @property
+    def trainable(self) -> bool:
+        """It has weights to train: :func:`method_trainable` of its method."""
+        return method_trainable(self.method)
+
 
 #: Every method, Table 1's rows in the paper's order first. Rows A-M of the component study are the
 #: ``two_stage`` method with switches (:data:`COMPONENTS`); F, the full method, is also Table 1's "Ours".
 CATALOGUE: tuple[Method, ...] = (
-    Method("unet", "U-Net", "unet", True, table1=True, stand_in="A", bench=True,
+    Method("unet", "U-Net", table1=True, stand_in="A", bench=True,
            paper={"psnr": 31.91, "ssim": 86.00, "gmacs": 316.52, "params_m": 0.972}),
-    Method("fastdvdnet", "FastDVDnet", "fastdvdnet", True, table1=True, bench=True, train_bench=True,
+    Method("fastdvdnet", "FastDVDnet", table1=True, bench=True, train_bench=True,
            paper={"psnr": 32.07, "ssim": 86.02, "gmacs": 1083.5, "params_m": 1.867}),
-    Method("rae", "RAE", "rae", True, table1=True, bench=True, train_bench=True,
+    Method("rae", "RAE", table1=True, bench=True, train_bench=True,
            paper={"psnr": 31.96, "ssim": 86.07, "gmacs": 432.61, "params_m": 1.864}),
-    Method("dasr", "DASR", "dasr", True, table1=True, bench=True, train_bench=True,
+    Method("dasr", "DASR", table1=True, bench=True, train_bench=True,
            paper={"psnr": 31.97, "ssim": 86.08, "gmacs": 558.00, "params_m": 1.577}),
-    Method("dasr_paper_loss", "DASR (paper's loss)", "dasr", True, variant_of="dasr"),
-    Method("ntasad", "NTASAD", "ntasad", True, table1=True, bench=True, train_bench=True,
+    Method("dasr_paper_loss", "DASR (paper's loss)", variant_of="dasr"),
+    Method("ntasad", "NTASAD", table1=True, bench=True, train_bench=True,
            paper={"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578}),
-    Method("ntasad_no_warp", "NTASAD, no warp (diagnostic)", "ntasad", True, variant_of="ntasad",
+    Method("ntasad_no_warp", "NTASAD, no warp (diagnostic)", variant_of="ntasad",
            diagnostic=True),
-    Method("ntasad_no_previous", "NTASAD, no previous output (diagnostic)", "ntasad", True,
+    Method("ntasad_no_previous", "NTASAD, no previous output (diagnostic)",
            variant_of="ntasad", diagnostic=True),
-    Method("F", "Ours (F)", "two_stage", True, table1=True, bench=True, train_bench=True,
+    Method("F", "Ours (F)", table1=True, bench=True, train_bench=True,
            paper={"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}),
-    Method("F_paper", "Ours (F, paper's text)", "two_stage", True, variant_of="F"),
-    Method("F_pixel_switch", "F, per-pixel identity channel", "two_stage", True, variant_of="F"),
-    Method("F_warp_previous", "F + warped previous output (not the paper's)", "two_stage", True,
+    Method("F_paper", "Ours (F, paper's text)", variant_of="F"),
+    Method("F_pixel_switch", "F, per-pixel identity channel", variant_of="F"),
+    Method("F_warp_previous", "F + warped previous output (not the paper's)",
            variant_of="F", diagnostic=True),
-    Method("oidn", "OIDN", "oidn", False, table1=True, bench=True),
-    Method("noisy", "Noisy input", "noisy", False, table1=True, bench=True),
-    Method("A", "A", "two_stage", True, train_bench=True),
-    Method("C", "C", "two_stage", True, train_bench=True),
+    Method("oidn", "OIDN", table1=True, bench=True),
+    Method("noisy", "Noisy input", table1=True, bench=True),
+    Method("A", "A", train_bench=True),
+    Method("C", "C", train_bench=True),
 )
 #: Experiment -> its entry.
 BY_EXPERIMENT: dict[str, Method] = {m.experiment: m for m in CATALOGUE}
@@ -96,36 +133,52 @@ def display_name(experiment: str) -> str:
     return entry.display if entry is not None else experiment
 
 
-_COMPONENT_ROWS = """
-A 100000 31.92 86.00 2.51 5.58 316.52 0.972
-B 110000 32.13 86.81 2.52 5.09 464.87 1.348
-C 111000 33.11 87.31 2.27 4.03 526.05 1.471
-D 111100 33.29 87.51 2.17 3.79 526.40 1.471
-E 111110 33.34 87.56 2.18 3.70 478.54 1.324
-F 111111 33.39 87.65 2.16 3.67 478.22 1.285
-G 111010 33.22 87.33 2.20 3.89 478.34 1.324
-H 111011 33.19 87.36 2.22 3.90 478.02 1.284
-I 111101 33.15 87.40 2.22 4.00 525.94 1.432
-J 111001 33.14 87.29 2.25 4.06 525.74 1.432
-K 110100 32.46 86.94 2.43 4.73 465.07 1.348
-L 110010 32.43 86.88 2.43 4.72 439.43 1.269
-M 110001 32.39 87.02 2.48 4.68 464.56 1.309
+#: The paper's component study (Sec. 5.3), its numbers per row: PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs,
+#: M params. Which switches each row has is its config file's alone (:func:`row_switches`).
+_COMPONENT_NUMBERS = """
+A 31.92 86.00 2.51 5.58 316.52 0.972
+B 32.13 86.81 2.52 5.09 464.87 1.348
+C 33.11 87.31 2.27 4.03 526.05 1.471
+D 33.29 87.51 2.17 3.79 526.40 1.471
+E 33.34 87.56 2.18 3.70 478.54 1.324
+F 33.39 87.65 2.16 3.67 478.22 1.285
+G 33.22 87.33 2.20 3.89 478.34 1.324
+H 33.19 87.36 2.22 3.90 478.02 1.284
+I 33.15 87.40 2.22 4.00 525.94 1.432
+J 33.14 87.29 2.25 4.06 525.74 1.432
+K 32.46 86.94 2.43 4.73 465.07 1.348
+L 32.43 86.88 2.43 4.72 439.43 1.269
+M 32.39 87.02 2.48 4.68 464.56 1.309
 """
+
+
+def row_switches(row: str) -> dict[str, bool]:
+    """The six switches of component row ``row`` as its experiment file, ``conf/experiment/<row>.yaml``, sets
+    them: the one place a row's switches are written (the file every run of the row composes). ValueError
+    naming the file where it does not set each switch to true or false."""
+    path = CONF_DIR / "experiment" / f"{row}.yaml"
+    method = (yaml.safe_load(path.read_text()) or {}).get("method") or {}
+    if set(method) != set(SWITCHES) or not all(isinstance(v, bool) for v in method.values()):
+        raise ValueError(f"{path}: a component row's file sets method.{{{','.join(SWITCHES)}}} to true or "
+                         f"false and no other method key; it sets {sorted(method)}")
+    return {s: method[s] for s in SWITCHES}
 
 
 def _components() -> dict[str, dict]:
     rows = {}
-    for line in _COMPONENT_ROWS.strip().splitlines():
-        name, bits, psnr, ssim, lt, rmse, gmacs, params = line.split()
-        rows[name] = {"switches": {s: b == "1" for s, b in zip(SWITCHES, bits, strict=True)},
+    for line in _COMPONENT_NUMBERS.strip().splitlines():
+        name, psnr, ssim, lt, rmse, gmacs, params = line.split()
+        rows[name] = {"switches": row_switches(name),
                       "psnr": float(psnr), "ssim": float(ssim), "lt": float(lt), "rmse": float(rmse),
                       "gmacs": float(gmacs), "params_m": float(params)}
     return rows
 
 
-#: Component study A-M: switches, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params. Each row's
-#: experiment, ``conf/experiment/<row>.yaml``, is row F's method with the row's switches
-#: (tests/test_experiments.py holds the files to this table).
+#: Component study A-M: each row's switches (from its file, :func:`row_switches`) and the paper's numbers for
+#: it, PSNR, SSIM x1e2, L_t x1e2, rMSE x1e3, GMACs, M params. Each row's experiment,
+#: ``conf/experiment/<row>.yaml``, is row F's method with the row's switches and nothing else
+#: (tests/test_experiments.py); ``tests/models/test_complexity.py`` holds each row's counted size under the
+#: ``paper`` capacity profile to the paper's.
 COMPONENTS: dict[str, dict] = _components()
 
 

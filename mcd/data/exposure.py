@@ -67,7 +67,7 @@ def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> 
     No absolute clamp (:data:`EXPOSURE_CLAMP`) applies here: the mean is taken in float64, which float32's
     largest values cannot overflow, and a sequence whose values are all above such a clamp (physical units
     of mean 1e9, say) must still reach the network at ``target``: clamped, it would reach it too bright, and
-    come out wrong (docs/reliability.md, "Campaign 5").
+    come out wrong (docs/reliability.md, "Campaign fixes").
     """
     clean, _ = sanitise(np.asarray(frame0, dtype=np.float32), allow_negative=False)
     clean = clean.astype(np.float64)

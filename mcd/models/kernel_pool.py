@@ -138,10 +138,11 @@ def identity_weight(h: Tensor) -> Tensor:
 
 
 class KernelPool(nn.Module):
-    """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features."""
+    """The pool ``pi`` and its per-input adjustment from the sampler's coarsest features; its sizes are the
+    capacity profile's ``capacity.two_stage.kernel_pool`` (conf/capacity/), without defaults of their own."""
 
-    def __init__(self, coarse_channels: int, q: int = 128, size: int = 5, lift_hidden: int = 128,
-                 alpha_hidden: int = 64, window: int = 5, descriptor: int = 16) -> None:
+    def __init__(self, coarse_channels: int, *, q: int, size: int, lift_hidden: int, alpha_hidden: int,
+                 window: int, descriptor: int) -> None:
         super().__init__()
         self.q, self.size = q, size
         taps = size * size
@@ -176,18 +177,25 @@ class KernelPool(nn.Module):
 HEAD_OUTPUTS = ("tanh", "rms_centred", "rms_soft")
 
 
-def kp_options_of(options: dict | None) -> dict[str, Any]:
-    """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ..., "skip_misses":
-    ...}`` (defaults ``rms_centred``, None and False: a config from before ``highlight`` filters every value,
-    one from before ``skip_misses`` filters across pixels that saw no geometry; conf/method/two_stage.yaml
-    sets 1.0 and false, and docs/method.md "Kernel pool" says why ``skip_misses`` stays off).
+#: The keys of ``method.kp``, each without a default of its own: conf/method/two_stage.yaml gives them.
+KP_OPTIONS = ("head_output", "highlight", "skip_misses")
 
-    An unknown key is refused, naming it.
+
+def kp_options_of(options: dict) -> dict[str, Any]:
+    """``method.kp`` as the kernel pool reads it: ``{"head_output": ..., "highlight": ..., "skip_misses":
+    ...}``, every key given (conf/method/two_stage.yaml holds their values, and docs/method.md "Kernel pool"
+    says why ``skip_misses`` stays off).
+
+    A missing, unknown or out-of-range key is refused, naming it.
     """
-    options = dict(options or {})
-    head_output = str(options.pop("head_output", "rms_centred"))
-    highlight = options.pop("highlight", None)
-    skip_misses = options.pop("skip_misses", False)
+    options = dict(options)
+    missing = [k for k in KP_OPTIONS if k not in options]
+    if missing:
+        raise ValueError(f"method.kp lacks {', '.join(missing)}: give each of {', '.join(KP_OPTIONS)} "
+                         "(conf/method/two_stage.yaml has them)")
+    head_output = str(options.pop("head_output"))
+    highlight = options.pop("highlight")
+    skip_misses = options.pop("skip_misses")
     if options:
         raise ValueError(f"method.kp: unknown option(s) {sorted(options)}; the options are head_output "
                          f"({' | '.join(HEAD_OUTPUTS)}), highlight (a linear value > 0, or null) and "
@@ -203,10 +211,11 @@ def kp_options_of(options: dict | None) -> dict[str, Any]:
 
 class KernelMapHead(nn.Module):
     """Kernel map ``h`` ``[B, 2, H, W]`` in (-1, 1) from (finest features, g, i, descriptor); ``padding`` is
-    the last convolution's ``padding_mode`` (``block`` has its own: mcd.models.sampler.SamplingNetwork)."""
+    the last convolution's ``padding_mode`` (``block`` has its own: mcd.models.sampler.SamplingNetwork) and
+    ``output`` is ``method.kp.head_output``, both without defaults of their own."""
 
-    def __init__(self, cin: int, widths: list[int], block: BlockFactory, output: str = "rms_centred",
-                 padding: str = "zeros") -> None:
+    def __init__(self, cin: int, widths: list[int], block: BlockFactory, *, output: str,
+                 padding: str) -> None:
         super().__init__()
         if output not in HEAD_OUTPUTS:
             raise ValueError(f"method.kp.head_output={output!r}: expected one of {HEAD_OUTPUTS}")

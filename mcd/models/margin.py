@@ -7,9 +7,9 @@ the margin on every side (at most ``H - 1`` and ``W - 1``: a small frame is refl
 its output is cropped back; in training it reads the crop as it is. The same for every method with a
 denoiser of its own: the U-Net (row A) and rows B-M (``F_d``), RAE, FastDVDnet, DASR and NTASAD. Each calls
 :func:`with_margin` at its denoiser; :func:`set_margin` (called by :func:`mcd.models.registry.build`) is the
-one place that reads the key, 0 for a config from before it. Only the denoiser: a sampler and the adaptive
-render read the frame itself, so that the budget is spent on the frame's pixels, and a recurrent method's
-fed-back state (NTASAD's warped previous output) stays at the frame's size.
+one place that reads the key, 0 for a method whose file does not set it (the noisy input, OIDN). Only the
+denoiser: a sampler and the adaptive render read the frame itself, so that the budget is spent on the frame's
+pixels, and a recurrent method's fed-back state (NTASAD's warped previous output) stays at the frame's size.
 """
 
 from __future__ import annotations

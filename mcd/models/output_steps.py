@@ -47,9 +47,9 @@ def mean_match_mode(method: DictConfig) -> bool | str:
 
 
 def output_bound_on(method: DictConfig) -> bool:
-    """``method.output_bound``, checked: ``true`` or ``false``; when the key is absent (a config from before
-    it, such as a bundled checkpoint's), ``true`` for a method with weights (``method.trainable``, default
-    true) and ``false`` for one without (OIDN, the noisy input). ValueError naming the key otherwise."""
+    """``method.output_bound``, checked: ``true`` or ``false``; when the method's file does not set it (the
+    methods without weights: OIDN, the noisy input), ``true`` for a method with weights (``method.trainable``,
+    default true) and ``false`` for one without. ValueError naming the key otherwise."""
     value = method.get("output_bound", bool(method.get("trainable", True)))
     if isinstance(value, bool):
         return value

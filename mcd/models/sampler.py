@@ -33,12 +33,11 @@ class SamplingNetwork(nn.Module):
 
     ``padding`` is the ``padding_mode`` of every convolution (``method.sampler_padding``): ``replicate`` (the
     config's default) keeps a flat input's logits flat up to the frame's border, so the map spends no samples
-    on the border for being the border; ``zeros`` (configs from before the option) makes the border look like
-    an edge (docs/method.md "Adaptive sampling", step 6)."""
+    on the border for being the border; ``zeros`` (the paper's text, ``F_paper``) makes the border look like
+    an edge (docs/method.md "Adaptive sampling", step 6). ``kp_options``: ``method.kp``, read with KP."""
 
-    def __init__(self, widths: list[int], convs: int, kernel_pool: bool, ghost: bool,
-                 ghost_cfg: dict | None = None, kp_cfg: dict | None = None,
-                 kp_options: dict | None = None, padding: str = "zeros") -> None:
+    def __init__(self, widths: list[int], convs: int, kernel_pool: bool, ghost: bool, *, padding: str,
+                 kp_options: dict | None, ghost_cfg: dict | None = None, kp_cfg: dict | None = None) -> None:
         super().__init__()
         block: BlockFactory = (partial(FastGhostConv, **(ghost_cfg or {}), padding=padding) if ghost
                                else partial(ConvReLU, padding=padding))
@@ -47,8 +46,8 @@ class SamplingNetwork(nn.Module):
         self.head: KernelMapHead | None = None
         if kernel_pool:
             kp = dict(kp_cfg or {})
-            head_widths = list(kp.pop("head_widths", [32, 32]))
-            options = kp_options_of(kp_options)
+            head_widths = list(kp.pop("head_widths"))
+            options = kp_options_of(kp_options or {})
             self.pool = KernelPool(widths[-1], **kp)
             head_in = widths[0] + 7 + 3 + self.pool.describe.out_channels
             self.head = KernelMapHead(head_in, head_widths, block, output=options["head_output"],

@@ -18,9 +18,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from mcd.config.methods import display_name  # noqa: E402
+from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_ROWS, stacked  # noqa: E402
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+CSV, PNG = writes("standard", "curves.csv", "curves.png")
 
 
 def learning_curves(runs: list[Run]) -> pd.DataFrame:
@@ -33,7 +37,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
     df = learning_curves(runs)
     if df.empty:
         return []
-    csv_path = out_dir / "curves.csv"
+    csv_path = out_dir / CSV
     df.to_csv(csv_path, index=False)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
     colours = plt.get_cmap("tab20").colors
@@ -50,5 +54,5 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         ax.grid(True, alpha=0.3)
     axes[1].legend(fontsize=7, ncol=2)
     fig.suptitle("Accuracy against training compute (a curve still rising at its end has not converged)")
-    png = prov.save(fig, out_dir / "curves.png", dpi=110)
+    png = prov.save(fig, out_dir / PNG, dpi=110)
     return [png, csv_path]

@@ -20,8 +20,10 @@ from pathlib import Path
 from typing import Any
 
 from mcd.config.methods import display_name
+from mcd.reporting.outputs import writes
 
-FILE = "findings.json"
+#: The findings as data, in every report kind's folder (mcd.reporting.outputs).
+FILE, = writes("both", "findings.json")
 
 #: A difference this many standard errors from zero is called resolved by the seeds.
 RESOLVED_SE = 2.0

@@ -13,12 +13,16 @@ import pandas as pd  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from mcd.config.methods import display_name  # noqa: E402
+from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.tables import TABLE1_ROWS, stacked  # noqa: E402
 
 #: Methods drawn: Table 1's and the component chain's first and last rows (A, B, C), at 4 spp.
 METHODS = (*TABLE1_ROWS, "A", "B", "C")
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+DIR, = writes("standard", "per_frame")
 
 
 def per_frame(runs: list[Run]) -> pd.DataFrame:
@@ -29,7 +33,7 @@ def per_frame(runs: list[Run]) -> pd.DataFrame:
 def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
     """`per_frame/per_frame.csv` and `per_frame/<scene>_psnr.png`; returns the PNG paths."""
     df = per_frame(runs)
-    folder = out_dir / "per_frame"
+    folder = out_dir / DIR
     folder.mkdir(parents=True, exist_ok=True)
     pngs: list[Path] = []
     if df.empty:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+from mcd.reporting.outputs import writes
 from mcd.reporting.runs import EDGES_FILE, Run, Sweep
 
 #: What a run directory's records are: every file the report reads apart from ``samples/``.
@@ -29,8 +30,8 @@ RECORD_FILES = (
     ".hydra/overrides.yaml",
     ".hydra/hydra.yaml",
 )
-#: The folder of a report that holds its runs' records.
-RECORDS_DIR = "runs"
+#: The folder of a report that holds its runs' records (every report kind's: mcd.reporting.outputs).
+RECORDS_DIR, = writes("both", "runs")
 
 
 def _key(path: Path) -> Path:

@@ -15,11 +15,15 @@ from pathlib import Path
 import pandas as pd
 
 from mcd.reporting.finding import Finding, render
+from mcd.reporting.outputs import writes
 from mcd.reporting.runs import Run
 from mcd.reporting.select import metric, to_markdown, train_scene_metric, write_table
 from mcd.reporting.tables import STEPS
 
 SEEDS_SWEEP = "seeds"
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+MD, CSV, DIFFERENCES = writes("standard", "seeds.md", "seeds.csv", "seeds_differences.csv")
 
 
 def seed_runs(runs: list[Run]) -> list[Run]:
@@ -209,8 +213,8 @@ def write(runs: list[Run], out_dir: Path) -> dict[str, pd.DataFrame]:
     ]
     write_table(table, out_dir, "seeds", "Run-to-run spread over seeds", notes)
     if not diffs.empty:
-        diffs.to_csv(out_dir / "seeds_differences.csv", index=False)
-        with (out_dir / "seeds.md").open("a") as md:
+        diffs.to_csv(out_dir / DIFFERENCES, index=False)
+        with (out_dir / MD).open("a") as md:
             md.write("\n## Differences of mean PSNR between rows (dB)\n\n")
             md.write(
                 "`se`: standard error of the difference, sqrt(s_a^2/n_a + s_b^2/n_b); `ranges`: whether "

@@ -28,6 +28,7 @@ import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
 from mcd.config.methods import BY_EXPERIMENT, display_name  # noqa: E402
+from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import metric, pick  # noqa: E402
@@ -39,6 +40,9 @@ PATH = "CPU fp32 eager"
 NO_NETWORK = ("noisy",)
 #: The largest side a run's model is timed at; a larger test frame is timed scaled down to it.
 MAX_TIMED_SIDE = 1024
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+CSV, PNG, BENCH_CSV = writes("standard", "speed_vs_error.csv", "speed_vs_error.png", "speed_bench.csv")
 
 
 def timed_size(height: int, width: int) -> tuple[int, int]:
@@ -153,13 +157,15 @@ def _title(df: pd.DataFrame, prov: Provenance) -> str:
             f"{timed['device_name'].iloc[0]}; error: 4-spp runs ({prov.config_groups})")
 
 
-def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenance) -> pd.DataFrame:
+def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenance) -> list[Path]:
     """``speed_vs_error.png`` and ``speed_vs_error.csv`` (the plotted points), and ``speed_bench.csv`` from
-    ``bench_csv`` when it is a file (see the module docstring)."""
+    ``bench_csv`` when it is a file (see the module docstring); returns the files written."""
     df = speed_frame(runs)
-    df.to_csv(out_dir / "speed_vs_error.csv", index=False)
+    written = [out_dir / PNG, out_dir / CSV]
+    df.to_csv(out_dir / CSV, index=False)
     if bench_csv is not None and bench_csv.is_file():
-        best_paths(pd.read_csv(bench_csv)).to_csv(out_dir / "speed_bench.csv", index=False)
+        best_paths(pd.read_csv(bench_csv)).to_csv(out_dir / BENCH_CSV, index=False)
+        written.append(out_dir / BENCH_CSV)
     timed = df[df["status"] == "ok"] if not df.empty else df
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     for ax, key, label in (
@@ -177,5 +183,5 @@ def write(runs: list[Run], bench_csv: Path | None, out_dir: Path, prov: Provenan
         ax.grid(True, alpha=0.3)
     empty = "Speed against error: no finished 4-spp run"
     fig.suptitle(_title(df, prov) if not df.empty else empty, fontsize=8)
-    prov.save(fig, out_dir / "speed_vs_error.png")
-    return df
+    prov.save(fig, out_dir / PNG)
+    return written

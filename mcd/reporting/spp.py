@@ -16,6 +16,7 @@ from mcd.config.methods import (  # noqa: E402
     CATALOGUE,
     display_name,  # noqa: E402
 )
+from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import metric, pick, run_label  # noqa: E402
@@ -29,6 +30,9 @@ PANELS = (
     ("flip", 1e2, "FLIP x1e2"),
     ("tpsnr", 1.0, "tPSNR (dB)"),
 )
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+CSV, PNG = writes("standard", "spp.csv", "spp.png")
 
 
 def spp_frame(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
@@ -65,7 +69,7 @@ def spp_frame(runs: list[Run], root: Path | None = None) -> pd.DataFrame:
 def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = None) -> pd.DataFrame:
     """`spp.csv` and `spp.png` (x: average spp, log2 axis; one budget only: a point)."""
     df = spp_frame(runs, root)
-    df.to_csv(out_dir / "spp.csv", index=False)
+    df.to_csv(out_dir / CSV, index=False)
     fig, axes = plt.subplots(1, len(PANELS), figsize=(4 * len(PANELS), 4.6))
     # the figure shows Table 1's methods (the component rows other than F are single 4 spp points: spp.csv)
     ok = df[(df["status"] == "ok") & ~df["experiment"].isin([r for r in COMPONENT_ROWS if r != "F"])]
@@ -85,5 +89,5 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance, root: Path | None = 
     else:
         axes[-1].legend(fontsize=7)
         fig.suptitle("Error against sample budget (lower rMSE / L_t / FLIP is better)")
-    prov.save(fig, out_dir / "spp.png", sweep_names=["spp"])
+    prov.save(fig, out_dir / PNG, sweep_names=["spp"])
     return df

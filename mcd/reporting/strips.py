@@ -22,6 +22,7 @@ from mcd.config.methods import (
 from mcd.core.metrics import flip_map, to_display  # noqa: E402
 from mcd.data.exr import read_exr  # noqa: E402
 from mcd.lit.samples import picture  # noqa: E402
+from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import pick  # noqa: E402
@@ -39,6 +40,9 @@ COLUMNS = (
     ("reference", "reference"),
 )
 _NAME = re.compile(r"^(?P<frame>\d+)_(?P<name>[a-z_]+?)(?:_\d+spp)?$")
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+DIR, = writes("standard", "strips")
 
 
 def samples(run: Run) -> dict[str, dict[int, dict[str, Path]]]:
@@ -115,7 +119,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
     """`strips/<scene>.png` (the full method's stages) and `strips/<scene>_methods.png` (every method's output
     on the same crop); returns the written paths."""
     run = strip_run(runs)
-    folder = out_dir / "strips"
+    folder = out_dir / DIR
     folder.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     if run is None:

@@ -9,17 +9,24 @@ from pathlib import Path
 
 import pandas as pd
 
-from mcd.config.methods import BY_EXPERIMENT, TABLE1_ROWS, TABLE1_VARIANTS, display_name
+from mcd.config.methods import BY_EXPERIMENT, COMPONENTS, TABLE1_ROWS, TABLE1_VARIANTS, display_name
 from mcd.models.switches import SWITCHES
 from mcd.reporting import paper
 from mcd.reporting.finding import Finding, render
+from mcd.reporting.outputs import writes
 from mcd.reporting.runs import Run
 from mcd.reporting.select import metric, pick, run_label, train_scene_metric, write_table
 
-COMPONENT_ROWS = tuple("ABCDEFGHIJKLM")
+#: The component study's rows A-M, in the paper's order (:data:`mcd.config.methods.COMPONENTS`).
+COMPONENT_ROWS = tuple(COMPONENTS)
 #: The chain that adds one component at a time (docs/method.md): B adds AS to A, C adds KP, D PP, E FG, F SA.
 STEPS = ("A", "B", "C", "D", "E", "F")
 TABLE1_BUDGET = 4.0
+
+#: What it writes in a report's folder (mcd.reporting.outputs).
+#: ``<stem>.csv`` and ``<stem>.md`` of each table (:func:`mcd.reporting.select.write_table`).
+STEMS = ("table1", "components", "transfer")
+FILES = writes("standard", *(f"{stem}.{ext}" for stem in STEMS for ext in ("md", "csv")))
 
 
 def stacked(runs: list[Run], experiments: Iterable[str],

@@ -45,13 +45,14 @@ from mcd.config.methods import display_name
 from mcd.core.metrics import flip_map, to_display
 from mcd.data.exr import read_exr
 from mcd.lit.samples import picture
+from mcd.reporting.outputs import writes
 from mcd.reporting.runs import Run
 from mcd.reporting.strips import crop_box, samples, strip_run, table1_runs
 
 log = logging.getLogger(__name__)
 
-#: The viewer's folder inside a report.
-VIEWER_DIR = "viewer"
+#: The viewer's folder inside a report (every report kind's: mcd.reporting.outputs).
+VIEWER_DIR, = writes("both", "viewer")
 #: The page's static files, copied into each report's viewer.
 PAGE_DIR = Path(__file__).with_name("viewer_page")
 #: Exposure stops (EV) of the colour pictures: as scored, then 4x and 16x brighter for the dark regions where

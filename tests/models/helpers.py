@@ -13,7 +13,8 @@ from mcd.data.synthetic import synthetic_frame
 from mcd.models.switches import SWITCHES
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
-#: Row -> its switches as bits (``UN AS KP PP FG SA``), from the one table (mcd.config.methods.COMPONENTS).
+#: Row -> its switches as bits (``UN AS KP PP FG SA``), as the rows' files set them
+#: (mcd.config.methods.COMPONENTS).
 ROWS = {row: "".join("1" if c["switches"][s] else "0" for s in SWITCHES) for row, c in COMPONENTS.items()}
 
 

@@ -16,7 +16,9 @@ from tests.models.helpers import frame, row_cfg
 def _sampler(padding: str, ghost: bool) -> SamplingNetwork:
     torch.manual_seed(0)
     return SamplingNetwork([8, 16, 32], 2, kernel_pool=True, ghost=ghost, padding=padding,
-                           kp_cfg={"q": 16, "head_widths": [8, 8]})
+                           kp_cfg={"q": 16, "size": 5, "lift_hidden": 128, "alpha_hidden": 64, "window": 5,
+                                   "descriptor": 16, "head_widths": [8, 8]},
+                           kp_options={"head_output": "rms_centred", "highlight": 1.0, "skip_misses": False})
 
 
 def _flat_input(h: int = 37, w: int = 50) -> torch.Tensor:

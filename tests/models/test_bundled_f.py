@@ -1,5 +1,5 @@
 """The bundled F (``mcd/bundled/F-cpu-small``, trained on ``data=small``) on frames rendered here, of the
-three vendored training scenes at 96x96 (issue 12's two checks on the output, docs/benchmark.md "Metrics"):
+three vendored training scenes at 96x96 (two checks on the output, docs/benchmark.md "Metrics"):
 
 - no colour cast: each channel's frame mean within 5% of the reference's (``mcd.core.metrics.colour_shift``),
   per frame; and it beats its noisy input on every frame;

@@ -50,7 +50,7 @@ def test_pixel_kernels_match_unfold_and_keep_constants():
 
 
 def test_kernel_pool_adjustment_shapes_init_and_gradients():
-    kp = KernelPool(coarse_channels=12, q=16, size=5, lift_hidden=8, alpha_hidden=8, descriptor=4)
+    kp = KernelPool(coarse_channels=12, q=16, size=5, lift_hidden=8, alpha_hidden=8, window=5, descriptor=4)
     assert set(kp.pool.detach().unique().tolist()) <= {0.0, 1.0}, "Bernoulli(0.5) init in {0, 1}"
     adjusted = kp.adjust(torch.rand(2, 12, 3, 5))
     assert adjusted.shape == (2, 16, 25)
@@ -64,7 +64,7 @@ def test_kernel_pool_gate_blends_pool_and_residual(bias, alpha):
     """With the gate MLP's output fixed (last layer weight 0, bias b), alpha = sigmoid(b) and
     pi_bar = (1 - alpha) pi + alpha r: b = -30 keeps the pool, b = 30 takes the residual r."""
     torch.manual_seed(0)
-    kp = KernelPool(coarse_channels=12, q=16, size=5, lift_hidden=8, alpha_hidden=8, descriptor=4)
+    kp = KernelPool(coarse_channels=12, q=16, size=5, lift_hidden=8, alpha_hidden=8, window=5, descriptor=4)
     with torch.no_grad():
         kp.alpha[-1].weight.zero_()
         kp.alpha[-1].bias.fill_(bias)
@@ -177,7 +177,7 @@ def test_kernel_map_head_outputs_bound_what_enters_tanh():
 
     torch.manual_seed(0)
     z = torch.stack([50.0 + 0.1 * torch.randn(2, 9, 11), 3.0 * torch.randn(2, 9, 11)], dim=1)
-    heads = {o: KernelMapHead(4, [4], ConvReLU, output=o) for o in ("tanh", "rms_centred")}
+    heads = {o: KernelMapHead(4, [4], ConvReLU, output=o, padding="zeros") for o in ("tanh", "rms_centred")}
     assert torch.tanh(z[:, 0]).std((-2, -1)).max() < 1e-3             # as is: one kernel everywhere
     centred = heads["rms_centred"].scale(z)
     assert centred[:, 0].mean((-2, -1)).abs().max() < 0.05             # up to fp32 cancellation
@@ -187,7 +187,7 @@ def test_kernel_map_head_outputs_bound_what_enters_tanh():
     torch.testing.assert_close(centred[:, 1], identity)                # the identity channel: RMS only
     assert torch.equal(heads["tanh"].scale(z), z)
     with pytest.raises(ValueError, match="head_output"):
-        KernelMapHead(4, [4], ConvReLU, output="softsign")
+        KernelMapHead(4, [4], ConvReLU, output="softsign", padding="zeros")
 
 
 def test_the_soft_identity_channel_is_continuous_where_rms_centred_flips_every_pixel():
@@ -204,7 +204,7 @@ def test_the_soft_identity_channel_is_continuous_where_rms_centred_flips_every_p
     index = torch.randn(1, 9, 11)
     share = {}
     for output in ("rms_centred", "rms_soft"):
-        head = KernelMapHead(4, [4], ConvReLU, output=output)
+        head = KernelMapHead(4, [4], ConvReLU, output=output, padding="zeros")
         h = [torch.tanh(head.scale(torch.stack([index, c + noise], dim=1))[:, 1]) for c in (-0.01, 0.01)]
         share[output] = [float((x + 1).mean() / 2) for x in h]
         large = head.scale(torch.stack([index, 50.0 + noise], dim=1))
@@ -212,25 +212,31 @@ def test_the_soft_identity_channel_is_continuous_where_rms_centred_flips_every_p
     assert share["rms_centred"][0] < 0.13 and share["rms_centred"][1] > 0.87
     assert abs(share["rms_soft"][1] - share["rms_soft"][0]) < 0.01
     z = torch.stack([index, 0.3 + noise], dim=1)
-    soft, centred = (KernelMapHead(4, [4], ConvReLU, output=o).scale(z) for o in ("rms_soft", "rms_centred"))
+    soft, centred = (KernelMapHead(4, [4], ConvReLU, output=o, padding="zeros").scale(z)
+                     for o in ("rms_soft", "rms_centred"))
     torch.testing.assert_close(soft[:, 0], centred[:, 0])
 
 
 def test_kernel_pool_options_are_checked_by_name():
-    """``method.kp``: a value outside its range is refused naming the key, and an unknown key (the options
-    removed before the bundled checkpoints were saved again included) is refused."""
+    """``method.kp``: a missing key (the options have no defaults of their own: the YAML gives them) or a
+    value outside its range is refused naming the key, and an unknown key (the options removed before the
+    bundled checkpoints were saved again included) is refused."""
     from mcd.models.kernel_pool import kp_options_of
 
-    assert kp_options_of(None) == {"head_output": "rms_centred", "highlight": None, "skip_misses": False}
-    assert kp_options_of({"highlight": 4, "skip_misses": True}) == {"head_output": "rms_centred",
-                                                                    "highlight": 4.0, "skip_misses": True}
+    given = {"head_output": "rms_centred", "highlight": 4, "skip_misses": True}
+    assert kp_options_of(given) == {**given, "highlight": 4.0}
+    assert kp_options_of({**given, "highlight": None})["highlight"] is None
+    with pytest.raises(ValueError, match="method.kp lacks head_output, highlight, skip_misses"):
+        kp_options_of({})
+    with pytest.raises(ValueError, match="method.kp lacks highlight"):
+        kp_options_of({"head_output": "tanh", "skip_misses": False})
     with pytest.raises(ValueError, match="method.kp.highlight"):
-        kp_options_of({"highlight": 0})
+        kp_options_of({**given, "highlight": 0})
     with pytest.raises(ValueError, match="method.kp.skip_misses"):
-        kp_options_of({"skip_misses": "yes"})
+        kp_options_of({**given, "skip_misses": "yes"})
     for removed in ({"denoiser_reads_adaptive": False}, {"temperature": 1.0}, {"head_outptu": "tanh"}):
         with pytest.raises(ValueError, match="unknown option"):
-            kp_options_of(removed)
+            kp_options_of({**given, **removed})
 
 
 @pytest.mark.parametrize("ceiling", [None, 4.0])

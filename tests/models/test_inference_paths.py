@@ -129,7 +129,7 @@ def test_group_then_point_with_constant_channels_is_the_block_on_the_broadcast(b
 
 def test_the_kernel_map_head_in_inference_mode_is_the_head_on_the_broadcast_descriptor():
     torch.manual_seed(2)
-    head = KernelMapHead(42, [40, 40], FastGhostConv).eval()
+    head = KernelMapHead(42, [40, 40], FastGhostConv, output="rms_centred", padding="zeros").eval()
     parts = [torch.rand(1, 16, 12, 17), torch.rand(1, 7, 12, 17), torch.rand(1, 3, 12, 17) * 4]
     desc = torch.randn(1, 16)
     with torch.no_grad():

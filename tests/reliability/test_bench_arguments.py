@@ -1,8 +1,8 @@
-"""``python -m mcd.bench`` checks its numbers and devices before any work (docs/reliability.md, "Campaign 5"):
-``train --steps 0`` ran every job's build and warm-up, then failed each on a division by zero; ``speed
---sizes 0x16`` wrote rows that failed to build, ``--devices tpu`` ended in torch's traceback after measuring
-the CPU's matmul rate. Each is now refused by the argument parser (exit 2) naming the flag, and nothing is
-written."""
+"""``python -m mcd.bench`` checks its numbers and devices before any work (docs/reliability.md, "Campaign
+fixes"): ``train --steps 0`` ran every job's build and warm-up, then failed each on a division by zero;
+``speed --sizes 0x16`` wrote rows that failed to build, ``--devices tpu`` ended in torch's traceback after
+measuring the CPU's matmul rate. Each is now refused by the argument parser (exit 2) naming the flag, and
+nothing is written."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """``python -m mcd.bench --out <folder>/x.csv`` wrote its README.md beside the CSV over a user's own
 ``<folder>/README.md``. A README there that the bench did not write is now refused before anything is
 measured, naming it, and stays as it was; the bench's own README is replaced as before
-(``mcd.bench.speed.check_readme``, docs/reliability.md "Campaign 5")."""
+(``mcd.bench.speed.check_readme``, docs/reliability.md, "Campaign fixes")."""
 
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
-"""``python -m mcd.bundle`` never writes over a bundle it was not asked to replace (campaign 6,
-docs/reliability.md): ``--name unet-cpu-small`` replaced the shipped bundle's ``.pt`` and ``.json`` with a
-2-step run's, exit 0, without a word. A bundle of the name in ``--out`` is now refused with one ``error:``
-line (exit 2) and keeps its bytes; ``--replace`` writes over it; a bad ``--name`` or a run without
-``metrics.json`` is one ``error:`` line, not a traceback."""
+"""``python -m mcd.bundle`` never writes over a bundle it was not asked to replace (docs/reliability.md,
+"Campaign fixes"): ``--name unet-cpu-small`` replaced the shipped bundle's ``.pt`` and ``.json`` with a 2-step
+run's, exit 0, without a word. A bundle of the name in ``--out`` is now refused with one ``error:`` line (exit
+2) and keeps its bytes; ``--replace`` writes over it; a bad ``--name`` or a run without ``metrics.json`` is
+one ``error:`` line, not a traceback."""
 
 from __future__ import annotations
 
@@ -13,12 +13,8 @@ import sys
 import pytest
 
 from mcd.denoise.weights import BUNDLED_DIR
-from tests.conftest import store32_overrides
 from tests.reliability.denoise_helpers import snapshot
-from tests.test_run import REPO, mcd_run
-
-RUN = ["train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
-       "trainer.enable_progress_bar=false"]
+from tests.test_run import REPO
 
 
 def _bundle(*args: str) -> subprocess.CompletedProcess:
@@ -27,13 +23,10 @@ def _bundle(*args: str) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def finished(cbox_store, tmp_path_factory):
-    """A run directory of ``+experiment=unet`` that ``mcd.run`` finished."""
-    run = tmp_path_factory.mktemp("bundle") / "run"
-    base = store32_overrides(cbox_store[1].data_dir)
-    proc = mcd_run("+experiment=unet", *base, *RUN, f"hydra.run.dir={run}")
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return run
+def finished(unet_run):
+    """A run directory of ``+experiment=unet`` that ``mcd.run`` finished: the session's ``unet_run``
+    (tests/conftest.py), which ``mcd.bundle`` only reads (the unfinished run below is a copy)."""
+    return unet_run[0]
 
 
 def test_a_shipped_bundles_name_is_refused_and_kept_unless_replace(finished, tmp_path):

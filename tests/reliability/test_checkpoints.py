@@ -1,4 +1,4 @@
-"""Defects 1 and 10 of issue 14: checkpoints are loaded weights-only, and one that does not fit the run's
+"""Checkpoints are loaded weights-only, and one that does not fit the run's
 model is refused, naming what differs, before anything is rendered."""
 
 from __future__ import annotations

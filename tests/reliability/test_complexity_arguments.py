@@ -1,6 +1,6 @@
-"""``python -m mcd.complexity`` refuses bad arguments by name before it builds a model (campaign 6,
-docs/reliability.md): ``--width 0`` ended in torch's traceback ("Expected 3D or 4D (batch mode) tensor ...");
-an unknown ``--experiments``, ``--capacity`` or ``--shares`` in Hydra's MissingConfigException traceback."""
+"""``python -m mcd.complexity`` refuses bad arguments by name before it builds a model (docs/reliability.md,
+"Campaign fixes"): ``--width 0`` ended in torch's traceback ("Expected 3D or 4D (batch mode) tensor ..."); an
+unknown ``--experiments``, ``--capacity`` or ``--shares`` in Hydra's MissingConfigException traceback."""
 
 from __future__ import annotations
 

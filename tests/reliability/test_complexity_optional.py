@@ -1,4 +1,4 @@
-"""Defect 13 of issue 14: without the optional ``pyoidn``, ``python -m mcd.complexity`` lists OIDN as
+"""Without the optional ``pyoidn``, ``python -m mcd.complexity`` lists OIDN as
 unavailable and prints every other row."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""``scripts/current_report.sh`` keeps one training budget per report (campaign 6, docs/reliability.md): its
-mark file held the commit only, so a later session with another ``BUDGET_STEPS`` went ahead (a sweep skips
+"""``scripts/current_report.sh`` keeps one training budget per report (docs/reliability.md, "Campaign fixes"):
+its mark file held the commit only, so a later session with another ``BUDGET_STEPS`` went ahead (a sweep skips
 the finished jobs, which do not count the budget as part of the job, and trains the others to the new one),
 and the report stage's note stated the last session's budget for every job. The first stage now records the
 budget beside the commit; a training or report stage with another one is refused before any job runs."""

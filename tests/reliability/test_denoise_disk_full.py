@@ -1,5 +1,5 @@
 """``mcd-denoise`` onto a disk without room (``mcd.denoise.output_folder.check_space``, the ENOSPC line of
-``mcd.denoise.cli``; docs/reliability.md, "Campaign 7"): onto a 24 KB tmpfs the run denoised frame 0, then
+``mcd.denoise.cli``; docs/reliability.md, "Campaign fixes"): onto a 24 KB tmpfs the run denoised frame 0, then
 died on an OSError traceback. Now a disk that cannot hold the outputs every method writes is refused before
 any work, and a disk that fills all the same ends in one error line that says the finished frames are kept
 and that the same command resumes. Each in a tmpfs of a private mount namespace (``unshare -rm``)."""

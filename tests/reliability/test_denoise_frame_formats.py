@@ -1,6 +1,6 @@
 """``mcd-denoise`` on frames stored as half floats or with an alpha channel (docs/reliability.md, "Campaign
-7"): half-float frames denoise as their float32 values do; a frame's alpha channel is not denoised and not in
-the outputs (R, G, B), which is now said in a warning naming the frame (it was dropped without a word)."""
+fixes"): half-float frames denoise as their float32 values do; a frame's alpha channel is not denoised and not
+in the outputs (R, G, B), which is now said in a warning naming the frame (it was dropped without a word)."""
 
 from __future__ import annotations
 

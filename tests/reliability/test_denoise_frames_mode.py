@@ -1,4 +1,4 @@
-"""Defects 27 and 28 of issue 48: ``mcd-denoise`` on frames from disk. Defect 27: a complete frame named
+"""``mcd-denoise`` on frames from disk. Defect 27: a complete frame named
 ``x.albedo.exr`` (read as a sibling layer file of an ``x.exr`` that is not there) was dropped from the
 sequence without a log line. Defect 28: ``--exposure`` was silently ignored. ``mcd-denoise`` runs for real
 on real EXR files."""

@@ -1,5 +1,5 @@
 """``mcd-denoise`` on frames in any units (mcd/data/exposure.py ``input_exposure``, docs/reliability.md
-"Campaign 5"): the network's exposure clamped frame 0's values to 1e8 before taking their mean, so a
+"Campaign fixes"): the network's exposure clamped frame 0's values to 1e8 before taking their mean, so a
 sequence of mean 1e9 reached the network 10 times too bright and one of mean 1e12 or 1e20 far off, and came
 out wrong without a word (the outputs of the same frames scaled by 1e12 were 6.6 times too bright, by 1e20
 128 times too dark). The mean is now taken in float64 without that clamp: denoising commutes with the

@@ -1,4 +1,4 @@
-"""Defects 25 and 26 of issue 48. Defect 25: an ``mcd-denoise`` rerun into a folder whose ``denoise.json``
+"""Two damaged inputs of ``mcd-denoise``. Defect 25: a rerun into a folder whose ``denoise.json``
 has a ``settings`` that is a list gave an AttributeError traceback. A damaged record is refused before any
 frame is denoised, naming the file and the fix, and the outputs stay as they were. Defect 26:
 ``--checkpoint /dev/zero`` or a FIFO was reported as "no such file or folder"; it is named as not a regular

@@ -1,4 +1,4 @@
-"""Defect 14 of issue 48: ``mcd-denoise --reference`` zeroed an all-NaN reference without a word
+"""``mcd-denoise --reference`` zeroed an all-NaN reference without a word
 (``sanitised`` was ``{}``) and printed scores as if the reference were black. A reference with no finite
 value is refused before any work, naming it; NaN/Inf values in one that has some are counted in
 ``sanitised`` and flagged on the frame's score line. Real EXR frames and references."""

@@ -1,6 +1,7 @@
 """``mcd-denoise --scene`` names a missing or unreadable scene file before it claims ``-o``
-(``mcd.denoise.cli._scene``; docs/reliability.md, "Campaign 7"): the file was first read when the scene was
-loaded, after ``-o`` had been made and a first ``denoise.json`` (``{"complete": false}``) written into it."""
+(``mcd.denoise.cli._scene``; docs/reliability.md, "Campaign fixes"): the file was first read when the scene
+was loaded, after ``-o`` had been made and a first ``denoise.json`` (``{"complete": false}``) written into
+it."""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 ``f0001.exr``) overwrote them without a word. A folder without ``denoise.json`` (no ``mcd-denoise`` run wrote
 there) holding such a file is now refused before any work, naming it, and every file stays as it was
 (mcd/denoise/output_folder.py ``check_unrecorded``); a run writes a first ``denoise.json`` before its first
-output (``claim``), so a run stopped mid-way still resumes (docs/reliability.md, "Campaign 5")."""
+output (``claim``), so a run stopped mid-way still resumes (docs/reliability.md, "Campaign fixes")."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Defect 15 of issue 33: frame 0 holding values near float32's largest made the float32 mean overflow to
+"""Frame 0 holding values near float32's largest made the float32 mean overflow to
 inf, the exposure 0, then silently 1. The mean is now taken in float64 over values clamped to
 ``EXPOSURE_CLAMP``, and the clamped values are counted and named (mcd/data/exposure.py)."""
 

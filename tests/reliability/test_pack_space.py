@@ -1,4 +1,4 @@
-"""Defect 8 of issue 48: a pack onto a full disk died with SIGBUS (exit 135) and an empty log: the scene
+"""A pack onto a full disk died with SIGBUS (exit 135) and an empty log: the scene
 arrays are memory maps, and a write into one past a full disk kills the process. The pack checks the free
 space of ``data.train_store.dir``'s disk before it writes anything, and names the need (mcd/data/pack.py).
 

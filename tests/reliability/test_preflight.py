@@ -1,5 +1,5 @@
-"""Defect 9 of issue 14: a bad budget, an image smaller than the SSIM window, a missing scene file and a
-missing configured folder (issue 31: ``paths.scenes_dir``, ``paths.data_dir``) fail before anything is
+"""A bad budget, an image smaller than the SSIM window, a missing scene file and a
+missing configured folder (``paths.scenes_dir``, ``paths.data_dir``) fail before anything is
 rendered or trained, each with a message that says what to give."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 32 items 2 and 3: a training run says where it stands and, at the end, what happened. A real tiny
+"""A training run says where it stands and, at the end, what happened. A real tiny
 run whose output is not a terminal logs plain progress lines (no carriage return at all) and ends with the
 summary: why training stopped, steps and time, the test scores beside the noisy input's, per scene, the run
 directory and the checkpoint (mcd/lit/progress.py, mcd/lit/run_summary.py)."""

@@ -1,4 +1,4 @@
-"""Defects 17 and 18 of issue 48: what ``python -m mcd.report`` does with folders and run records it cannot
+"""What ``python -m mcd.report`` does with folders and run records it cannot
 use. Defect 17: an empty or missing folder printed a traceback around its clear message. The command runs
 for real."""
 

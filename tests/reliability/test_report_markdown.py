@@ -1,4 +1,4 @@
-"""Defect 16 of issue 48: strings from a run's records (``<script>``, ``<img onerror>`` in ``metrics.json``
+"""Strings from a run's records (``<script>``, ``<img onerror>`` in ``metrics.json``
 and ``error.json``) went raw into a report's README.md and ``reports/README.md``. Every such string passes
 ``mcd.reporting.markdown_text.escape``: no tag opens, no table cell splits. ``python -m mcd.report`` for
 real on run directories."""

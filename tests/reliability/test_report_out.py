@@ -1,5 +1,5 @@
 """``mcd.report --out`` never replaces a file it did not write, nor writes into the runs it reads
-(``mcd.report.check_out``, docs/reliability.md "Campaign 5"): ``--out thesis`` replaced a user's own
+(``mcd.report.check_out``, docs/reliability.md, "Campaign fixes"): ``--out thesis`` replaced a user's own
 ``thesis/README.md`` with the reports index, and ``--out <sweep> --name <job>`` wrote the report into that
 finished run directory, whose ``runs/`` copies then made every later report of the sweep refuse. Each is now
 refused with one ``error:`` line before anything is written; a report regenerated from its own ``runs/``

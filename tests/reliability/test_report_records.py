@@ -1,4 +1,4 @@
-"""Defect 12 of issue 33: ``mcd.report`` named a corrupt ``metrics.json`` as a job "killed or still running"
+"""``mcd.report`` named a corrupt ``metrics.json`` as a job "killed or still running"
 and exited 0, and showed ``"psnr": "NaN"`` as a finished job. A corrupt record makes the job failed, named
 with its file, and the command exits 1 after writing the report."""
 

@@ -1,28 +1,25 @@
 """A report rewritten under the same ``--name`` states only what its own runs give (``mcd.report``
-``remove_stale``, ``check_out``, the folder lock; docs/reliability.md, "Campaign 7"): a scaling report written
-over a standard one left its ``table1.csv``, which README.md's results then showed as the current report's
-Table 1; it replaced a hand-written ``notes.md``; two reports at once into one folder mixed their files."""
+``remove_stale``, ``check_out``, the folder lock; docs/reliability.md, "Campaign fixes"): a scaling report
+written over a standard one left its ``table1.csv``, which README.md's results then showed as the current
+report's Table 1; it replaced a hand-written ``notes.md``; two reports at once into one folder mixed their
+files. What each kind may leave is what its writers declare (``mcd.reporting.outputs``): a real report of each
+kind writes nothing that no writer declares, so a new output file cannot be missed by the stale-file
+removal."""
 
 from __future__ import annotations
 
 import pytest
 
 from mcd.core.file_lock import exclusive_folder
-from mcd.report import SCALING_FILES, main
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
-
-RUN = ["train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
-       "trainer.enable_progress_bar=false"]
+from mcd.report import main
+from mcd.reporting.outputs import declared
 
 
 @pytest.fixture
-def one_run(cbox_store, tmp_path):
-    sweep = tmp_path / "multirun"
-    done = mcd_run("+experiment=unet", "capacity=cpu", *store32_overrides(cbox_store[1].data_dir), *RUN,
-                   f"hydra.run.dir={sweep / 'unet'}")
-    assert done.returncode == 0, done.stderr[-4000:]
-    return sweep
+def one_run(unet_run):
+    """The session's finished ``unet_run`` (tests/conftest.py), which the reports here only read: each writes
+    under its own ``--out``."""
+    return unet_run[0]
 
 
 @pytest.mark.slow
@@ -32,17 +29,20 @@ def test_a_report_of_the_other_kind_under_one_name_leaves_no_earlier_file(one_ru
     args = [str(one_run), "--out", str(out), "--name", "x", "--bench", str(tmp_path / "none"), "--no-viewer"]
     main(args)
     assert (report / "table1.csv").is_file() and (report / "strips").is_dir()
+    standard, scaling, both = declared("standard"), declared("scaling"), declared("both")
+    assert {p.name for p in report.iterdir()} <= {*standard, *both}, "a report file that no writer declares"
     (report / "analysis.md").write_text("mine\n")
 
     main([*args, "--kind", "scaling"])
     left = {p.name for p in report.iterdir()}
     assert {"table1.csv", "table1.md", "components.csv", "spp.csv", "per_frame", "strips"}.isdisjoint(left)
-    assert set(SCALING_FILES) - {"scaling.png"} <= left and "notes.md" in left
+    assert set(scaling) - {"scaling.png"} <= left and "notes.md" in left
+    assert left - {"analysis.md"} <= {*scaling, *both}, "a scaling report file that no writer declares"
     assert (report / "analysis.md").read_text() == "mine\n"  # the user's own file stays
 
     main(args)  # and back: the scaling files and the generated notes go
     left = {p.name for p in report.iterdir()}
-    assert left.isdisjoint(SCALING_FILES) and "notes.md" not in left and "table1.csv" in left
+    assert left.isdisjoint(scaling) and "notes.md" not in left and "table1.csv" in left
     assert (report / "analysis.md").read_text() == "mine\n"
 
 
@@ -101,3 +101,20 @@ def test_a_read_only_out_is_one_error_line(one_run, tmp_path):
     assert proc.returncode == 1, proc.stderr[-3000:]
     assert f"error: --out {ro / 'reports'}: cannot make the report folder" in proc.stderr
     assert "Traceback" not in proc.stderr and list(ro.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_an_earlier_reports_bench_table_goes_when_the_report_has_no_bench(one_run, tmp_path):
+    """``speed_bench.csv`` is the latencies of the ``--bench`` CSV; a report rewritten without one kept the
+    earlier report's (it listed every ``speed_bench.csv`` it found as its own), beside runs it never timed."""
+    bench = tmp_path / "bench.csv"  # what python -m mcd.bench writes, the columns the report reads
+    bench.write_text("method,device,dtype,compiled,height,width,ms_median,fps\n"
+                     "unet,cpu,float32,False,32,32,1.5,666.7\n")
+    out = tmp_path / "reports"
+    args = [str(one_run), "--out", str(out), "--name", "x", "--no-viewer"]
+    main([*args, "--bench", str(bench)])
+    assert "unet" in (out / "x" / "speed_bench.csv").read_text()
+    assert "speed_bench.csv" in (out / "x" / "README.md").read_text()
+    main([*args, "--bench", str(tmp_path / "none")])
+    assert not (out / "x" / "speed_bench.csv").exists()
+    assert "speed_bench.csv" not in (out / "x" / "README.md").read_text()

@@ -1,8 +1,8 @@
 """A sweep's command in a report is one that ran its jobs (``mcd.reporting.runs.find_sweeps``,
-docs/reliability.md "Campaign 5"): Hydra rewrites a sweep's ``multirun.yaml`` in every process, also a rerun
-whose jobs were all finished and skipped, so a rerun with ``capacity=paper`` made the report of runs trained
-with ``capacity=cpu`` name ``... capacity=paper`` as their sweep's command. A key or value that no job ran
-with is now left out or replaced by the jobs' own."""
+docs/reliability.md, "Campaign fixes"): Hydra rewrites a sweep's ``multirun.yaml`` in every process, also a
+rerun whose jobs were all finished and skipped, so a rerun with ``capacity=paper`` made the report of runs
+trained with ``capacity=cpu`` name ``... capacity=paper`` as their sweep's command. A key or value that no job
+ran with is now left out or replaced by the jobs' own."""
 
 from __future__ import annotations
 

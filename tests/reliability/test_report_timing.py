@@ -1,4 +1,4 @@
-"""Defect 6 of issue 48: ``mcd.report`` timed each run's model at the run's own test size with no cap (an
+"""``mcd.report`` timed each run's model at the run's own test size with no cap (an
 8192x8192 run's U-Net held 8.7 GB in 48 s). The timed size is capped at ``MAX_TIMED_SIDE`` a side, aspect
 kept, and the figure's title and the CSV say so."""
 

@@ -1,4 +1,4 @@
-"""Defects 3 and 4 of issue 14: ``checkpoints/last.ckpt`` is the last epoch, and resuming into the same run
+"""``checkpoints/last.ckpt`` is the last epoch, and resuming into the same run
 directory keeps the earlier training curve in ``logs/metrics.csv``."""
 
 from __future__ import annotations

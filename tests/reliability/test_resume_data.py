@@ -1,4 +1,4 @@
-"""Defect 12 of issue 48: an interrupted run is not resumed on other data. The job's identity
+"""An interrupted run is not resumed on other data. The job's identity
 (``mcd.lit.run_record.job_identity``, ``job.json``) holds what determines the data
 (``mcd.data.store.store_settings``), so ``ckpt_path=auto`` with another ``data.name`` and size is refused
 naming the keys that differ, before anything is rendered; the same data still resumes."""

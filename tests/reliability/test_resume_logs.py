@@ -1,4 +1,4 @@
-"""Issue 33 (smaller defects): after a kill and a resume, ``logs/metrics.csv`` and ``curve.csv`` repeated the
+"""After a kill and a resume, ``logs/metrics.csv`` and ``curve.csv`` repeated the
 rows the killed process had logged past the checkpoint it resumed from. The resumed run now drops them when it
 starts (mcd/lit/csv_log.py ``drop_rows_after``), so each step appears once."""
 

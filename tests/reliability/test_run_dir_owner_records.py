@@ -1,4 +1,4 @@
-"""A run directory's records stay the run's own (docs/reliability.md, "Campaign 5"):
+"""A run directory's records stay the run's own (docs/reliability.md, "Campaign fixes"):
 
 - a run started again without ``ckpt_path`` in a directory holding an interrupted run (``last.ckpt``, no
   ``metrics.json``) trained from scratch over it: its ``last.ckpt`` was replaced (the training it held lost)

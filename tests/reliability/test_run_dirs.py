@@ -1,4 +1,4 @@
-"""Defects 2, 3 and 4 of issue 33: one owner per run directory (mcd/lit/run_dir.py). Two runs started in the
+"""One owner per run directory (mcd/lit/run_dir.py). Two runs started in the
 same second get two directories and both keep their results; a ``ckpt_path=auto`` resume of a run directory
 another process holds is refused naming the owner's pid; an interrupted run resumed with other settings
 is refused naming the keys that differ."""

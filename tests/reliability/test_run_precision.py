@@ -1,7 +1,7 @@
 """``trainer.precision`` is checked before anything is rendered, and a run records the precision it trained in
-(campaign 6, docs/reliability.md; mcd/lit/precision.py): ``trainer.precision=banana`` failed in Lightning
-after the store was rendered, ``64-true`` failed at the first step ("Input type (float) and bias type
-(double) should be the same"), and ``16-mixed`` on the CPU trained in bf16-mixed (Lightning's own switch)
+(docs/reliability.md, "Campaign fixes"; mcd/lit/precision.py): ``trainer.precision=banana`` failed in
+Lightning after the store was rendered, ``64-true`` failed at the first step ("Input type (float) and bias
+type (double) should be the same"), and ``16-mixed`` on the CPU trained in bf16-mixed (Lightning's own switch)
 while ``metrics.json`` said ``16-mixed``."""
 
 from __future__ import annotations

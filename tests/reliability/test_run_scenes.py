@@ -2,7 +2,7 @@
 ("run_record needs the test's averages"); a trained method with no scene to train on rendered its test
 scenes, then failed inside Lightning ("num_samples should be a positive integer value"). Both are refused by
 ``mcd.run``'s preflight (``mcd.config.preflight.check_scenes``) naming the key, before anything is rendered
-(docs/reliability.md, "Campaign 5")."""
+(docs/reliability.md, "Campaign fixes")."""
 
 from __future__ import annotations
 

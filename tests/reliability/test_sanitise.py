@@ -1,4 +1,4 @@
-"""Defect 8 of issue 14: a finite value that overflows when multiplied by the exposure is sanitised too."""
+"""A finite value that overflows when multiplied by the exposure is sanitised too."""
 
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
-"""The scaling report's cells hold one recipe's seeds, each with a score (campaign 6, docs/reliability.md;
-``mcd.reporting.scaling.grid.read``). A run whose ``psnr`` is null (``mcd.run`` writes a NaN score so)
+"""The scaling report's cells hold one recipe's seeds, each with a score (docs/reliability.md, "Campaign
+fixes"; ``mcd.reporting.scaling.grid.read``). A run whose ``psnr`` is null (``mcd.run`` writes a NaN score so)
 counted as a seed of its cell (``n`` 2, band "range") while the mean came from the other seed alone; a run of
-the same profile name with another capacity profile (or other data settings: ``data.width``, samples, ...)
-was averaged with the others as one more seed. Both are now left out, each named with why."""
+the same profile name with another capacity profile (or other data settings: ``data.width``, samples, ...) was
+averaged with the others as one more seed. Both are now left out, each named with why."""
 
 from __future__ import annotations
 

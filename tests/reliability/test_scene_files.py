@@ -1,8 +1,8 @@
 """A scene file that cannot render is named before any scene renders (``mcd.data.scenes.SceneSpec
-.check_readable``, called by ``StoreBuilder.ensure`` for every scene first; docs/reliability.md "Campaign 5"):
-a garbage XML file gave Mitsuba's parser error, and one without a camera an IndexError, only when its turn
-came, after the scenes before it had rendered; a folder given as a scene was "not found". A data folder that
-cannot be made gave a bare FileNotFoundError; it is named with ``paths.data_dir``."""
+.check_readable``, called by ``StoreBuilder.ensure`` for every scene first; docs/reliability.md, "Campaign
+fixes"): a garbage XML file gave Mitsuba's parser error, and one without a camera an IndexError, only when its
+turn came, after the scenes before it had rendered; a folder given as a scene was "not found". A data folder
+that cannot be made gave a bare FileNotFoundError; it is named with ``paths.data_dir``."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """A profile whose sequences are too short for its test frames, validation clips and one training clip is
 refused before anything is rendered (``mcd.config.preflight.check_split``; docs/reliability.md, "Campaign
-7"): ``data=medium`` with the 12-frame overrides of ``store32_overrides`` rendered all four of the profile's
-scenes, then failed in the datamodule with the same message."""
+fixes"): ``data=medium`` with the 12-frame overrides of ``store32_overrides`` rendered all four of the
+profile's scenes, then failed in the datamodule with the same message."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Defect 13 of issue 33: a same-size bitflip in a store EXR was trained on silently, because every profile
+"""A same-size bitflip in a store EXR was trained on silently, because every profile
 had ``data.verify_checksums: false``. The default is now ``once``: each file's SHA-256 is checked on its
 first load in a process (tools/checksum_cost.py measures the cost; docs/data.md)."""
 

@@ -1,4 +1,4 @@
-"""Defect 14 of issue 33: store damage that parses but breaks the schema (``"files": 5``, an entry without
+"""Store damage that parses but breaks the schema (``"files": 5``, an entry without
 ``bytes``, a string exposure) and a ``.lock`` that is a directory gave tracebacks (AttributeError,
 IsADirectoryError); each is now named with its file and the fix."""
 

@@ -1,4 +1,4 @@
-"""Defects 6 and 7 of issue 14: the fix command of a damaged file repeats the overrides that made the store
+"""The fix command of a damaged file repeats the overrides that made the store
 (following it repairs that store, not another one), and a damaged ``manifest.json`` is named with its fix,
 which ``render.verify=true`` (or ``--force``) carries out."""
 

@@ -1,4 +1,4 @@
-"""Defects 12 and 5 of issue 14: store files get the umask's mode, stale temp files beside the manifest are
+"""Store files get the umask's mode, stale temp files beside the manifest are
 removed, and two concurrent renders of one store both finish with a complete manifest."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Defect 22 of issue 48: a frame's lock ``<scene>/<frame>/.lock`` that is a directory, or a frame folder
+"""A frame's lock ``<scene>/<frame>/.lock`` that is a directory, or a frame folder
 ``<scene>/<frame>`` that is a file, gave a raw OS error. Each is named with its fix before anything is
 rendered (mcd/data/store_builder.py); a real render of the 32x32 profile of tests/conftest.py."""
 

@@ -1,4 +1,4 @@
-"""Defect 2 of issue 14: a profile or scene name cannot make the store write outside ``paths.data_dir``."""
+"""A profile or scene name cannot make the store write outside ``paths.data_dir``."""
 
 from __future__ import annotations
 

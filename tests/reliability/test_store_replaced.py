@@ -1,6 +1,6 @@
 """A store rendered again with other settings under the same ``data.name`` while a process reads it is named
-as such (``mcd.data.store.StoreReader._check_not_replaced``; docs/reliability.md, "Campaign 7"): a 32x32 run
-whose store was rendered again at 48x48 by ``mcd.render`` during its training failed at its test on
+as such (``mcd.data.store.StoreReader._check_not_replaced``; docs/reliability.md, "Campaign fixes"): a 32x32
+run whose store was rendered again at 48x48 by ``mcd.render`` during its training failed at its test on
 "truncated or corrupt EXR (19286 bytes, the manifest says 13142)", with a render command as the fix."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """A dry run of the planned sweeper writes nothing (``mcd.lit.sweep_plan.PlannedSweeper.sweep``;
-docs/reliability.md, "Campaign 7"): Hydra's sweep saved ``<sweep dir>/multirun.yaml`` before the plan, so a
-``sweep_plan.dry_run=true`` into a finished sweep's folder replaced its record with the command of a sweep
+docs/reliability.md, "Campaign fixes"): Hydra's sweep saved ``<sweep dir>/multirun.yaml`` before the plan, so
+a ``sweep_plan.dry_run=true`` into a finished sweep's folder replaced its record with the command of a sweep
 that ran no job."""
 
 from __future__ import annotations

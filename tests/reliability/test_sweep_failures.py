@@ -1,4 +1,4 @@
-"""Defect 11 of issue 14: a sweep with a failed job runs every job, then exits 1 saying how many failed; a run
+"""A sweep with a failed job runs every job, then exits 1 saying how many failed; a run
 pointed at another job's finished run directory is an error, not a silent skip."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The planned sweeper says which jobs ``sweep_plan.seeds_only_where`` leaves out (campaign 6,
-docs/reliability.md; mcd/lit/sweep_plan.py): ``+sweep=scaling data=tiny seed=0,1,2`` planned "1 jobs" and ran
+"""The planned sweeper says which jobs ``sweep_plan.seeds_only_where`` leaves out (docs/reliability.md,
+"Campaign fixes"; mcd/lit/sweep_plan.py): ``+sweep=scaling data=tiny seed=0,1,2`` planned "1 jobs" and ran
 seed 0 only, with no word about the seeds typed on the command line (the study's rule runs seeds 1-2 only at
 3000 steps on small and medium). The plan now names the rule, how many jobs it leaves out, and how to run
 them."""

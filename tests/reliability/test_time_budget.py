@@ -1,7 +1,7 @@
 """A run stopped by ``train.max_minutes`` after a resume says so (``mcd.lit.budget.stop_reason``;
-docs/reliability.md, "Campaign 7"): Lightning's ``Timer`` restores the time the earlier process used, and the
-resumed run stopped on the budget, but its ``metrics.json`` said ``interrupted`` (this process alone had not
-used the budget), and the scaling report listed it so."""
+docs/reliability.md, "Campaign fixes"): Lightning's ``Timer`` restores the time the earlier process used, and
+the resumed run stopped on the budget, but its ``metrics.json`` said ``interrupted`` (this process alone had
+not used the budget), and the scaling report listed it so."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Defects 19-21 of issue 48: the training store's own files (mcd/data/train_store.py, mcd/data/pack.py,
+"""The training store's own files (mcd/data/train_store.py, mcd/data/pack.py,
 docs/training_store.md). Defect 19: a corrupt ``store.json`` or ``<scene>.json`` gave a JSONDecodeError or
 KeyError traceback; it is named with its fix, and following the fix packs again. Real renders, real packs."""
 

@@ -1,4 +1,4 @@
-"""Defect 9 of issue 48: a packed training store without a buffer of the run (packed by a U-Net run, trained
+"""A packed training store without a buffer of the run (packed by a U-Net run, trained
 from by row F) is refused before anything is rendered, naming the store, the buffers it lacks and the fix;
 a store not packed yet is still packed by the run."""
 

@@ -116,7 +116,7 @@ def test_claims_with_missing_rows_say_which():
 
 
 def test_a_finding_never_compares_a_method_with_itself():
-    """Issue 34: a finding read "0.121 (F) to 0.121 (F)". A range over one row names it once; the record
+    """A finding read "0.121 (F) to 0.121 (F)". A range over one row names it once; the record
     refuses a method named twice."""
     comp = _comp({r: 30.0 + i for i, r in enumerate("ABCDEF")})
     comp["KP identity"] = [math.nan, math.nan, math.nan, math.nan, math.nan, 0.121]
@@ -464,7 +464,7 @@ def _speed_job(root, name, experiment, capacity, size):
 
 
 def test_speed_against_error_times_each_runs_own_model_at_its_test_resolution(tmp_path, monkeypatch):
-    """Issue 34: a point's latency and error come from one model: the run's architecture and capacity, at
+    """A point's latency and error come from one model: the run's architecture and capacity, at
     its test frames' resolution (not the bench's paper-capacity 256x256)."""
     from mcd.models import latency
     from mcd.models.complexity import complexity

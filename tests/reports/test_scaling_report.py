@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from mcd.reporting import finding
+from mcd.reporting import finding, outputs
 from mcd.reporting.finding import Finding
 from mcd.reporting.scaling import coverage, notes
 from mcd.reporting.scaling import gaps as scaling_gaps
@@ -172,6 +172,8 @@ def test_a_real_grid_gives_the_scaling_report(cbox_store, tmp_path):
     main([str(sweep), "--out", str(tmp_path / "reports"), "--readme", str(tmp_path / "README.md")])
     out = tmp_path / "reports" / "scaling"  # a scaling sweep's runs make a scaling report by themselves
     assert (out / "scaling.png").stat().st_size > 20_000
+    # every file of the report, the figure and the viewer included, is one its writers declare
+    assert {p.name for p in out.iterdir()} == {*outputs.declared("scaling"), *outputs.declared("both")}
 
     cells = pd.read_csv(out / "scaling_cells.csv")
     for exp in ("F", "ntasad", "A"):

@@ -1,6 +1,6 @@
-"""`python -m mcd.bench --train` (mcd/bench/train.py): real Lightning fits on the 32x32 test store, one
-process
-per path, the CSV columns of docs/training.md "Throughput"."""
+"""`python -m mcd.bench train` (mcd/bench/train.py): real Lightning fits on the 32x32 test store, one
+process per path (each started as ``python -m mcd.bench train --child``), the CSV columns of docs/training.md
+"Throughput"."""
 
 from __future__ import annotations
 

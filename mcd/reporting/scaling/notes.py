@@ -29,10 +29,13 @@ from pathlib import Path
 from mcd.config.methods import display_name
 from mcd.reporting.finding import RESOLVED_SE, Finding, render, resolved
 from mcd.reporting.markdown_text import escape as esc
+from mcd.reporting.outputs import writes
 from mcd.reporting.scaling.fit import HORIZON
 from mcd.reporting.scaling.gaps import MAIN
 
-FILE = "notes.md"
+#: The generated notes, the scaling report's (mcd.reporting.outputs); a report removes a stale one only where
+#: it is generated (its first line is mcd.report.GENERATED_NOTES), never the user's own.
+FILE, = writes("scaling", "notes.md")
 #: The hand-written analysis a person may add beside the generated notes; the report never writes it.
 ANALYSIS = "analysis.md"
 

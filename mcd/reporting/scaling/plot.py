@@ -22,11 +22,12 @@ import pandas as pd  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
 from mcd.config.methods import display_name  # noqa: E402
+from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.scaling.fit import HORIZON, fit_log_steps  # noqa: E402
 from mcd.reporting.scaling.grid import SE_BAND_MIN_SEEDS, STUDY, Grid, order  # noqa: E402
 
-FILE = "scaling.png"
+FILE, = writes("scaling", "scaling.png")
 #: The rows of panels: score, axis label.
 ROWS = (("psnr", "PSNR (dB), higher is better"), ("flip", "FLIP, lower is better"))
 

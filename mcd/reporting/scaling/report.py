@@ -26,6 +26,7 @@ from mcd.config.methods import display_name
 from mcd.reporting import finding, map_health, viewer
 from mcd.reporting.finding import Finding
 from mcd.reporting.markdown_text import escape as esc
+from mcd.reporting.outputs import writes
 from mcd.reporting.provenance import Provenance
 from mcd.reporting.runs import Run
 from mcd.reporting.scaling import coverage, fit, gaps, notes, plot
@@ -34,6 +35,12 @@ from mcd.reporting.select import to_markdown
 
 #: FLIP is shown x1e2 in the markdown tables (two decimals); the CSV files keep full precision.
 FLIP_SCALE = 100.0
+
+#: The tables it writes in the report's folder beside the figure and the notes (mcd.reporting.outputs):
+#: ``<stem>.csv`` for each stem, ``<stem>.md`` for those with a section below.
+CSV_STEMS = ("scaling_cells", "scaling_gaps", "scaling_fits", "scaling_crossings", "scaling_jobs")
+MD_STEMS = ("scaling_cells", "scaling_gaps", "scaling_fits")
+FILES = writes("scaling", *(f"{stem}.csv" for stem in CSV_STEMS), *(f"{stem}.md" for stem in MD_STEMS))
 
 
 def scale_points(grid: Grid, plan: pd.DataFrame) -> list[tuple[str, int]]:
@@ -116,13 +123,12 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
     finding.write(found, out_dir)
 
     shown_cells = cell_table(table, plan, points)
-    shown_cells.to_csv(out_dir / "scaling_cells.csv", index=False)
-    gap_table.to_csv(out_dir / "scaling_gaps.csv", index=False)
-    fit_table.to_csv(out_dir / "scaling_fits.csv", index=False)
     cross_table = _crossing_table(crossed)
-    cross_table.to_csv(out_dir / "scaling_crossings.csv", index=False)
-    jobs.assign(run=[root_relative(p, root) if p else "" for p in jobs["run"]]).to_csv(
-        out_dir / "scaling_jobs.csv", index=False)
+    csv_tables = {"scaling_cells": shown_cells, "scaling_gaps": gap_table, "scaling_fits": fit_table,
+                  "scaling_crossings": cross_table,
+                  "scaling_jobs": jobs.assign(run=[root_relative(p, root) if p else "" for p in jobs["run"]])}
+    for stem in CSV_STEMS:
+        csv_tables[stem].to_csv(out_dir / f"{stem}.csv", index=False)
     png = plot.write(grid, table, out_dir, prov)
     if png is None:
         (out_dir / plot.FILE).unlink(missing_ok=True)
@@ -160,9 +166,8 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
     for stem, (title, note, body) in sections.items():
         (out_dir / f"{stem}.md").write_text(f"# {title}\n\n{note}\n\n{body}")
 
-    files = [out_dir / f for f in ("findings.json", "notes.md", "scaling_cells.md", "scaling_cells.csv",
-                                   "scaling_gaps.md", "scaling_gaps.csv", "scaling_fits.md",
-                                   "scaling_fits.csv", "scaling_crossings.csv", "scaling_jobs.csv")]
+    files = [out_dir / finding.FILE, notes_path, *(out_dir / f"{stem}.md" for stem in MD_STEMS),
+             *(out_dir / f"{stem}.csv" for stem in CSV_STEMS)]
     if png is not None:
         files.insert(0, png)
     if page is not None:
