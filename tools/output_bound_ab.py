@@ -1,0 +1,114 @@
+"""A/B of the output bound's fast path (mcd/models/output_bound.py; docs/inference.md "Fast paths"): a
+method's frame time with it and without it, in one process, the two alternating call by call.
+
+"Without" hands :mod:`mcd.models.output_bound` a switch that says no (its reference formulations: ``unfold``
+and ``topk``, ``max_pool2d``, ``torch.quantile``, the render's 3 x 3 mean on every frame); every other fast
+path runs in both, so what differs is this path. Same model, weights and inputs: ``capacity=paper`` (as
+``python -m mcd.bench speed``), ``--size`` synthetic buffers (``mcd.bench.speed.frame_buffers``),
+channels-last, inference mode, bf16 autocast where the CPU has it (``--dtype``). The output steps run as part
+of the model's forward (mcd/models/output_steps.py), so the frame is the bench's.
+
+Prints each call's ms, the medians and the ratio without/with per method, and checks the two outputs are
+equal. Run with ``OMP_NUM_THREADS`` set.
+
+    PYTHONPATH=. python tools/output_bound_ab.py --methods F,unet --size 1080p --repeat 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from types import SimpleNamespace
+
+import torch
+
+from mcd.bench.speed import frame_buffers, parse_size
+from mcd.config.compose import compose
+from mcd.core.machine import device_name
+from mcd.core.provenance import short_commit
+from mcd.lit.precision import autocast_to, cpu_bf16_supported
+from mcd.models import build, output_bound
+
+CPU = torch.device("cpu")
+
+
+@contextmanager
+def without_fast_bound() -> Iterator[None]:
+    """The output bound's reference formulations; the other fast paths as they are."""
+    saved = output_bound.fast_paths
+    output_bound.fast_paths = SimpleNamespace(enabled=lambda: False)
+    try:
+        yield
+    finally:
+        output_bound.fast_paths = saved
+
+
+def frame_call(method: str, size: str, dtype: torch.dtype | None) -> Callable[[], torch.Tensor]:
+    """One inference call of ``method`` at ``size``; returns its output."""
+    from mcd.models.latency import model_inputs
+
+    h, w = parse_size(size)
+    model = build(compose([f"+experiment={method}", "capacity=paper"])).eval()
+    model = model.to(memory_format=torch.channels_last)
+    buffers, _ = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, None)
+    x = model_inputs(model, buffers, CPU, channels_last=True)
+
+    def call() -> torch.Tensor:
+        if hasattr(model, "reset"):
+            model.reset()
+        with torch.inference_mode(), autocast_to(CPU, dtype):
+            return model(x)["output"]
+
+    return call
+
+
+def ab(name: str, call: Callable[[], torch.Tensor], warmup: int, repeat: int) -> None:
+    """Alternate ``call`` with and without the fast bound; print the medians, their ratio and whether the
+    outputs agree."""
+    times: dict[str, list[float]] = {"with": [], "without": []}
+    outputs: dict[str, torch.Tensor] = {}
+
+    def timed(which: str) -> float:
+        if which == "without":
+            with without_fast_bound():
+                t0 = time.perf_counter()
+                outputs[which] = call()
+        else:
+            t0 = time.perf_counter()
+            outputs[which] = call()
+        return (time.perf_counter() - t0) * 1e3
+
+    for _ in range(warmup):
+        timed("without")
+        timed("with")
+    for i in range(repeat):
+        for which in (("without", "with") if i % 2 == 0 else ("with", "without")):
+            times[which].append(timed(which))
+    med = {k: statistics.median(v) for k, v in times.items()}
+    for k, v in times.items():
+        print(f"{name} {k:7s} ms: " + " ".join(f"{t:.1f}" for t in v) + f"  median {med[k]:.1f}")
+    same = torch.equal(outputs["with"], outputs["without"])
+    print(f"{name}: without / with = {med['without'] / med['with']:.2f}x "
+          f"(saved {med['without'] - med['with']:.1f} ms); outputs {'equal' if same else 'DIFFER'}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--methods", default="F,unet", help="experiments, comma-separated")
+    ap.add_argument("--size", default="1080p", help="frame size: 1080p, 256 or <W>x<H>")
+    ap.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the CPU has it")
+    ap.add_argument("--warmup", type=int, default=1)
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    dtype = torch.bfloat16 if (args.dtype or ("bf16" if cpu_bf16_supported() else "fp32")) == "bf16" else None
+    print(f"commit {short_commit()}; {device_name(CPU)}; torch {torch.__version__}; "
+          f"{torch.get_num_threads()} thread(s); dtype {'bf16' if dtype else 'fp32'}")
+    for method in args.methods.split(","):
+        ab(f"{method} {args.size}", frame_call(method, args.size, dtype), args.warmup, args.repeat)
+
+
+if __name__ == "__main__":
+    main()
