@@ -1,11 +1,11 @@
 """The fast paths of mcd/models/fast_paths.py against their reference formulations (docs/inference.md "Fast
 paths"): the kernel application in the kernels' layout, semantic alignment's attention in the autocast dtype,
 channels-last G-buffers and block inputs, the replicate-padded Fast GhostConv block (inference and training),
-the output bound's selections and window maxima (bit for bit, on rendered frames and HDR, black, odd-sized
-and non-finite ones);
-each on its own, and the bundled row F (both bundles: zero and replicate padding in ``F_s``) on rendered
-Cornell-box frames (fp32 within 1e-4 relative of the reference; bf16 within 0.1 dB PSNR of fp32 against the
-rendered reference; training gradients within 1e-4 relative)."""
+the kernel-map head's replicate-padded last convolution, the output bound's selections and window maxima (bit
+for bit, on rendered frames and on HDR, black, odd-sized and non-finite ones); each on its own, and the
+bundled row F (both bundles: zero and replicate padding in ``F_s``) on rendered Cornell-box frames (fp32
+within 1e-4 relative of the reference; bf16 within 0.1 dB PSNR of fp32 against the rendered reference;
+training gradients within 1e-4 relative)."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from mcd.denoise.weights import load
 from mcd.lit.precision import cpu_bf16_supported
 from mcd.models import fast_paths, ghost_conv
 from mcd.models.cpu_fast import ghost_conv as cpu_ghost
+from mcd.models.cpu_fast.replicate import replicate_conv, replicate_conv_applies
 from mcd.models.ghost_conv import FastGhostConv
 from mcd.models.inputs import gbuffers
 from mcd.models.kernel_pool import KernelPool, apply_pixel_kernels, filter_below, interpolate_kernels
@@ -294,3 +295,15 @@ def test_window_max_and_quantile_are_the_reference(size):
         flat = m.flatten(1)
         for q in (0.0, 0.5, 0.99, 1.0):
             assert torch.equal(quantile(flat, q), torch.quantile(flat, q, dim=1))
+
+
+@pytest.mark.parametrize("size", [(37, 53), (1, 9), (5, 4)])
+def test_replicate_conv_in_inference_is_the_reference(size):
+    """The kernel-map head's last convolution (40 -> 2, 3x3, replicate) on HDR inputs with exact zeros."""
+    torch.manual_seed(0)
+    conv = torch.nn.Conv2d(40, 2, 3, padding=1, padding_mode="replicate").to(memory_format=CL)
+    parts, _ = _ghost_inputs([40], 0, 2, size)
+    with torch.inference_mode():
+        assert replicate_conv_applies(conv, parts[0])
+        fast, ref = replicate_conv(conv, parts[0]), conv(parts[0])
+    torch.testing.assert_close(fast, ref, rtol=1e-4, atol=1e-4 * float(ref.abs().max()))

@@ -1,17 +1,21 @@
-"""A/B of the output bound's fast path (mcd/models/output_bound.py; docs/inference.md "Fast paths"): a
-method's frame time with it and without it, in one process, the two alternating call by call.
+"""A/B of one inference fast path (docs/inference.md "Fast paths"): a method's frame time with it and
+without it, in one process, the two alternating call by call.
 
-"Without" hands :mod:`mcd.models.output_bound` a switch that says no (its reference formulations: ``unfold``
-and ``topk``, ``max_pool2d``, ``torch.quantile``, the render's 3 x 3 mean on every frame); every other fast
-path runs in both, so what differs is this path. Same model, weights and inputs: ``capacity=paper`` (as
-``python -m mcd.bench speed``), ``--size`` synthetic buffers (``mcd.bench.speed.frame_buffers``),
-channels-last, inference mode, bf16 autocast where the CPU has it (``--dtype``). The output steps run as part
-of the model's forward (mcd/models/output_steps.py), so the frame is the bench's.
+``--path`` picks what "without" turns off; every other fast path runs in both, so what differs is that path:
 
-Prints each call's ms, the medians and the ratio without/with per method, and checks the two outputs are
-equal. Run with ``OMP_NUM_THREADS`` set.
+- ``output_bound``: :mod:`mcd.models.output_bound` is handed a switch that says no (its reference
+  formulations: ``unfold`` and ``topk``, ``max_pool2d``, ``torch.quantile``, the render's 3 x 3 mean on every
+  frame);
+- ``head_conv``: the kernel-map head's replicate-padded last convolution runs as ``nn.Conv2d`` (``F.pad``,
+  then the conv) instead of :func:`mcd.models.cpu_fast.replicate.replicate_conv`.
 
-    PYTHONPATH=. python tools/output_bound_ab.py --methods F,unet --size 1080p --repeat 5
+Same model, weights and inputs: ``capacity=paper`` (as ``python -m mcd.bench speed``), ``--size`` synthetic
+buffers (``mcd.bench.speed.frame_buffers``), channels-last, inference mode, bf16 autocast where the CPU has
+it (``--dtype``). The output steps run in the model's forward (mcd/models/output_steps.py), so the frame is
+the bench's. Prints each call's ms, the medians and the ratio without/with per method, and whether the two
+outputs are equal. Run with ``OMP_NUM_THREADS`` set.
+
+    PYTHONPATH=. python tools/fast_path_ab.py --path output_bound --methods F,unet --size 1080p --repeat 5
 """
 
 from __future__ import annotations
@@ -30,20 +34,28 @@ from mcd.config.compose import compose
 from mcd.core.machine import device_name
 from mcd.core.provenance import short_commit
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
-from mcd.models import build, output_bound
+from mcd.models import build, kernel_pool, output_bound
 
 CPU = torch.device("cpu")
 
 
+#: ``--path`` -> (module, attribute, what it is replaced by "without").
+PATHS = {
+    "output_bound": (output_bound, "fast_paths", SimpleNamespace(enabled=lambda: False)),
+    "head_conv": (kernel_pool, "replicate_conv_applies", lambda *args: False),
+}
+
+
 @contextmanager
-def without_fast_bound() -> Iterator[None]:
-    """The output bound's reference formulations; the other fast paths as they are."""
-    saved = output_bound.fast_paths
-    output_bound.fast_paths = SimpleNamespace(enabled=lambda: False)
+def without(path: str) -> Iterator[None]:
+    """``path``'s reference formulation; the other fast paths as they are."""
+    module, name, off = PATHS[path]
+    saved = getattr(module, name)
+    setattr(module, name, off)
     try:
         yield
     finally:
-        output_bound.fast_paths = saved
+        setattr(module, name, saved)
 
 
 def frame_call(method: str, size: str, dtype: torch.dtype | None) -> Callable[[], torch.Tensor]:
@@ -65,15 +77,15 @@ def frame_call(method: str, size: str, dtype: torch.dtype | None) -> Callable[[]
     return call
 
 
-def ab(name: str, call: Callable[[], torch.Tensor], warmup: int, repeat: int) -> None:
-    """Alternate ``call`` with and without the fast bound; print the medians, their ratio and whether the
-    outputs agree."""
+def ab(name: str, path: str, call: Callable[[], torch.Tensor], warmup: int, repeat: int) -> None:
+    """Alternate ``call`` with and without ``path``; print the medians, their ratio and whether the outputs
+    agree."""
     times: dict[str, list[float]] = {"with": [], "without": []}
     outputs: dict[str, torch.Tensor] = {}
 
     def timed(which: str) -> float:
         if which == "without":
-            with without_fast_bound():
+            with without(path):
                 t0 = time.perf_counter()
                 outputs[which] = call()
         else:
@@ -97,6 +109,7 @@ def ab(name: str, call: Callable[[], torch.Tensor], warmup: int, repeat: int) ->
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--path", choices=sorted(PATHS), required=True, help="the fast path to turn off")
     ap.add_argument("--methods", default="F,unet", help="experiments, comma-separated")
     ap.add_argument("--size", default="1080p", help="frame size: 1080p, 256 or <W>x<H>")
     ap.add_argument("--dtype", choices=("bf16", "fp32"), help="default: bf16 where the CPU has it")
@@ -105,9 +118,9 @@ def main() -> None:
     args = ap.parse_args()
     dtype = torch.bfloat16 if (args.dtype or ("bf16" if cpu_bf16_supported() else "fp32")) == "bf16" else None
     print(f"commit {short_commit()}; {device_name(CPU)}; torch {torch.__version__}; "
-          f"{torch.get_num_threads()} thread(s); dtype {'bf16' if dtype else 'fp32'}")
+          f"{torch.get_num_threads()} thread(s); dtype {'bf16' if dtype else 'fp32'}; without: {args.path}")
     for method in args.methods.split(","):
-        ab(f"{method} {args.size}", frame_call(method, args.size, dtype), args.warmup, args.repeat)
+        ab(f"{method} {args.size}", args.path, frame_call(method, args.size, dtype), args.warmup, args.repeat)
 
 
 if __name__ == "__main__":
