@@ -12,8 +12,9 @@ without it, in one process, the two alternating call by call.
 Same model, weights and inputs: ``capacity=paper`` (as ``python -m mcd.bench speed``), ``--size`` synthetic
 buffers (``mcd.bench.speed.frame_buffers``), channels-last, inference mode, bf16 autocast where the CPU has
 it (``--dtype``). The output steps run in the model's forward (mcd/models/output_steps.py), so the frame is
-the bench's. Prints each call's ms, the medians and the ratio without/with per method, and whether the two
-outputs are equal. Run with ``OMP_NUM_THREADS`` set.
+the bench's; freed memory is kept, as the bench keeps it (:mod:`mcd.core.allocator`). Prints, per method, each
+call's ms and the medians and ratio without/with, of the frame and of the stage the path runs in (exclusive,
+:class:`mcd.core.stages.StageClock`), and whether the two outputs are equal. Run with ``OMP_NUM_THREADS`` set.
 
     PYTHONPATH=. python tools/fast_path_ab.py --path output_bound --methods F,unet --size 1080p --repeat 5
 """
@@ -24,32 +25,34 @@ import argparse
 import statistics
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from types import SimpleNamespace
 
 import torch
 
 from mcd.bench.speed import frame_buffers, parse_size
 from mcd.config.compose import compose
+from mcd.core import allocator
 from mcd.core.machine import device_name
 from mcd.core.provenance import short_commit
+from mcd.core.stages import StageClock
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
 from mcd.models import build, kernel_pool, output_bound
 
 CPU = torch.device("cpu")
 
 
-#: ``--path`` -> (module, attribute, what it is replaced by "without").
+#: ``--path`` -> (module, attribute, what it is replaced by "without", the stage label it runs in).
 PATHS = {
-    "output_bound": (output_bound, "fast_paths", SimpleNamespace(enabled=lambda: False)),
-    "head_conv": (kernel_pool, "replicate_conv_applies", lambda *args: False),
+    "output_bound": (output_bound, "fast_paths", SimpleNamespace(enabled=lambda: False), "output steps"),
+    "head_conv": (kernel_pool, "replicate_conv_applies", lambda *args: False, "kernel-map head"),
 }
 
 
 @contextmanager
 def without(path: str) -> Iterator[None]:
     """``path``'s reference formulation; the other fast paths as they are."""
-    module, name, off = PATHS[path]
+    module, name, off, _ = PATHS[path]
     saved = getattr(module, name)
     setattr(module, name, off)
     try:
@@ -58,8 +61,10 @@ def without(path: str) -> Iterator[None]:
         setattr(module, name, saved)
 
 
-def frame_call(method: str, size: str, dtype: torch.dtype | None) -> Callable[[], torch.Tensor]:
-    """One inference call of ``method`` at ``size``; returns its output."""
+def frame_call(method: str, size: str, dtype: torch.dtype | None,
+               label: str) -> Callable[[], tuple[torch.Tensor, float]]:
+    """One inference call of ``method`` at ``size``; returns its output and the exclusive ms of the stage
+    ``label`` (:class:`mcd.core.stages.StageClock`, every path ending in it)."""
     from mcd.models.latency import model_inputs
 
     h, w = parse_size(size)
@@ -68,43 +73,51 @@ def frame_call(method: str, size: str, dtype: torch.dtype | None) -> Callable[[]
     buffers, _ = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, None)
     x = model_inputs(model, buffers, CPU, channels_last=True)
 
-    def call() -> torch.Tensor:
+    def call() -> tuple[torch.Tensor, float]:
         if hasattr(model, "reset"):
             model.reset()
-        with torch.inference_mode(), autocast_to(CPU, dtype):
-            return model(x)["output"]
+        with torch.inference_mode(), autocast_to(CPU, dtype), StageClock(CPU) as clock:
+            out = model(x)["output"]
+        return out, sum(ms for p, ms in clock.totals().items() if p.rsplit("/", 1)[-1] == label)
 
     return call
 
 
-def ab(name: str, path: str, call: Callable[[], torch.Tensor], warmup: int, repeat: int) -> None:
-    """Alternate ``call`` with and without ``path``; print the medians, their ratio and whether the outputs
-    agree."""
+def ab(name: str, path: str, call: Callable[[], tuple[torch.Tensor, float]], warmup: int,
+       repeat: int) -> None:
+    """Alternate ``call`` with and without ``path``; print the medians of the frame and of the stage it runs
+    in, their ratios and whether the outputs agree."""
     times: dict[str, list[float]] = {"with": [], "without": []}
+    stages: dict[str, list[float]] = {"with": [], "without": []}
     outputs: dict[str, torch.Tensor] = {}
 
     def timed(which: str) -> float:
-        if which == "without":
-            with without(path):
-                t0 = time.perf_counter()
-                outputs[which] = call()
-        else:
+        with without(path) if which == "without" else nullcontext():
             t0 = time.perf_counter()
-            outputs[which] = call()
-        return (time.perf_counter() - t0) * 1e3
+            outputs[which], ms = call()
+            wall = (time.perf_counter() - t0) * 1e3
+        stages[which].append(ms)
+        return wall
 
     for _ in range(warmup):
         timed("without")
         timed("with")
+    for v in stages.values():
+        v.clear()
     for i in range(repeat):
         for which in (("without", "with") if i % 2 == 0 else ("with", "without")):
             times[which].append(timed(which))
-    med = {k: statistics.median(v) for k, v in times.items()}
-    for k, v in times.items():
-        print(f"{name} {k:7s} ms: " + " ".join(f"{t:.1f}" for t in v) + f"  median {med[k]:.1f}")
+    label = PATHS[path][3]
+    for what, table in (("frame", times), (label, stages)):
+        med = {k: statistics.median(v) for k, v in table.items()}
+        for k, v in table.items():
+            print(f"{name} {what} {k:7s} ms: " + " ".join(f"{t:.1f}" for t in v) + f"  median {med[k]:.1f}")
+        print(f"{name} {what}: without / with = {med['without'] / med['with']:.2f}x "
+              f"(saved {med['without'] - med['with']:.1f} ms)")
     same = torch.equal(outputs["with"], outputs["without"])
-    print(f"{name}: without / with = {med['without'] / med['with']:.2f}x "
-          f"(saved {med['without'] - med['with']:.1f} ms); outputs {'equal' if same else 'DIFFER'}")
+    rel = float((outputs["with"].float() - outputs["without"].float()).abs().max()
+                / outputs["without"].float().abs().max().clamp_min(1e-30))
+    print(f"{name}: outputs {'equal' if same else f'differ by at most {rel:.2e} of the largest'}")
 
 
 def main() -> None:
@@ -116,11 +129,14 @@ def main() -> None:
     ap.add_argument("--warmup", type=int, default=1)
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
+    memory = allocator.apply("keep")                                           # as the bench does
     dtype = torch.bfloat16 if (args.dtype or ("bf16" if cpu_bf16_supported() else "fp32")) == "bf16" else None
     print(f"commit {short_commit()}; {device_name(CPU)}; torch {torch.__version__}; "
-          f"{torch.get_num_threads()} thread(s); dtype {'bf16' if dtype else 'fp32'}; without: {args.path}")
+          f"{torch.get_num_threads()} thread(s); dtype {'bf16' if dtype else 'fp32'}; without: {args.path}; "
+          f"allocator: {memory}")
     for method in args.methods.split(","):
-        ab(f"{method} {args.size}", args.path, frame_call(method, args.size, dtype), args.warmup, args.repeat)
+        ab(f"{method} {args.size}", args.path, frame_call(method, args.size, dtype, PATHS[args.path][3]),
+           args.warmup, args.repeat)
 
 
 if __name__ == "__main__":
