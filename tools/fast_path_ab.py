@@ -12,9 +12,11 @@ without it, in one process, the two alternating call by call.
 Same model, weights and inputs: ``capacity=paper`` (as ``python -m mcd.bench speed``), ``--size`` synthetic
 buffers (``mcd.bench.speed.frame_buffers``), channels-last, inference mode, bf16 autocast where the CPU has
 it (``--dtype``). The output steps run in the model's forward (mcd/models/output_steps.py), so the frame is
-the bench's; freed memory is kept, as the bench keeps it (:mod:`mcd.core.allocator`). Prints, per method, each
-call's ms and the medians and ratio without/with, of the frame and of the stage the path runs in (exclusive,
-:class:`mcd.core.stages.StageClock`), and whether the two outputs are equal. Run with ``OMP_NUM_THREADS`` set.
+the bench's; freed memory is kept, as the bench keeps it (:mod:`mcd.core.allocator`). Prints, per method,
+for the frame and for the stage the path runs in (exclusive, :class:`mcd.core.stages.StageClock`): each
+call's ms, the medians and their ratio without/with, and the median of each pair's ratio (the two calls of a
+pair run back to back, so it follows a changing load better); then whether the two outputs are equal. Run
+with ``OMP_NUM_THREADS`` set.
 
     PYTHONPATH=. python tools/fast_path_ab.py --path output_bound --methods F,unet --size 1080p --repeat 5
 """
@@ -112,8 +114,9 @@ def ab(name: str, path: str, call: Callable[[], tuple[torch.Tensor, float]], war
         med = {k: statistics.median(v) for k, v in table.items()}
         for k, v in table.items():
             print(f"{name} {what} {k:7s} ms: " + " ".join(f"{t:.1f}" for t in v) + f"  median {med[k]:.1f}")
-        print(f"{name} {what}: without / with = {med['without'] / med['with']:.2f}x "
-              f"(saved {med['without'] - med['with']:.1f} ms)")
+        pairs = statistics.median(a / b for a, b in zip(table["without"], table["with"], strict=True))
+        print(f"{name} {what}: without / with = {med['without'] / med['with']:.2f}x of the medians "
+              f"(saved {med['without'] - med['with']:.1f} ms), {pairs:.2f}x the median of the pairs' ratios")
     same = torch.equal(outputs["with"], outputs["without"])
     rel = float((outputs["with"].float() - outputs["without"].float()).abs().max()
                 / outputs["without"].float().abs().max().clamp_min(1e-30))
