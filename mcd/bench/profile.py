@@ -37,7 +37,7 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from mcd.bench.speed import frame_buffers, parse_size, store_frame
+from mcd.bench.speed import frame_buffers, load_average, parse_size, store_frame
 from mcd.config.compose import compose
 from mcd.core import allocator
 from mcd.core.machine import device_name
@@ -192,6 +192,7 @@ def main(argv: list[str] | None = None) -> None:
     buffers, inputs = frame_buffers(set(model.required_buffers()) - {"ref"}, h, w, source)
     x = model_inputs(model, buffers, device, channels_last=True)
     model.reset()
+    load_start = load_average()
     for _ in range(args.warmup):
         timed_call(model, x, device, half, clocked=True)
         timed_call(model, x, device, half, clocked=False)
@@ -203,6 +204,7 @@ def main(argv: list[str] | None = None) -> None:
         runs.append(ms)
         plain_walls.append(timed_call(model, x, device, half, clocked=False)[0])
     faults = minor_faults() - faults
+    load_end = load_average()
     (frame, ms), plain = median_call(clocked_walls, runs), statistics.median(plain_walls)
     where = "GPU" if device.type == "cuda" else "CPU"
     why = refusal(ms, frame, args.tolerance)
@@ -222,6 +224,8 @@ def main(argv: list[str] | None = None) -> None:
         + (", beyond the tolerance: the clock changed the frame, or the load changed between calls)"
            if abs(gap) > args.tolerance else ")"),
         f"- Allocator: {memory} (mcd/core/allocator.py); page faults during the measured calls: {faults}",
+        *([f"- Load average (1 min) at the start and the end of the calls: {load_start:.1f}, {load_end:.1f}"]
+          if load_start is not None and load_end is not None else []),
         "",
         *table(ms, frame, gmacs),
         "",

@@ -47,6 +47,7 @@ import argparse
 import csv
 import logging
 import math
+import os
 import statistics
 import sys
 import time
@@ -394,6 +395,14 @@ def matmul_ceilings(devices: list[str]) -> dict[str, float]:
     return out
 
 
+def load_average() -> float | None:
+    """The 1-minute load average (None where the OS does not report it)."""
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return None
+
+
 def _fmt(value: float | None, spec: str) -> str:
     return "" if value is None else format(value, spec)
 
@@ -502,9 +511,10 @@ def check_readme(csv_path: Path) -> str | None:
 
 
 def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str,
-                 ceilings: dict[str, float] | None = None) -> Path:
+                 ceilings: dict[str, float] | None = None, load: tuple[float, float] | None = None) -> Path:
     """README.md beside the CSV: provenance (command, ``commit`` as it was when the run started, device,
-    torch), the dense matmul ``ceilings`` and :func:`summary`."""
+    torch, the 1-minute ``load`` average at the run's start and end where known: on a shared machine the
+    figures are read against it), the dense matmul ``ceilings`` and :func:`summary`."""
     devices = sorted({f"{r.device}: {r.device_name}" for r in rows})
     inputs = sorted({r.inputs for r in rows if r.inputs})
     reps = sorted({f"{r.device} {r.width}x{r.height}: {r.warmup} warm-up + {r.reps} timed" for r in rows})
@@ -514,6 +524,8 @@ def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, c
         f"- Command: `{command}`",
         f"- Commit: `{commit}`; torch {torch.__version__}; wall time {wall_s:.0f} s",
         f"- Devices: {'; '.join(devices) or 'none'}",
+        *([f"- Load average (1 min) at the start and the end of the run: {load[0]:.1f}, {load[1]:.1f}"]
+          if load else []),
         f"- Capacity profile: {', '.join(sorted({r.capacity for r in rows}))}; batch 1, one frame per call",
         f"- Inputs: {', '.join(inputs) or 'none'}",
         f"- Repetitions (median of the timed calls): {'; '.join(reps)}",
@@ -583,6 +595,7 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as err:
             parser.error(str(err))
     commit = short_commit()  # before this run rewrites its own (tracked) report files
+    load_start = load_average()
     started = time.perf_counter()
     rows = run(
         [m for m in args.methods.split(",") if m],
@@ -601,7 +614,9 @@ def main(argv: list[str] | None = None) -> None:
     for name, rate in sorted(ceilings.items()):
         log.info("dense matmul ceiling %s: %.1f GMAC/s", name, rate)
     write_csv(rows, args.out)
-    command = "python -m mcd.bench " + " ".join(argv)
-    write_readme(rows, args.out, command, time.perf_counter() - started, commit, ceilings)
+    command = "python -m mcd.bench speed " + " ".join(argv)
+    load_end = load_average()
+    load = None if load_start is None or load_end is None else (load_start, load_end)
+    write_readme(rows, args.out, command, time.perf_counter() - started, commit, ceilings, load)
     print(f"{len(rows)} rows -> {args.out}")
 

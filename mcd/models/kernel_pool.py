@@ -34,6 +34,7 @@ from torch import Tensor, nn
 
 from mcd.models import fast_paths
 from mcd.models.blocks import BlockFactory, on_parts
+from mcd.models.cpu_fast.replicate import replicate_conv, replicate_conv_applies
 
 
 def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
@@ -244,6 +245,12 @@ class KernelMapHead(nn.Module):
         """``h`` from the channel concatenation of ``parts`` (finest features, g, i) and of ``constant``
         ``[B, D]`` (the kernel descriptor) broadcast over the image. The first block is handed them as they
         are (:func:`mcd.models.blocks.on_parts`): a Fast GhostConv block on the CPU in inference mode does not
-        convolve the constant channels (docs/inference.md)."""
-        x = on_parts(self.blocks[0], parts, constant)
-        return torch.tanh(self.scale(self.out(self.blocks[1:](x))))
+        convolve the constant channels (docs/inference.md). A replicate-padded last convolution runs, in CPU
+        inference, on its input padded once by slices
+        (:func:`mcd.models.cpu_fast.replicate.replicate_conv`)."""
+        x = self.blocks[1:](on_parts(self.blocks[0], parts, constant))
+        if fast_paths.enabled() and replicate_conv_applies(self.out, x):
+            z = replicate_conv(self.out, x)
+        else:
+            z = self.out(x)
+        return torch.tanh(self.scale(z))

@@ -1,9 +1,11 @@
 """The fast paths of mcd/models/fast_paths.py against their reference formulations (docs/inference.md "Fast
 paths"): the kernel application in the kernels' layout, semantic alignment's attention in the autocast dtype,
-channels-last G-buffers and block inputs, the replicate-padded Fast GhostConv block (inference and training);
-each on its own, and the bundled row F (both bundles: zero and replicate padding in ``F_s``) on rendered
-Cornell-box frames (fp32 within 1e-4 relative of the reference; bf16 within 0.1 dB PSNR of fp32 against the
-rendered reference; training gradients within 1e-4 relative)."""
+channels-last G-buffers and block inputs, the replicate-padded Fast GhostConv block (inference and training),
+the kernel-map head's replicate-padded last convolution, the output bound's selections and window maxima (bit
+for bit, on rendered frames and on HDR, black, odd-sized and non-finite ones); each on its own, and the
+bundled row F (both bundles: zero and replicate padding in ``F_s``) on rendered Cornell-box frames (fp32
+within 1e-4 relative of the reference; bf16 within 0.1 dB PSNR of fp32 against the rendered reference;
+training gradients within 1e-4 relative)."""
 
 from __future__ import annotations
 
@@ -16,10 +18,12 @@ from mcd.denoise.weights import load
 from mcd.lit.precision import cpu_bf16_supported
 from mcd.models import fast_paths, ghost_conv
 from mcd.models.cpu_fast import ghost_conv as cpu_ghost
+from mcd.models.cpu_fast.replicate import replicate_conv, replicate_conv_applies
 from mcd.models.ghost_conv import FastGhostConv
 from mcd.models.inputs import gbuffers
 from mcd.models.kernel_pool import KernelPool, apply_pixel_kernels, filter_below, interpolate_kernels
 from mcd.models.latency import model_inputs
+from mcd.models.output_bound import clamp_output, output_bound, quantile, window_max
 from mcd.models.semantic_alignment import SemanticAlignment
 
 needs_bf16 = pytest.mark.skipif(not cpu_bf16_supported(), reason="this CPU has no native bf16")
@@ -248,3 +252,58 @@ def test_row_f_training_gradients_are_the_reference_on_rendered_frames(cbox_stor
     for name in names:
         bound = max(1e-3 * float(ref[name].norm()), 1e-6 * whole)
         assert float((fast[name] - ref[name]).norm()) <= bound, name
+
+
+def _bound_cases(cbox_store) -> list[tuple[torch.Tensor, torch.Tensor]]:
+    """(render, output) pairs: the rendered cbox frames' 4-spp colour against their reference (batch 1 and
+    2), the same with 1e5 fireflies and a black band, all black, odd sizes, and an output with NaN and Inf."""
+    _, store = cbox_store
+    load = [(torch.from_numpy(np.ascontiguousarray(store.load("cbox", f, n))).permute(2, 0, 1)[None])
+            for f in (9, 10) for n in ("c4", "ref")]
+    renders, outputs = torch.cat(load[0::2]), torch.cat(load[1::2])
+    hot = renders.clone()
+    hot[..., 3, 5], hot[..., 17, 22], hot[..., :4, :] = 1e5, 1e5, 0
+    torch.manual_seed(0)
+    odd = [(torch.rand(1, 3, *s) * torch.logspace(-3, 5, s[1]), torch.rand(1, 3, *s) * 1e3)
+           for s in ((1, 1), (1, 9), (5, 4), (37, 53))]
+    bad = outputs[:1].clone()
+    bad[..., 0, 0], bad[..., 5, 7], bad[..., 9, 2] = float("nan"), float("inf"), float("-inf")
+    return [(renders[:1], outputs[:1]), (renders, outputs), (hot, outputs), (torch.zeros_like(renders),
+            torch.zeros_like(outputs)), *odd, (renders[:1], bad)]
+
+
+def test_output_bound_fast_path_is_the_reference_bit_for_bit(cbox_store):
+    for render, output in _bound_cases(cbox_store):
+        for layout in (CL, torch.contiguous_format):
+            render, output = render.contiguous(memory_format=layout), output.contiguous(memory_format=layout)
+            with torch.inference_mode():
+                fast = output_bound(render), clamp_output(output, render)
+                with fast_paths.reference():
+                    ref = output_bound(render), clamp_output(output, render)
+            for f, r in zip(fast, ref, strict=True):
+                assert torch.equal(f, r), tuple(render.shape)
+
+
+@pytest.mark.parametrize("size", [1, 3, 7, 9])
+def test_window_max_and_quantile_are_the_reference(size):
+    torch.manual_seed(size)
+    for shape in ((1, 1, 1, 1), (2, 1, 5, 4), (1, 1, 37, 53)):
+        m = torch.rand(shape) * 10
+        m[..., ::3] = 0                                                   # repeated values: ties
+        ref = torch.nn.functional.max_pool2d(m, size, stride=1, padding=size // 2)
+        assert torch.equal(window_max(m, size), ref)
+        flat = m.flatten(1)
+        for q in (0.0, 0.5, 0.99, 1.0):
+            assert torch.equal(quantile(flat, q), torch.quantile(flat, q, dim=1))
+
+
+@pytest.mark.parametrize("size", [(37, 53), (1, 9), (5, 4)])
+def test_replicate_conv_in_inference_is_the_reference(size):
+    """The kernel-map head's last convolution (40 -> 2, 3x3, replicate) on HDR inputs with exact zeros."""
+    torch.manual_seed(0)
+    conv = torch.nn.Conv2d(40, 2, 3, padding=1, padding_mode="replicate").to(memory_format=CL)
+    parts, _ = _ghost_inputs([40], 0, 2, size)
+    with torch.inference_mode():
+        assert replicate_conv_applies(conv, parts[0])
+        fast, ref = replicate_conv(conv, parts[0]), conv(parts[0])
+    torch.testing.assert_close(fast, ref, rtol=1e-4, atol=1e-4 * float(ref.abs().max()))

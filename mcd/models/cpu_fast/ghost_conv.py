@@ -30,6 +30,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from mcd.models.cpu_fast import fused_conv
+from mcd.models.cpu_fast.replicate import replicate_padded
 from mcd.models.inputs import cat_channels, with_constant
 
 
@@ -51,35 +52,6 @@ def primary_and_ghost(group: nn.Conv2d, point: nn.Conv2d, ghost: nn.Conv2d, part
     bias = None if ghost.bias is None else torch.cat([torch.zeros_like(ghost.bias), ghost.bias])
     return fused_conv.conv2d(both, torch.cat([identity, ghost.weight]), bias, ghost.padding, groups=2 * half,
                              relu=True)
-
-
-def replicate_padded(parts: Sequence[Tensor], padding: Sequence[int], dtype: torch.dtype,
-                     constant: Tensor | None = None) -> Tensor:
-    """The channel concatenation of ``parts`` (and of ``constant`` ``[B, D]`` broadcast over the image, when
-    given), replicate-padded by ``padding`` ``(ph, pw)``, in ``dtype``: one channels-last tensor, each value
-    written once (the parts into its interior, then the top and bottom rows, then the left and right columns
-    with the corners). ``F.pad(mode="replicate")`` makes the same tensor per part and measured several times
-    slower on channels-last inputs (docs/inference.md "Replicate padding"). No gradient: CPU inference."""
-    ph, pw = int(padding[0]), int(padding[1])
-    b, _, h, w = parts[0].shape
-    depth = 0 if constant is None else constant.shape[1]
-    channels = sum(p.shape[1] for p in parts) + depth
-    y = torch.empty(b, channels, h + 2 * ph, w + 2 * pw, dtype=dtype, device=parts[0].device,
-                    memory_format=torch.channels_last)
-    start = 0
-    for part in parts:
-        y[:, start : start + part.shape[1], ph : ph + h, pw : pw + w] = part
-        start += part.shape[1]
-    if constant is not None:                                   # constant over the image, so over its border
-        y[:, start:] = constant[:, :, None, None]
-    inner = slice(pw, pw + w)
-    if ph:
-        y[:, :start, :ph, inner] = y[:, :start, ph : ph + 1, inner]
-        y[:, :start, ph + h :, inner] = y[:, :start, ph + h - 1 : ph + h, inner]
-    if pw:
-        y[:, :start, :, :pw] = y[:, :start, :, pw : pw + 1]
-        y[:, :start, :, pw + w :] = y[:, :start, :, pw + w - 1 : pw + w]
-    return y
 
 
 def merged_weight(group: nn.Conv2d, point: nn.Conv2d) -> tuple[Tensor, Tensor | None]:
