@@ -183,7 +183,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     if train_store.format == "array":  # training clips from the packed store
-        pack(cfg, store, buffers)  # resumes; reuses what is packed (docs/training_store.md)
+        packed = pack(cfg, store, buffers)  # resumes; reuses what is packed (docs/training_store.md)
+        report["train_store"] = {k: packed[k] for k in ("root", "packed", "reused", "clamped_total")}
     data_s = time.perf_counter() - t0
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
     module = DenoiseModule(cfg, model, build_loss(cfg))
@@ -291,6 +292,11 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
 
     cfg, model, trainer, averages = job.cfg, job.model, job.trainer, job.recorder.averages
     assert averages is not None, "run_record needs the test's averages (global rank 0, after test)"
+    replaced = job.datamodule.replaced_by_0()  # counted in the record (docs/reliability.md, campaign 8)
+    if replaced["values"]:
+        log.warning("%d NaN/Inf/negative value(s) in %d file(s) of this run's data were replaced by 0 (%s); "
+                    "metrics.json counts them under data.replaced_by_0", replaced["values"],
+                    replaced["files"], ", ".join(f"{b} {n}" for b, n in replaced["by_buffer"].items()))
     params_m = count_params(model) / 1e6
     try:
         macs_g: float | None = complexity(cfg)[1]
@@ -322,7 +328,7 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
         torch=torch.__version__,
         allocator=allocator.policy(),
         config=str(job.out_dir / "resolved_config.yaml"),
-        data=job.data_report,
+        data={**job.data_report, "replaced_by_0": replaced},
         trained=job.trainable,
         transfer=job.transfer,
         checkpoint=fitted.checkpoint,
