@@ -32,6 +32,7 @@ from mcd.core.paths import free_space
 from mcd.data.buffers import BUFFERS
 from mcd.data.splits import split_of
 from mcd.data.store import StoreReader
+from mcd.data.store_builder import StoreBuilder
 from mcd.data.train_store import (
     DTYPES,
     FP16_MAX,
@@ -79,6 +80,8 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
                 f"{reader.manifest_path(scene)}: {len(absent)} buffer file(s) to pack were never rendered "
                 f"(e.g. frame {absent[0][0]} {absent[0][1]}); render them first: "
                 f"{reader.render_command('render.buffers=[' + ','.join(need) + ']')}")
+    if isinstance(reader, StoreBuilder):  # the EXR files are this config's renders (python -m mcd.pack)
+        reader.check_rendered(todo, buffers)
     meta = {"version": VERSION, "dtype": settings.dtype, "tile": TILE, "width": int(cfg.data.width),
             "height": int(cfg.data.height), "profile": str(cfg.data.name),
             "channels": {b: list(r) for b, r in channel_ranges(buffers).items()}}

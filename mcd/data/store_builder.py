@@ -190,6 +190,33 @@ class StoreBuilder(StoreReader):
         prev = man["cameras"][max(frame - 1, 0)]
         return _hash([*base, "motion", prev, self._file_key(man, frame, "depth")])
 
+    def check_rendered(self, frames: dict[str, list[int]], buffers: Iterable[str]) -> None:
+        """ValueError unless every file of ``buffers`` of ``frames`` (``{scene: frame numbers}``) is what this
+        config renders: listed in the scene's manifest with this config's render key, from cameras of this
+        config. Reads the manifests and the scene files, renders nothing. A reader of the store that does not
+        render (``python -m mcd.pack``) calls it before any work: it packed a store rendered with other
+        ``data.*`` settings under the same ``data.name`` as if it were this config's (a 32x32 store packed
+        for ``data.ref_spp=64`` said "packed 10"; for ``data.width=48`` it failed on a broadcast)."""
+        buffers = list(buffers)
+        for scene, numbers in frames.items():
+            man = self.manifest(scene)
+            spec = self.specs[scene]
+            same_cameras = (man.get("camera_key") == self._camera_key(spec, spec.source())
+                            and max(numbers, default=-1) < len(man["cameras"]))
+            stale = [f"{f:04d}/{b}.exr" for f in numbers for b in buffers
+                     if not same_cameras or man["files"].get(f"{f:04d}/{b}.exr", {}).get("key")
+                     != self._file_key(man, f, b)]
+            if not stale:
+                continue
+            was, now = man.get("settings") or {}, self._settings()
+            changed = ", ".join(f"{k} {was.get(k)} there, {now.get(k)} here" for k in sorted({*was, *now})
+                                if was.get(k) != now.get(k)) or "other render settings or scene file"
+            raise ValueError(
+                f"{self.manifest_path(scene)}: {len(stale)} file(s) this command reads (e.g. {stale[0]}) "
+                f"were rendered with other settings than this command's ({changed}); render them first: "
+                f"{self.render_command('render.buffers=[' + ','.join(buffers) + ']')} (or give each setting "
+                "its own data.name)")
+
     def _is_done(self, man: dict, scene: str, frame: int, buffer: str, verify: bool) -> bool:
         rel = f"{frame:04d}/{buffer}.exr"
         rec = man["files"].get(rel)
