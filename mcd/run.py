@@ -201,7 +201,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
     trainer_kwargs = budget.trainer_kwargs(cfg)
     trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
-                        callbacks=[best, last, curve, segments, recorder, *budget.callbacks(cfg.train),
+                        callbacks=[best, budget.OwnBest(best), last, curve, segments, recorder,
+                                   *budget.callbacks(cfg.train),
                                    *progress.callbacks(cfg)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
@@ -265,6 +266,8 @@ def fit(job: Job) -> Fitted:
     budget.finish(trainer, job.module, job.datamodule, job.best, job.curve)
     path, score = agreed_best(trainer, job.best)
     tested = path or str(job.out_dir / "checkpoints" / "last.ckpt")
+    if not Path(tested).is_file() and job.resume:  # resumed at or past its budget: no step, no checkpoint
+        tested = job.resume
     log.info("testing checkpoint %s (best val/psnr %s)", tested,
              "none" if score is None else f"{score:.2f} dB")
     seconds = time.perf_counter() - t0
