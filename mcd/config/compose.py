@@ -49,8 +49,8 @@ def check_run_dir(cfg: DictConfig) -> None:
     from mcd.core.paths import writable_folder_to_be
     from mcd.lit.run_dir import register_resolvers
 
-    register_resolvers()  # ${run_id:} of the default directory
-    writable_folder_to_be("hydra.run.dir", Path(str(OmegaConf.select(cfg, "hydra.run.dir"))).expanduser())
+    register_resolvers()  # ${run_id:} of the default directory; the path as Hydra reads it (no ~ expansion)
+    writable_folder_to_be("hydra.run.dir", Path(str(OmegaConf.select(cfg, "hydra.run.dir"))))
 
 
 def exit_on_invalid(cfg: DictConfig) -> None:

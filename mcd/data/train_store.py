@@ -55,6 +55,7 @@ import torch
 from omegaconf import DictConfig
 
 from mcd.core.allocator import keep_freed_memory
+from mcd.core.paths import data_dir as resolve_data_dir
 from mcd.core.paths import folder_to_be
 from mcd.data.buffers import BUFFERS, CHANNELS
 
@@ -122,7 +123,9 @@ class TrainStoreSettings:
             raise ValueError(f"data.train_store.dtype={dtype!r}: give one of {list(DTYPES)} "
                              "(docs/training_store.md)")
         folder = ts.get("dir")
-        root = Path(folder) if folder else Path(cfg.paths.data_dir) / str(cfg.data.name) / f".train_{dtype}"
+        # ~ is the home folder, as in paths.data_dir (a literal "~" folder in the working directory before)
+        root = (Path(str(folder)).expanduser() if folder
+                else resolve_data_dir(cfg.paths.data_dir) / str(cfg.data.name) / f".train_{dtype}")
         if fmt == "array":
             folder_to_be("data.train_store.dir", root)
         return cls(fmt, dtype, root)
