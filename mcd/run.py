@@ -180,6 +180,9 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     # a packed training store of another config, or without a buffer of this run, before anything is rendered
     check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
     precision.check(str(cfg.trainer.get("precision", "auto")))  # named before anything is rendered
+    # the budget (train.max_steps, max_minutes, epochs: one at least) and the trainer.* keys, before anything
+    # is rendered: a run without a budget rendered its whole store, then failed here
+    trainer_kwargs = budget.trainer_kwargs(cfg)
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     if train_store.format == "array":  # training clips from the packed store
@@ -199,7 +202,6 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     curve = budget.LearningCurve(out_dir / "curve.csv")
     segments = TrainingSegments(git_commit())
     recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
-    trainer_kwargs = budget.trainer_kwargs(cfg)
     trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
                         callbacks=[best, budget.OwnBest(best), last, curve, segments, recorder,
                                    *budget.callbacks(cfg.train),
