@@ -318,7 +318,17 @@ def meta_problem(meta: Any) -> str | None:
         return f"missing or mistyped: {', '.join(bad)}"
     ranges = [b for b, r in meta["channels"].items()
               if not (isinstance(r, list) and len(r) == 2 and all(isinstance(c, int) for c in r))]
-    return f"channels of {', '.join(ranges)} are not [first, end]" if ranges else None
+    if ranges:
+        return f"channels of {', '.join(ranges)} are not [first, end]"
+    unknown = [b for b in meta["channels"] if b not in CHANNELS]
+    if unknown:
+        return f"unknown buffer(s) {', '.join(unknown)}"
+    # the layout the pack writes (buffers in table order, each its channels): an edited range read one
+    # buffer's channels as another's (a run trained on swapped input and target, its frames' CRCs intact)
+    layout = {b: list(r) for b, r in channel_ranges(meta["channels"]).items()}
+    if layout != meta["channels"]:
+        return f"channel ranges {meta['channels']} are not the pack's layout {layout}"
+    return None
 
 
 def read_checked_json(path: Path, problem: Callable[[Any], str | None]) -> tuple[Any, str | None]:
