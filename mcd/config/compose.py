@@ -43,14 +43,24 @@ def compose(overrides: Iterable[str] = (), with_hydra: bool = False) -> DictConf
 
 
 def check_run_dir(cfg: DictConfig) -> None:
-    """ValueError naming ``hydra.run.dir`` where the run directory of ``cfg`` (composed ``with_hydra``) is a
-    file, lies below one, or cannot be written (a read-only mount): Hydra makes it and opens its log there
-    before any of the command's code runs, and ended in its own OSError traceback."""
-    from mcd.core.paths import writable_folder_to_be
-    from mcd.lit.run_dir import register_resolvers
+    """ValueError naming ``hydra.run.dir`` where the run directory of ``cfg`` (composed ``with_hydra``;
+    changed here) is a file, lies below one, or cannot be written (a read-only mount): Hydra makes it and
+    opens its log there before any of the command's code runs, and ended in its own OSError traceback. The
+    path is read as Hydra reads it (no ``~`` expansion), up to the default's ``${run_id:}``, a per-process
+    token whose resolver the commands register later (``mcd.lit.run_dir``); a path that does not resolve here
+    is left to Hydra."""
+    from omegaconf.errors import OmegaConfBaseException
 
-    register_resolvers()  # ${run_id:} of the default directory; the path as Hydra reads it (no ~ expansion)
-    writable_folder_to_be("hydra.run.dir", Path(str(OmegaConf.select(cfg, "hydra.run.dir"))))
+    from mcd.core.paths import writable_folder_to_be
+
+    raw = str(OmegaConf.to_container(cfg.hydra.run, resolve=False)["dir"])
+    with open_dict(cfg):
+        cfg.hydra.run.dir = raw.split("${run_id:}")[0] or "."
+    try:
+        path = Path(str(OmegaConf.select(cfg, "hydra.run.dir")))
+    except OmegaConfBaseException:
+        return
+    writable_folder_to_be("hydra.run.dir", path)
 
 
 def exit_on_invalid(cfg: DictConfig) -> None:
