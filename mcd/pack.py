@@ -19,12 +19,12 @@ from mcd.config.compose import hydra_main
 def main(cfg: DictConfig) -> dict:
     """Pack the configured store's training frames (module docstring)."""
     from mcd.data.pack import pack
-    from mcd.data.store import StoreReader
+    from mcd.data.store_builder import StoreBuilder
     from mcd.lit.transfer import prepare
     from mcd.lit.workload import requested_buffers
 
     cfg, _ = prepare(cfg)
-    return pack(cfg, StoreReader.from_cfg(cfg), requested_buffers(cfg))
+    return pack(cfg, StoreBuilder.from_cfg(cfg), requested_buffers(cfg))  # renders nothing
 
 
 if __name__ == "__main__":

@@ -180,10 +180,14 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     # a packed training store of another config, or without a buffer of this run, before anything is rendered
     check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
     precision.check(str(cfg.trainer.get("precision", "auto")))  # named before anything is rendered
+    # the budget (train.max_steps, max_minutes, epochs: one at least) and the trainer.* keys, before anything
+    # is rendered: a run without a budget rendered its whole store, then failed here
+    trainer_kwargs = budget.trainer_kwargs(cfg)
     t0 = time.perf_counter()
     report = store.ensure(buffers)  # logs one line: what was rendered, what was reused
     if train_store.format == "array":  # training clips from the packed store
-        pack(cfg, store, buffers)  # resumes; reuses what is packed (docs/training_store.md)
+        packed = pack(cfg, store, buffers)  # resumes; reuses what is packed (docs/training_store.md)
+        report["train_store"] = {k: packed[k] for k in ("root", "packed", "reused", "clamped_total")}
     data_s = time.perf_counter() - t0
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
     module = DenoiseModule(cfg, model, build_loss(cfg))
@@ -198,9 +202,9 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     curve = budget.LearningCurve(out_dir / "curve.csv")
     segments = TrainingSegments(git_commit())
     recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
-    trainer_kwargs = budget.trainer_kwargs(cfg)
     trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
-                        callbacks=[best, last, curve, segments, recorder, *budget.callbacks(cfg.train),
+                        callbacks=[best, budget.OwnBest(best), last, curve, segments, recorder,
+                                   *budget.callbacks(cfg.train),
                                    *progress.callbacks(cfg)],
                         logger=instantiate(cfg.logger, save_dir=str(out_dir)))
     trainable = bool(cfg.method.get("trainable", True))
@@ -264,6 +268,8 @@ def fit(job: Job) -> Fitted:
     budget.finish(trainer, job.module, job.datamodule, job.best, job.curve)
     path, score = agreed_best(trainer, job.best)
     tested = path or str(job.out_dir / "checkpoints" / "last.ckpt")
+    if not Path(tested).is_file() and job.resume:  # resumed at or past its budget: no step, no checkpoint
+        tested = job.resume
     log.info("testing checkpoint %s (best val/psnr %s)", tested,
              "none" if score is None else f"{score:.2f} dB")
     seconds = time.perf_counter() - t0
@@ -291,6 +297,11 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
 
     cfg, model, trainer, averages = job.cfg, job.model, job.trainer, job.recorder.averages
     assert averages is not None, "run_record needs the test's averages (global rank 0, after test)"
+    replaced = job.datamodule.replaced_by_0()  # counted in the record (docs/reliability.md, campaign 8)
+    if replaced["values"]:
+        log.warning("%d NaN/Inf/negative value(s) in %d file(s) of this run's data were replaced by 0 (%s); "
+                    "metrics.json counts them under data.replaced_by_0", replaced["values"],
+                    replaced["files"], ", ".join(f"{b} {n}" for b, n in replaced["by_buffer"].items()))
     params_m = count_params(model) / 1e6
     try:
         macs_g: float | None = complexity(cfg)[1]
@@ -322,7 +333,7 @@ def run_record(job: Job, fitted: Fitted, test_s: float, choices: dict[str, str],
         torch=torch.__version__,
         allocator=allocator.policy(),
         config=str(job.out_dir / "resolved_config.yaml"),
-        data=job.data_report,
+        data={**job.data_report, "replaced_by_0": replaced},
         trained=job.trainable,
         transfer=job.transfer,
         checkpoint=fitted.checkpoint,

@@ -14,9 +14,10 @@ import os
 import re
 import sys
 from collections.abc import Callable, Iterable
+from pathlib import Path
 from typing import Any
 
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf, open_dict
 
 from mcd.config.methods import COMPONENTS
 from mcd.core.paths import CONF_DIR
@@ -29,15 +30,37 @@ def experiment_names() -> list[str]:
     return [*(row for row in COMPONENTS if row in files), *sorted(files - set(COMPONENTS))]
 
 
-def compose(overrides: Iterable[str] = ()) -> DictConfig:
+def compose(overrides: Iterable[str] = (), with_hydra: bool = False) -> DictConfig:
     """The root config (``conf/config.yaml``) with Hydra ``overrides``, as ``python -m mcd.run`` composes it
-    (without Hydra's own ``hydra.*`` run keys resolved)."""
+    (without Hydra's own ``hydra.*`` run keys resolved); ``with_hydra``: with Hydra's ``hydra`` node too (its
+    ``hydra.run.dir`` resolves, :func:`check_run_dir`)."""
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
 
     overrides = list(overrides)
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-        return hydra_compose(config_name="config", overrides=overrides)
+        return hydra_compose(config_name="config", overrides=overrides, return_hydra_config=with_hydra)
+
+
+def check_run_dir(cfg: DictConfig) -> None:
+    """ValueError naming ``hydra.run.dir`` where the run directory of ``cfg`` (composed ``with_hydra``;
+    changed here) is a file, lies below one, or cannot be written (a read-only mount): Hydra makes it and
+    opens its log there before any of the command's code runs, and ended in its own OSError traceback. The
+    path is read as Hydra reads it (no ``~`` expansion), up to the default's ``${run_id:}``, a per-process
+    token whose resolver the commands register later (``mcd.lit.run_dir``); a path that does not resolve here
+    is left to Hydra."""
+    from omegaconf.errors import OmegaConfBaseException
+
+    from mcd.core.paths import writable_folder_to_be
+
+    raw = str(OmegaConf.to_container(cfg.hydra.run, resolve=False)["dir"])
+    with open_dict(cfg):
+        cfg.hydra.run.dir = raw.split("${run_id:}")[0] or "."
+    try:
+        path = Path(str(OmegaConf.select(cfg, "hydra.run.dir")))
+    except OmegaConfBaseException:
+        return
+    writable_folder_to_be("hydra.run.dir", path)
 
 
 def exit_on_invalid(cfg: DictConfig) -> None:
@@ -114,10 +137,13 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
             return None
         if len(overrides) == len(sys.argv[1:]):  # a single run, no Hydra flags: check before Hydra writes
             try:
-                cfg = compose(overrides)
+                cfg = compose(overrides, with_hydra=True)
             except (HydraException, OmegaConfBaseException, ValueError):
                 cfg = None  # Hydra says what is wrong with the overrides, in its own words
             if cfg is not None:
+                exit_2_on(ValueError, check_run_dir, cfg)  # before Hydra makes it
+                with open_dict(cfg):
+                    del cfg["hydra"]
                 exit_on_invalid(cfg)
         return main(*args, **kwargs)
 

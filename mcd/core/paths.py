@@ -7,6 +7,7 @@ key.
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 from pathlib import Path
@@ -55,6 +56,19 @@ def folder_to_be(key: str, path: Path) -> Path:
                 raise ValueError(f"{key}={path} {where}, not a folder: give a folder (one that does not "
                                  "exist yet is made)")
             return path
+    return path
+
+
+def writable_folder_to_be(key: str, path: Path) -> Path:
+    """``path``, a folder that ``key`` names and a command writes into: :func:`folder_to_be`, and ValueError
+    naming the key and the folder when the nearest existing folder at or above ``path`` cannot be written
+    (a read-only mount, or no write permission), before any work starts."""
+    folder_to_be(key, path)
+    at = next(p for p in (path, *path.parents) if p.exists())
+    if not os.access(at, os.W_OK | os.X_OK):
+        where = "is" if at == path else f"would be made in {at}, which is"
+        raise ValueError(f"{key}={path} {where} not writable (a read-only mount, or no permission): give a "
+                         "folder this user can write")
     return path
 
 

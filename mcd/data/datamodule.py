@@ -149,6 +149,7 @@ class MCDDataModule(L.LightningDataModule):
             self.train_store = TrainStore.open(settings, d, self.buffers,
                                                pack_command(store.overrides, self.buffers))
         self._ready = False
+        self.frames_read: dict[str, list[int]] = {}  # scene: frames read (train, val, test)
         # under DDP the ranks other than 0 get an empty test loader (see the module docstring)
         self.allow_zero_length_dataloader_with_multiple_devices = True
 
@@ -168,6 +169,8 @@ class MCDDataModule(L.LightningDataModule):
                 val += [(scene, c) for c in sp["val"]]
             if scene in self.test_scenes:
                 test += [(scene, s) for s in sp["test"]]
+        self.frames_read = {scene: sorted({f for s, c in train + val + test if s == scene for f in c})
+                            for scene in dict.fromkeys(self.train_scenes + self.test_scenes)}
         clips: ExrClips | TrainStore = self._frames
         if self.train_store is not None:
             for scene in self.train_scenes:  # every clip's frames packed from today's EXR files
@@ -199,6 +202,11 @@ class MCDDataModule(L.LightningDataModule):
             self.window,
         )
         self._ready = True
+
+    def replaced_by_0(self) -> dict[str, Any]:
+        """The NaN/Inf/negative values replaced by 0 in the frames this datamodule reads (after
+        :meth:`setup`; :meth:`mcd.data.store.StoreReader.replaced_counts`), for the run's ``metrics.json``."""
+        return self.store.replaced_counts(self.frames_read, self.buffers)
 
     def _ranks(self) -> tuple[int, int]:
         """``(global rank, world size)`` of the trainer this datamodule serves; ``(0, 1)`` without one."""

@@ -32,6 +32,7 @@ from mcd.core.paths import free_space
 from mcd.data.buffers import BUFFERS
 from mcd.data.splits import split_of
 from mcd.data.store import StoreReader
+from mcd.data.store_builder import StoreBuilder
 from mcd.data.train_store import (
     DTYPES,
     FP16_MAX,
@@ -61,8 +62,9 @@ def frames_to_pack(reader: StoreReader, scene: str, data_cfg: DictConfig) -> lis
 def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
          scenes: Iterable[str] | None = None) -> dict[str, Any]:
     """Pack ``buffers`` of ``scenes`` (default ``data.train_scenes``) into the training store of ``cfg``
-    (module docstring). Returns ``{"root", "packed", "reused", "clamped", "seconds"}`` (frames packed now,
-    frames already packed, float16 values clamped now). Everything that can be checked is checked before the
+    (module docstring). Returns ``{"root", "packed", "reused", "clamped", "clamped_total", "seconds"}``
+    (frames packed now, frames already packed, float16 values clamped now, and in every frame of ``scenes``
+    the training reads, now or when it was packed). Everything that can be checked is checked before the
     first frame is read."""
     settings = TrainStoreSettings.from_cfg(cfg)
     buffers = [b for b in BUFFERS if b in set(buffers)]
@@ -78,6 +80,8 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
                 f"{reader.manifest_path(scene)}: {len(absent)} buffer file(s) to pack were never rendered "
                 f"(e.g. frame {absent[0][0]} {absent[0][1]}); render them first: "
                 f"{reader.render_command('render.buffers=[' + ','.join(need) + ']')}")
+    if isinstance(reader, StoreBuilder):  # the EXR files are this config's renders (python -m mcd.pack)
+        reader.check_rendered(todo, buffers)
     meta = {"version": VERSION, "dtype": settings.dtype, "tile": TILE, "width": int(cfg.data.width),
             "height": int(cfg.data.height), "profile": str(cfg.data.name),
             "channels": {b: list(r) for b, r in channel_ranges(buffers).items()}}
@@ -100,6 +104,8 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
             got = _pack_scene(store, reader, scene, frames, size)
         for k in ("packed", "reused", "clamped"):
             report[k] += got[k]
+    report["clamped_total"] = sum(int(store.record(scene)["frames"].get(str(f), {}).get("clamped") or 0)
+                                  for scene, frames in todo.items() for f in frames)
     report["seconds"] = time.perf_counter() - t0
     log.info("training store %s (%s): packed %d frame(s), reused %d, %d value(s) clamped to the float16 "
              "range, in %.1f s", settings.dir, settings.dtype, report["packed"], report["reused"],

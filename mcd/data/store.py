@@ -22,7 +22,7 @@ import re
 import shlex
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
@@ -153,6 +153,7 @@ class StoreReader:
                     )
         self._manifests: dict[str, dict] = {}
         self._warned: set[str] = set()
+        self._replaced: dict[str, int] = {}  # values load replaced by 0, per file loaded in this process
         self.verify_mode = verify_mode(data_cfg.get("verify_checksums", "once"))
         self._verified: set[tuple[str, int, int]] = set()  # (path, bytes, mtime_ns) checked in this process
         shaping = ([o for o in overrides if STORE_OVERRIDE.match(o)] if overrides is not None
@@ -311,6 +312,7 @@ class StoreReader:
             )
         img, n_bad = normalise(img, buffer, man.get("exposure") or 1.0, man.get("depth_scale") or 1.0,
                                colour=buffer in COLOUR_BUFFERS)
+        self._replaced[str(p)] = n_bad
         if n_bad and str(p) not in self._warned:
             self._warned.add(str(p))
             log.warning(
@@ -326,4 +328,27 @@ class StoreReader:
 
     def frame_count(self, scene: str) -> int:
         return len(self.manifest(scene)["cameras"])
+
+    def replaced_counts(self, frames: dict[str, Iterable[int]], buffers: Iterable[str]) -> dict[str, Any]:
+        """The NaN/Inf/negative values :meth:`load` replaces by 0 in the files of ``buffers`` of ``frames``
+        (``{scene: frame numbers}``), what a run's ``metrics.json`` records (``data.replaced_by_0``):
+        ``{"values", "files", "by_buffer": {buffer: values}}``. A file this process loaded counts what its
+        load replaced (finite values the exposure scales past float32's range included); one it did not
+        (read in a loader worker process, ``data.num_workers`` > 0) counts its manifest record's NaN, Inf
+        and negative values, which :meth:`load` replaces alike (docs/data.md)."""
+        values, files, by_buffer = 0, 0, {}
+        for scene, numbers in frames.items():
+            records = self.manifest(scene)["files"]
+            for frame in sorted(set(numbers)):
+                for buffer in buffers:
+                    rec = records.get(f"{frame:04d}/{buffer}.exr")
+                    if rec is None:
+                        continue
+                    n = self._replaced.get(str(self.path(scene, frame, buffer)))
+                    if n is None:
+                        n = sum(int(rec.get(k) or 0) for k in ("nan", "inf", "negative"))
+                    if n:
+                        values, files = values + n, files + 1
+                        by_buffer[buffer] = by_buffer.get(buffer, 0) + n
+        return {"values": values, "files": files, "by_buffer": by_buffer}
 

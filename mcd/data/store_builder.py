@@ -26,6 +26,7 @@ one's achieved PSNR (``psnr_estimate`` in the manifest). Training and validation
 from __future__ import annotations
 
 import contextlib
+import copy
 import hashlib
 import json
 import logging
@@ -190,6 +191,33 @@ class StoreBuilder(StoreReader):
         prev = man["cameras"][max(frame - 1, 0)]
         return _hash([*base, "motion", prev, self._file_key(man, frame, "depth")])
 
+    def check_rendered(self, frames: dict[str, list[int]], buffers: Iterable[str]) -> None:
+        """ValueError unless every file of ``buffers`` of ``frames`` (``{scene: frame numbers}``) is what this
+        config renders: listed in the scene's manifest with this config's render key, from cameras of this
+        config. Reads the manifests and the scene files, renders nothing. A reader of the store that does not
+        render (``python -m mcd.pack``) calls it before any work: it packed a store rendered with other
+        ``data.*`` settings under the same ``data.name`` as if it were this config's (a 32x32 store packed
+        for ``data.ref_spp=64`` said "packed 10"; for ``data.width=48`` it failed on a broadcast)."""
+        buffers = list(buffers)
+        for scene, numbers in frames.items():
+            man = self.manifest(scene)
+            spec = self.specs[scene]
+            same_cameras = (man.get("camera_key") == self._camera_key(spec, spec.source())
+                            and max(numbers, default=-1) < len(man["cameras"]))
+            stale = [f"{f:04d}/{b}.exr" for f in numbers for b in buffers
+                     if not same_cameras or man["files"].get(f"{f:04d}/{b}.exr", {}).get("key")
+                     != self._file_key(man, f, b)]
+            if not stale:
+                continue
+            was, now = man.get("settings") or {}, self._settings()
+            changed = ", ".join(f"{k} {was.get(k)} there, {now.get(k)} here" for k in sorted({*was, *now})
+                                if was.get(k) != now.get(k)) or "other render settings or scene file"
+            raise ValueError(
+                f"{self.manifest_path(scene)}: {len(stale)} file(s) this command reads (e.g. {stale[0]}) "
+                f"were rendered with other settings than this command's ({changed}); render them first: "
+                f"{self.render_command('render.buffers=[' + ','.join(buffers) + ']')} (or give each setting "
+                "its own data.name)")
+
     def _is_done(self, man: dict, scene: str, frame: int, buffer: str, verify: bool) -> bool:
         rel = f"{frame:04d}/{buffer}.exr"
         rec = man["files"].get(rel)
@@ -342,6 +370,7 @@ class StoreBuilder(StoreReader):
         force = bool(self.render_cfg.get("force", False))
         verify = bool(self.render_cfg.get("verify", False))
         state: dict[str, Any] = {}
+        self._check_scene_lock(name)
         self._check_frame_folders(name, frames)
 
         def loader() -> Any:
@@ -351,6 +380,12 @@ class StoreBuilder(StoreReader):
                                             self._settings()["max_depth"], int(self.data_cfg.segments))
             return state["loaded"]
 
+        if not force and self._rendered_already(spec, frames, order, verify):  # read only: no lock, no write
+            tally.reused.update(b for _ in frames for b in order if b in want)
+            if position is not None:
+                log.info("render %s scene %s: 0 of its %d frames here need rendering (%s)", position, name,
+                         len(frames), ",".join(order))
+            return
         with self._scene_lock(name):
             man = self._open_manifest(spec, loader)
             quality = self._quality_cfg()
@@ -408,6 +443,36 @@ class StoreBuilder(StoreReader):
                 report(f)
         tally.msamples += frame.samples / 1e6
 
+    def _rendered_already(self, spec: SceneSpec, frames: list[int], order: list[str], verify: bool) -> bool:
+        """Whether every file of ``frames`` x ``order`` of the scene is rendered for this config and the
+        manifest needs no change (cameras, reference-quality pilot, scales, settings as the locked path of
+        :meth:`_ensure_scene` would leave them; no temp file of a killed writer), found by reading alone: such
+        a scene is reused without taking ``<scene>/.lock`` or writing anything, so a fully rendered store on a
+        read-only mount is trained from (``mcd.run`` died on an OSError taking the lock)."""
+        folder = self.root / spec.name
+        path = self.manifest_path(spec.name)
+        if not path.is_file() or any(folder.glob(".*.tmp*")) or any(folder.glob("*/.*.tmp*")):
+            return False
+        try:
+            on_disk = self._read_manifest(path)
+        except CorruptManifestError:
+            return False
+        source = spec.source()
+        if (on_disk.get("camera_key") != self._camera_key(spec, source)
+                or on_disk.get("version") != MANIFEST_VERSION):
+            return False
+        man = copy.deepcopy(on_disk)
+        man["source"], man["settings"] = source, self._settings()
+        quality = self._quality_cfg()
+        if quality is None:
+            man.pop("ref_quality", None)
+        elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
+            return False
+        self._fill_scales(spec, man)
+        if man != on_disk:
+            return False
+        return all(self._is_done(man, spec.name, f, b, verify) for f in frames for b in order)
+
     @contextlib.contextmanager
     def _scene_lock(self, scene: str) -> Iterator[None]:
         """Hold ``<scene>/.lock`` (:func:`mcd.core.file_lock.exclusive`) for a short read-modify-write of the
@@ -418,14 +483,20 @@ class StoreBuilder(StoreReader):
         it, left by a killed run) are removed under it.
         """
         folder = self.root / scene
-        lock = folder / ".lock"
-        if lock.exists() and not lock.is_file():
-            raise RuntimeError(f"{lock}: the scene's lock file is not a regular file; remove it (`rm -r "
-                               f"{lock}`, after checking it holds nothing you need) and run again")
+        lock = self._check_scene_lock(scene)
         with file_lock.exclusive(lock):
             for stale in folder.glob(".*.tmp*"):  # of a killed run
                 stale.unlink(missing_ok=True)
             yield
+
+    def _check_scene_lock(self, scene: str) -> Path:
+        """``<scene>/.lock``; RuntimeError naming it and its fix when it is not a regular file (checked before
+        any work, also where the scene is reused without taking it)."""
+        lock = self.root / scene / ".lock"
+        if lock.exists() and not lock.is_file():
+            raise RuntimeError(f"{lock}: the scene's lock file is not a regular file; remove it (`rm -r "
+                               f"{lock}`, after checking it holds nothing you need) and run again")
+        return lock
 
     def _check_frame_folders(self, scene: str, frames: list[int]) -> None:
         """RuntimeError naming the path and its fix, before anything is rendered, when a frame's folder

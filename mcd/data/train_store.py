@@ -55,6 +55,7 @@ import torch
 from omegaconf import DictConfig
 
 from mcd.core.allocator import keep_freed_memory
+from mcd.core.paths import data_dir as resolve_data_dir
 from mcd.core.paths import folder_to_be
 from mcd.data.buffers import BUFFERS, CHANNELS
 
@@ -122,7 +123,9 @@ class TrainStoreSettings:
             raise ValueError(f"data.train_store.dtype={dtype!r}: give one of {list(DTYPES)} "
                              "(docs/training_store.md)")
         folder = ts.get("dir")
-        root = Path(folder) if folder else Path(cfg.paths.data_dir) / str(cfg.data.name) / f".train_{dtype}"
+        # ~ is the home folder, as in paths.data_dir (a literal "~" folder in the working directory before)
+        root = (Path(str(folder)).expanduser() if folder
+                else resolve_data_dir(cfg.paths.data_dir) / str(cfg.data.name) / f".train_{dtype}")
         if fmt == "array":
             folder_to_be("data.train_store.dir", root)
         return cls(fmt, dtype, root)
@@ -315,7 +318,17 @@ def meta_problem(meta: Any) -> str | None:
         return f"missing or mistyped: {', '.join(bad)}"
     ranges = [b for b, r in meta["channels"].items()
               if not (isinstance(r, list) and len(r) == 2 and all(isinstance(c, int) for c in r))]
-    return f"channels of {', '.join(ranges)} are not [first, end]" if ranges else None
+    if ranges:
+        return f"channels of {', '.join(ranges)} are not [first, end]"
+    unknown = [b for b in meta["channels"] if b not in CHANNELS]
+    if unknown:
+        return f"unknown buffer(s) {', '.join(unknown)}"
+    # the layout the pack writes (buffers in table order, each its channels): an edited range read one
+    # buffer's channels as another's (a run trained on swapped input and target, its frames' CRCs intact)
+    layout = {b: list(r) for b, r in channel_ranges(meta["channels"]).items()}
+    if layout != meta["channels"]:
+        return f"channel ranges {meta['channels']} are not the pack's layout {layout}"
+    return None
 
 
 def read_checked_json(path: Path, problem: Callable[[Any], str | None]) -> tuple[Any, str | None]:

@@ -92,10 +92,16 @@ class StepLimit(Callback):
     """Stops training after ``max_steps`` optimiser steps. Not Lightning's ``max_steps``: with it Lightning
     treats training as iteration-based and a run resumed from an epoch-end checkpoint replays that epoch's
     end and loses an epoch (Lightning 2.6; tests/reliability/test_resume.py). Lightning validates when a stop
-    is requested, so the last step is validated."""
+    is requested, so the last step is validated. A run resumed from a checkpoint at or past the budget (one
+    killed during its test, resumed with ``ckpt_path=auto``) trains no step: it trained one more, past its
+    budget, and recorded "stopped by the step budget (train.max_steps=3) after 4 steps"."""
 
     def __init__(self, max_steps: int) -> None:
         self.max_steps = max_steps
+
+    def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        if trainer.global_step >= self.max_steps:
+            trainer.should_stop = True
 
     def on_train_batch_end(self, trainer: L.Trainer, pl_module: L.LightningModule, outputs: object,
                            batch: object, batch_idx: int) -> None:
@@ -192,6 +198,25 @@ class LearningCurve(Callback):
             writer.writerow(row)
 
 
+class OwnBest(Callback):
+    """Keeps the best-checkpoint record of a run to its own ``checkpoints/`` folder. A checkpoint from
+    another directory (``ckpt_path=<another run's last.ckpt>``, or a run directory copied elsewhere and
+    resumed) carries that directory's best checkpoint path, which Lightning restores even where the folder
+    differs; :func:`finish` then deleted that file, the best checkpoint of another, finished run, when it
+    found a better one. The path is forgotten at the start of training (the run's own validations choose its
+    best), and :func:`finish` never deletes outside the run's folder."""
+
+    def __init__(self, best: ModelCheckpoint) -> None:
+        self.best = best
+
+    def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        path, folder = self.best.best_model_path, Path(str(self.best.dirpath)).resolve()
+        if path and Path(path).resolve().parent != folder:
+            log.info("the checkpoint resumed from names %s as its best; this run keeps its own best in %s",
+                     path, folder)
+            self.best.best_model_path, self.best.best_model_score = "", None
+
+
 def finish(trainer: L.Trainer, module: L.LightningModule, datamodule: L.LightningDataModule,
            best: ModelCheckpoint, curve: LearningCurve) -> None:
     """After ``fit``: validate the final weights if the last validation came before the last step (a budget
@@ -206,7 +231,8 @@ def finish(trainer: L.Trainer, module: L.LightningModule, datamodule: L.Lightnin
         if score is not None and (previous is None or float(score) > float(previous)):
             path = folder / f"best-step{trainer.global_step:06d}.ckpt"
             trainer.save_checkpoint(path)
-            if best.best_model_path and Path(best.best_model_path) != path:
-                Path(best.best_model_path).unlink(missing_ok=True)
+            previous_path = Path(best.best_model_path) if best.best_model_path else None
+            if previous_path and previous_path != path and previous_path.resolve().parent == folder.resolve():
+                previous_path.unlink(missing_ok=True)
             best.best_model_path, best.best_model_score = str(path), score
         trainer.save_checkpoint(folder / "last.ckpt")

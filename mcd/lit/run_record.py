@@ -62,7 +62,11 @@ class RunRecord:
     torch: str  # torch version
     allocator: str  # the process's allocator setting (mcd/core/allocator.py; older records lack the key)
     config: str  # path of resolved_config.yaml
-    data: dict[str, Any]  # the store's report of what it rendered and reused
+    #: the store's report of what it rendered and reused; ``replaced_by_0``: the NaN/Inf/negative values
+    #: replaced by 0 in the frames the run read (mcd.data.store.StoreReader.replaced_counts); with
+    #: ``data.train_store.format=array``, ``train_store``: the pack's report (``clamped_total``: values
+    #: clamped to the float16 range in the packed frames)
+    data: dict[str, Any]
     trained: bool
     transfer: dict[str, Any] | None  # the transfer settings (mcd.lit.transfer); null for an ordinary run
     checkpoint: str | None  # the checkpoint tested; null for a method tested as built

@@ -65,6 +65,9 @@ def summary(metrics: dict[str, Any], run_dir: Path, train: dict[str, Any]) -> st
         cells = [f"{_fmt(scores.get(k), spec)} ({_fmt(scores.get('input_' + k), spec)})"
                  for k, _, spec in SCORES]
         lines.append(f"    {scene}: " + "   ".join(cells))
+    transfer = metrics.get("transfer") or {}
+    untrained = (f"none (the weights of transfer.init_from {transfer['init_from']})"
+                 if transfer.get("init_from") else "none (the model as built)")
     lines += [f"  run directory: {run_dir}",
-              f"  checkpoint tested: {metrics.get('checkpoint') or 'none (the model as built)'}"]
+              f"  checkpoint tested: {metrics.get('checkpoint') or untrained}"]
     return "\n".join(lines)
