@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import os
 import sys
 import time
 from pathlib import Path
@@ -220,6 +221,9 @@ STANDARD_FILES = ("table1.md", "table1.csv", "components.md", "components.csv", 
 SCALING_FILES = ("scaling.png", "scaling_cells.csv", "scaling_cells.md", "scaling_gaps.csv",
                  "scaling_gaps.md", "scaling_fits.csv", "scaling_fits.md", "scaling_crossings.csv",
                  "scaling_jobs.csv")
+#: What both kinds write or replace in the report folder besides those (``runs.new`` and ``.viewer.partial``:
+#: the records and the viewer while they are written).
+REPORT_FILES = ("README.md", "findings.json", "notes.md", "runs", "runs.new", "viewer", ".viewer.partial")
 #: The first line of the ``notes.md`` that a scaling report writes (:mod:`mcd.reporting.scaling.notes`); a
 #: ``notes.md`` that does not start with it is the user's own, which a report never writes or removes.
 GENERATED_NOTES = "# Scaling study: generated notes"
@@ -288,6 +292,14 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
                                  f"{what} would replace it; give another --out (or --name)")
     if out_dir is None:
         return
+    for name in (*STANDARD_FILES, *SCALING_FILES, *REPORT_FILES):
+        path = out_dir / name
+        inside = sorted(p for p in path.rglob("*") if p.is_symlink()) if path.is_dir() else []
+        links = [path] if path.is_symlink() else inside
+        if links:  # written or removed through it, the report would change what lies outside its folder
+            raise ReportOutError(f"{links[0]}: a link where the report writes (to {os.readlink(links[0])}); "
+                                 "a report writes only inside its folder: remove the link, or give another "
+                                 "--name")
     notes = out_dir / "notes.md"
     if scaling and notes.exists() and not _written_by_report(notes, GENERATED_NOTES):
         raise ReportOutError(f"{notes}: hand-written notes (its first line is not {GENERATED_NOTES!r}), "

@@ -85,7 +85,7 @@ def describe(folder: Path) -> ReportInfo:
     viewer = _viewer(folder)
     if not readme.is_file():
         return ReportInfo(folder.name, "no README.md", viewer=viewer)
-    text = readme.read_text()
+    text = readme.read_text(errors="replace")  # a folder's own README need not be UTF-8 (it ended the index)
     title = next((line.lstrip("# ").strip() for line in text.splitlines() if line.startswith("#")), "")
     generated = re.search(r"^Generated (\S+) by `.*` at commit `([^`]+)`", text, re.M)
     if generated is None:  # not a report of python -m mcd.report: a bench's folder

@@ -61,10 +61,7 @@ def best_paths(bench: pd.DataFrame) -> pd.DataFrame:
 def run_config(run: Run) -> dict:
     """The run's composed config: ``resolved_config.yaml`` where the run has one, else its
     ``.hydra/config.yaml``."""
-    resolved = run.path / "resolved_config.yaml"
-    if resolved.is_file():
-        return OmegaConf.to_container(OmegaConf.load(resolved), resolve=False)
-    return run.config
+    return run.resolved if run.resolved is not None else run.config
 
 
 def capacity(run: Run) -> str:

@@ -5,6 +5,7 @@ strip comparing every method's output on the same crop, with its FLIP error map 
 
 from __future__ import annotations
 
+import logging
 import re
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from mcd.config.methods import (
     display_name,  # noqa: E402
 )
 from mcd.core.metrics import flip_map, to_display  # noqa: E402
+from mcd.core.paths import SAFE_NAME  # noqa: E402
 from mcd.data.exr import read_exr  # noqa: E402
 from mcd.lit.samples import picture  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
@@ -38,6 +40,7 @@ COLUMNS = (
     ("flip", "FLIP error of the output"),
     ("reference", "reference"),
 )
+log = logging.getLogger(__name__)
 _NAME = re.compile(r"^(?P<frame>\d+)_(?P<name>[a-z_]+?)(?:_\d+spp)?$")
 
 
@@ -49,7 +52,10 @@ def samples(run: Run) -> dict[str, dict[int, dict[str, Path]]]:
         return found
     for exr in sorted(root.glob("*/*.exr")):
         m = _NAME.match(exr.stem)
-        if m:
+        if m and not SAFE_NAME.fullmatch(exr.parent.name):  # a scene names the report's files
+            log.warning("%s: the scene folder's name is not a plain name (letters, digits, '_', '-', '.'): "
+                        "left out of the strips and the viewer", exr)
+        elif m:
             found.setdefault(exr.parent.name, {}).setdefault(int(m["frame"]), {})[m["name"]] = exr
     return found
 

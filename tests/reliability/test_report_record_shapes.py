@@ -1,0 +1,100 @@
+"""Campaign 8 (docs/reliability.md, "Campaign 8, part 2"): ``python -m mcd.report`` on run records whose
+bytes were crafted. A scene name in ``frames.csv`` wrote the per-frame plot outside the report folder; a
+record field of another type (``"budget": "abc"``, ``method: 5``, a garbage ``resolved_config.yaml`` or
+``.hydra/overrides.yaml``) ended the whole report in a traceback; a folder of the output root whose README.md
+is not UTF-8 ended the index in one, after the report was written. The command runs for real."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.reliability.test_report_inputs import GARBAGE, _job, _report
+
+
+def _sweep(tmp_path: Path) -> tuple[Path, Path]:
+    """A sweep of two finished jobs (F and the U-Net at 4 spp); returns it and the U-Net's run."""
+    sweep = tmp_path / "multirun"
+    _job(sweep, "F_spp4", {"psnr": 30.5, "ssim": 0.9, "experiment": "F", "budget": 4})
+    return sweep, _job(sweep, "unet_spp4", {"psnr": 29.0, "ssim": 0.8, "experiment": "unet", "budget": 4})
+
+
+@pytest.mark.parametrize("scene", ["../../../outside/pwn", "/ABS/pwn"])
+def test_a_scene_name_from_frames_csv_never_writes_outside_the_report(tmp_path, scene):
+    sweep, bad = _sweep(tmp_path)
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    scene = scene.replace("/ABS", str(outside))
+    frames = bad / "frames.csv"
+    frames.write_text(frames.read_text().replace("cbox", scene))
+    proc = _report(tmp_path, str(sweep))
+    assert list(outside.iterdir()) == [], "the per-frame plot was written outside the report folder"
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert f"error: {bad.resolve() / 'frames.csv'} is corrupt (a scene that is not a plain name" in proc.stderr
+    report = tmp_path / "reports" / "t"
+    assert "2 found, 1 finished, 1 failed" in (report / "README.md").read_text()
+    assert sorted(p.name for p in (report / "per_frame").glob("*.png")) == ["cbox_psnr.png"]
+
+
+@pytest.mark.parametrize(("file", "text", "why"), [
+    ("metrics.json", {"budget": "abc"}, "a field of another type: budget='abc'"),
+    ("metrics.json", {"segments": [1, 2]}, "a field of another type: segments[0]=1, segments[1]=2"),
+    ("metrics.json", {"wall_s": "x", "train_steps": "many"}, "train_steps='many', wall_s='x'"),
+    ("metrics.json", {"seed": 1e400}, "a field of another type: seed=inf"),
+    (".hydra/config.yaml", "experiment: unet\nbudget: 4\nmethod: 5\n", "a value of another type: method=5"),
+    (".hydra/config.yaml", "experiment: unet\nbudget: 4\ndata: x\n", "a value of another type: data='x'"),
+    ("resolved_config.yaml", GARBAGE, "is corrupt (not a readable Hydra record"),
+    (".hydra/overrides.yaml", GARBAGE, "is corrupt (not a readable Hydra record"),
+])
+def test_a_record_field_of_another_type_fails_that_run_and_the_report_goes_on(tmp_path, file, text, why):
+    sweep, bad = _sweep(tmp_path)
+    (sweep / "multirun.yaml").write_text("hydra:\n  overrides:\n    task: [+experiment=F,unet]\n")
+    path = bad / file
+    if isinstance(text, dict):
+        path.write_text(json.dumps({**json.loads(path.read_text()), **text}))
+    elif isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text)
+    proc = _report(tmp_path, str(sweep))
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert f"error: {bad.resolve() / file} is corrupt" in proc.stderr and why in proc.stderr, proc.stderr
+    readme = (tmp_path / "reports" / "t" / "README.md").read_text()
+    assert "2 found, 1 finished, 1 failed" in readme and "unet_spp4" in readme
+
+
+def test_a_folder_whose_readme_is_not_utf8_leaves_the_index_whole(tmp_path):
+    sweep, _ = _sweep(tmp_path)
+    other = tmp_path / "reports" / "other"
+    other.mkdir(parents=True)
+    (other / "README.md").write_bytes(b"\xff\xfe# not UTF-8 \x83\n")
+    proc = _report(tmp_path, str(sweep))
+    assert proc.returncode == 0, proc.stderr
+    index = (tmp_path / "reports" / "README.md").read_text()
+    assert "| t |" in index and "| other |" in index
+    assert (other / "README.md").read_bytes() == b"\xff\xfe# not UTF-8 \x83\n"
+
+
+@pytest.mark.parametrize("entry", ["runs", "table1.csv", "strips/cbox.png"])
+def test_a_link_where_the_report_writes_is_refused_before_anything_is_written(tmp_path, entry):
+    sweep, _ = _sweep(tmp_path)
+    report = tmp_path / "reports" / "t"
+    target = tmp_path / "elsewhere"
+    target.mkdir()
+    (target / "keep.txt").write_text("the user's\n")
+    link = report / entry
+    link.parent.mkdir(parents=True, exist_ok=True)
+    link.symlink_to(target if entry == "runs" else target / "keep.txt")
+    proc = _report(tmp_path, str(sweep))
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.strip() == (f"error: {link}: a link where the report writes (to "
+                                   f"{target if entry == 'runs' else target / 'keep.txt'}); a report writes only "
+                                   "inside its folder: remove the link, or give another --name"), proc.stderr
+    assert [p.name for p in target.iterdir()] == ["keep.txt"]
+    assert (target / "keep.txt").read_text() == "the user's\n"
+    assert not (report / "README.md").exists()
