@@ -2,8 +2,8 @@
 settings (docs/denoise.md, "Output"; docs/reliability.md, "Denoising your frames").
 
 ``<out>/denoise.json`` is rewritten (atomically) after every frame with ``settings`` (what the outputs depend
-on: the input files with their sizes, modification times and SHA-256, the weights' SHA-256, the experiment, budget,
-precision, device, tile cap and overlap), ``finished`` (the stems whose every file is written) and
+on: the input files with their sizes, modification times and SHA-256, the weights' SHA-256, the experiment,
+budget, precision, device, tile cap and overlap), ``finished`` (the stems whose every file is written) and
 ``checksums`` (the SHA-256 of each of those files). A rerun with equal ``settings`` skips a finished frame
 whose files are all there with their recorded SHA-256 (one emptied or replaced since is denoised again); any
 other difference (or no record) denoises every frame again, naming the settings that changed. A method with

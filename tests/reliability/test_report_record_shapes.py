@@ -33,7 +33,8 @@ def test_a_scene_name_from_frames_csv_never_writes_outside_the_report(tmp_path, 
     assert list(outside.iterdir()) == [], "the per-frame plot was written outside the report folder"
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr, proc.stderr
-    assert f"error: {bad.resolve() / 'frames.csv'} is corrupt (a scene that is not a plain name" in proc.stderr
+    frames_csv = bad.resolve() / "frames.csv"
+    assert f"error: {frames_csv} is corrupt (a scene that is not a plain name" in proc.stderr, proc.stderr
     report = tmp_path / "reports" / "t"
     assert "2 found, 1 finished, 1 failed" in (report / "README.md").read_text()
     assert sorted(p.name for p in (report / "per_frame").glob("*.png")) == ["cbox_psnr.png"]
@@ -92,9 +93,9 @@ def test_a_link_where_the_report_writes_is_refused_before_anything_is_written(tm
     proc = _report(tmp_path, str(sweep))
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr, proc.stderr
-    assert proc.stderr.strip() == (f"error: {link}: a link where the report writes (to "
-                                   f"{target if entry == 'runs' else target / 'keep.txt'}); a report writes only "
-                                   "inside its folder: remove the link, or give another --name"), proc.stderr
+    to = target if entry == "runs" else target / "keep.txt"
+    assert proc.stderr.strip() == (f"error: {link}: a link where the report writes (to {to}); a report "
+                                   "writes only inside its folder: remove the link, or give another --name")
     assert [p.name for p in target.iterdir()] == ["keep.txt"]
     assert (target / "keep.txt").read_text() == "the user's\n"
     assert not (report / "README.md").exists()
