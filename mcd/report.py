@@ -146,23 +146,38 @@ def write_readme(
 
 
 def profiles_of(runs: list[Run]) -> dict[str, int]:
-    """``{data profile: number of runs}`` of the report's runs, by profile name."""
+    """``{data profile: number of runs}`` of the report's runs. A profile's name is followed by its capacity
+    profile where the runs have more than one (``tiny`` capacity ``paper``), and by the data settings that
+    differ (``width=48``, ``metrics.json`` ``data_settings``) where runs of one name were made from other
+    data: their scores do not compare either."""
+    capacities = {r.capacity_profile for r in runs}
+    settings = [r.data_settings for r in runs]
+    recorded = [own for own in settings if own]
+    differ = sorted({k for a in recorded for b in recorded for k in {*a, *b} if a.get(k) != b.get(k)})
     counts: dict[str, int] = {}
-    for r in runs:
-        counts[r.data_profile] = counts.get(r.data_profile, 0) + 1
+    for r, own in zip(runs, settings, strict=True):
+        label = f"`{r.data_profile}`"
+        if len(capacities) > 1:
+            label += f" capacity `{r.capacity_profile}`"
+        if own and differ:
+            label += " (" + ", ".join(f"{k}={own.get(k)}" for k in differ) + ")"
+        counts[label] = counts.get(label, 0) + 1
     return dict(sorted(counts.items()))
 
 
 def mixed_profiles_note(runs: list[Run]) -> str | None:
-    """None when every run has one data profile; else the sentence the README states where its findings
-    would be: which profiles (and how many runs of each), and that no finding compares across them."""
+    """None when every run has one data profile (and one capacity profile, and the same data settings);
+    else the sentence the README states where its findings would be: which profiles (and how many runs of
+    each), and that no finding compares across them."""
     counts = profiles_of(runs)
     if len(counts) < 2:
         return None
-    listed = ", ".join(f"`{p}` ({n} run{'s' if n > 1 else ''})" for p, n in counts.items())
-    return (f"None: the runs come from {len(counts)} data profiles, {listed}, whose scores do not compare "
-            "(other scenes, sizes and sample counts), so no finding is made across them and the tables below "
-            "mix them. Report each profile's sweeps on their own.")
+    what = ("data profiles" if len({r.data_profile for r in runs}) == len(counts)
+            else "data profiles, capacity profiles or data settings")
+    listed = ", ".join(f"{p} ({n} run{'s' if n > 1 else ''})" for p, n in counts.items())
+    return (f"None: the runs come from {len(counts)} {what}, {listed}, whose scores do not compare "
+            "(other scenes, sizes, sample counts or models), so no finding is made across them and the "
+            "tables below mix them. Report each profile's sweeps on their own.")
 
 
 def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[Finding]:

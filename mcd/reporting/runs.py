@@ -135,6 +135,18 @@ class Run:
         return str(profile) if profile else "?"
 
     @property
+    def capacity_profile(self) -> str:
+        """The capacity profile the job ran with (``metrics.json``, else Hydra's choice), ``?`` unrecorded."""
+        profile = self._get("capacity_profile") or self.choices.get("capacity")
+        return str(profile) if profile else "?"
+
+    @property
+    def data_settings(self) -> dict[str, Any] | None:
+        """What determined the job's data (``metrics.json`` ``data_settings``), None where unrecorded."""
+        value = self.metrics.get("data_settings") if self.metrics is not None else None
+        return value if isinstance(value, dict) else None
+
+    @property
     def method_switches(self) -> dict[str, bool]:
         """The component switches (docs/method.md) this job ran with, from its config."""
         method = self.config.get("method", {})

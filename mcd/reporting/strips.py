@@ -171,8 +171,12 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         crops = [(display_name("noisy"), imgs["noisy"])] if "noisy" in imgs else []
         for title, smp in others:
             exr = smp.get(scene, {}).get(frame, {}).get("output")
-            if exr is not None:
-                crops.append((title, read_exr(exr)))
+            image = None if exr is None else read_exr(exr)
+            if image is not None and image.shape != ref.shape:  # as the viewer: another size is left out
+                log.warning("strips: %s is %s, the reference %s is %s: left out (a run of other data?)", exr,
+                            image.shape, names["reference"], ref.shape)
+            elif image is not None:
+                crops.append((title, image))
         crops.append(("reference", ref))
         fig, axes = plt.subplots(2, len(crops), figsize=(2.2 * len(crops), 5.6), squeeze=False)
         for j, (title, image) in enumerate(crops):

@@ -2,15 +2,19 @@
 bytes were crafted. A scene name in ``frames.csv`` wrote the per-frame plot outside the report folder; a
 record field of another type (``"budget": "abc"``, ``method: 5``, a garbage ``resolved_config.yaml`` or
 ``.hydra/overrides.yaml``) ended the whole report in a traceback; a folder of the output root whose README.md
-is not UTF-8 ended the index in one, after the report was written. The command runs for real."""
+is not UTF-8 ended the index in one, after the report was written; runs of one profile name made from other
+data (or of another capacity) were compared in findings, and the strips crashed on their other frame size.
+The command runs for real."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from mcd.data.exr import write_exr
 from tests.reliability.test_report_inputs import GARBAGE, _job, _report
 
 
@@ -99,3 +103,40 @@ def test_a_link_where_the_report_writes_is_refused_before_anything_is_written(tm
     assert [p.name for p in target.iterdir()] == ["keep.txt"]
     assert (target / "keep.txt").read_text() == "the user's\n"
     assert not (report / "README.md").exists()
+
+
+def _samples(run: Path, size: int, names: tuple[str, ...]) -> None:
+    """Test frame 0 of ``cbox`` saved as ``mcd.lit.samples`` saves it: ``samples/cbox/0000_<name>.exr``."""
+    rng = np.random.default_rng(size)
+    for name in names:
+        image = rng.random((size, size, 3), dtype=np.float32)
+        write_exr(run / "samples" / "cbox" / f"0000_{name}.exr", image)
+
+
+@pytest.mark.parametrize("differ", ["data_settings", "capacity_profile", "nothing"])
+def test_runs_of_other_data_or_capacity_under_one_profile_make_no_finding_and_no_crash(tmp_path, differ):
+    sweep, unet = _sweep(tmp_path)
+    base = {"data_profile": "tiny", "capacity_profile": "cpu",
+            "data_settings": {"name": "test32", "width": 32, "height": 32}}
+    other = {"data_settings": {"data_settings": {"name": "test48", "width": 48, "height": 48}},
+             "capacity_profile": {"capacity_profile": "paper"}, "nothing": {}}[differ]
+    for run, extra in ((sweep / "F_spp4", {}), (unet, other)):
+        path = run / "metrics.json"
+        path.write_text(json.dumps({**json.loads(path.read_text()), **base, **extra}))
+    _samples(sweep / "F_spp4", 32, ("output", "reference", "noisy_4spp"))
+    _samples(unet, 48 if differ == "data_settings" else 32, ("output",))
+    proc = _report(tmp_path, str(sweep))
+    assert proc.returncode == 0, proc.stderr  # the strips met a 48x48 output beside a 32x32 reference
+    report = tmp_path / "reports" / "t"
+    found = json.loads((report / "findings.json").read_text())["findings"]
+    findings = (report / "README.md").read_text().split("## Findings", 1)[1].split("## Table 1", 1)[0]
+    assert (report / "strips" / "cbox.png").is_file()
+    if differ == "nothing":  # one profile, one capacity, one kind of data: its findings are made
+        assert found != [] and "None: the runs come from" not in findings
+        return
+    named = ("`tiny` (height=32, name=test32, width=32) (1 run), `tiny` (height=48, name=test48, width=48) "
+             "(1 run)" if differ == "data_settings" else "`tiny` capacity `cpu` (1 run), `tiny` capacity "
+             "`paper` (1 run)")
+    assert found == []
+    assert f"None: the runs come from 2 data profiles, capacity profiles or data settings, {named}" \
+        in findings
