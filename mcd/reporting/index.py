@@ -114,7 +114,7 @@ def index_text(root: Path, current: str = CURRENT_REPORT) -> str:
     rows = []
     for folder in folders:
         info = describe(folder)
-        name = f"**{info.name}** (current)" if info.name == current else info.name
+        name = f"**{escape(info.name)}** (current)" if info.name == current else escape(info.name)
         links = [f"[README]({info.name}/{info.readme})" if info.readme else "",
                  f"[viewer]({info.name}/{info.viewer})" if info.viewer else ""]
         rows.append(f"| {name} | {escape(info.what)} | {escape(info.data)} | {escape(info.capacity)} | "

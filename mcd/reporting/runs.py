@@ -331,6 +331,9 @@ def frames_problem(path: Path) -> str | None:
     lo, hi = SCORE_RANGES["psnr"]
     if not psnr.between(lo, hi).all():
         return f"{path} is corrupt (a psnr that is not a number in [{lo:g}, {hi:g}])"
+    for col in ("frame", *SCORE_RANGES):  # read as numbers (the viewer's metrics, the per-frame plots)
+        if col in df.columns and (pd.to_numeric(df[col], errors="coerce").isna() & df[col].notna()).any():
+            return f"{path} is corrupt (a {col} that is not a number)"
     unsafe = sorted({str(s) for s in df["scene"] if not SAFE_NAME.fullmatch(str(s))})
     if unsafe:  # a scene names the report's per-frame plot: "../x" wrote outside the report folder
         return (f"{path} is corrupt (a scene that is not a plain name: {unsafe[0]!r}; scenes are letters, "

@@ -53,6 +53,8 @@ def test_a_scene_name_from_frames_csv_never_writes_outside_the_report(tmp_path, 
     (".hydra/config.yaml", "experiment: unet\nbudget: 4\ndata: x\n", "a value of another type: data='x'"),
     ("resolved_config.yaml", GARBAGE, "is corrupt (not a readable Hydra record"),
     (".hydra/overrides.yaml", GARBAGE, "is corrupt (not a readable Hydra record"),
+    ("frames.csv", "scene,frame,psnr,ssim\ncbox,0,30.0,zz\ncbox,1,31.0,0.9\n",
+     "(a ssim that is not a number)"),
 ])
 def test_a_record_field_of_another_type_fails_that_run_and_the_report_goes_on(tmp_path, file, text, why):
     sweep, bad = _sweep(tmp_path)
