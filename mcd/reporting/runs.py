@@ -362,10 +362,31 @@ def _choices(hydra_file: Path) -> Any:
     return OmegaConf.select(OmegaConf.load(hydra_file), "hydra.runtime.choices", default=None)
 
 
+#: What a run directory's records are: every file the report reads apart from ``samples/`` (a report keeps
+#: a copy of each, mcd.reporting.records).
+RECORD_FILES = (
+    "metrics.json",
+    EDGES_FILE,
+    "error.json",
+    "frames.csv",
+    "curve.csv",
+    "resolved_config.yaml",
+    ".hydra/config.yaml",
+    ".hydra/overrides.yaml",
+    ".hydra/hydra.yaml",
+)
+
+
 def load_run(path: Path) -> Run:
     """Read one run directory. A corrupt record (``metrics.json``: :func:`metrics_problem`; ``frames.csv``:
     :func:`frames_problem`; a ``.hydra/`` file that is not readable YAML) makes the job failed, the file
-    named in its error; one without ``psnr`` is incomplete (mcd.run reruns it)."""
+    named in its error; one without ``psnr`` is incomplete (mcd.run reruns it). A record that is there but
+    is not a regular file (a FIFO, on which reading waited for ever; a device; a folder) fails the job
+    before anything of it is read."""
+    odd = next((path / n for n in RECORD_FILES if (path / n).exists() and not (path / n).is_file()), None)
+    if odd is not None:
+        why = f"{odd} is corrupt (not a regular file)"
+        return Run(path=path, error={"error": why, "corrupt": why})
     problem = metrics_problem(path / "metrics.json") or frames_problem(path / "frames.csv")
     metrics = None if problem else _load_json(path / "metrics.json")
     if metrics is not None and "psnr" not in metrics:
@@ -450,7 +471,7 @@ def _widened(task: list[str], sweep_dir: Path) -> list[str]:
     key no job ran with is left out, and a value no job ran with is replaced by those they ran with (a
     skipped rerun with ``capacity=paper`` named that in the report of runs trained with ``capacity=cpu``)."""
     seen: dict[str, list[str]] = {}
-    for overrides in sorted(sweep_dir.glob("*/.hydra/overrides.yaml")):
+    for overrides in sorted(p for p in sweep_dir.glob("*/.hydra/overrides.yaml") if p.is_file()):
         # as typed: an override like transfer.init_from=.../${experiment}_spp4 stays unresolved
         items, _ = _read_yaml(overrides, lambda f: list(OmegaConf.to_container(OmegaConf.load(f),
                                                                                   resolve=False)))
@@ -478,7 +499,7 @@ def find_sweeps(roots: list[Path]) -> list[Sweep]:
     """The sweep directories (holding multirun.yaml) under or above `roots`."""
     files: set[Path] = set()
     for root in roots:
-        files.update(p.resolve() for p in root.rglob("multirun.yaml"))
+        files.update(p.resolve() for p in root.rglob("multirun.yaml") if p.is_file())
         files.update(
             p.resolve() for p in [root / "multirun.yaml", root.parent / "multirun.yaml"] if p.is_file()
         )

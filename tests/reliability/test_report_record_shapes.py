@@ -9,6 +9,7 @@ The command runs for real."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -142,3 +143,15 @@ def test_runs_of_other_data_or_capacity_under_one_profile_make_no_finding_and_no
     assert found == []
     assert f"None: the runs come from 2 data profiles, capacity profiles or data settings, {named}" \
         in findings
+
+
+@pytest.mark.parametrize("file", ["metrics.json", "frames.csv", ".hydra/overrides.yaml"])
+def test_a_record_that_is_a_fifo_fails_that_run_instead_of_waiting_for_ever(tmp_path, file):
+    sweep, bad = _sweep(tmp_path)
+    (sweep / "multirun.yaml").write_text("hydra:\n  overrides:\n    task: [+experiment=F,unet]\n")
+    (bad / file).unlink(missing_ok=True)
+    os.mkfifo(bad / file)
+    proc = _report(tmp_path, str(sweep))  # the report waited on the FIFO until the test's timeout
+    assert proc.returncode == 1, proc.stderr
+    assert f"error: {bad.resolve() / file} is corrupt (not a regular file)" in proc.stderr, proc.stderr
+    assert "2 found, 1 finished, 1 failed" in (tmp_path / "reports" / "t" / "README.md").read_text()
