@@ -130,8 +130,9 @@ def find_frames(inputs: list[str]) -> list[Path]:
     """The colour frames named by ``inputs`` (folders, files, glob patterns), in order.
 
     A folder gives its ``*.exr`` that are frames (:func:`_frames_among`: a sibling layer file without its
-    frame is named in a warning). FrameError if none, or if two frames share a name (their outputs would
-    overwrite each other in ``-o``), naming both.
+    frame is named in a warning). FrameError if none, if one is not a regular file (a FIFO, on which reading
+    waits for ever), or if two frames share a name (their outputs would overwrite each other in ``-o``),
+    naming both.
     """
     frames: list[Path] = []
     for item in inputs:
@@ -150,6 +151,9 @@ def find_frames(inputs: list[str]) -> list[Path]:
                          "files <stem>.albedo.exr / .normal.exr / .depth.exr and hidden files excluded)")
     seen: dict[str, Path] = {}
     for f in frames:
+        if not f.is_file():  # a FIFO was waited on for ever; a device or a folder is no frame either
+            raise FrameError(f"{f}: not a regular file (a FIFO, a device or a folder named like a frame); "
+                             "give EXR files, or move it out of the folder")
         if f.stem in seen:
             same = seen[f.stem].resolve() == f.resolve()
             raise FrameError(
