@@ -338,13 +338,16 @@ def make_report(
     with_viewer: bool = True,
     kind: str = "auto",
     current: str | None = None,
+    readme: Path | None = None,
 ) -> Path:
     """Write the whole report for the runs under `dirs`; returns the report directory. ``with_viewer=False``
     writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``). ``kind``: ``scaling``
     writes the scaling study's report (``mcd.reporting.scaling``), ``standard`` the report above, ``auto``
     the scaling report where a run is a job of the scaling sweep (``mcd.reporting.scaling.grid.is_scaling``).
     ``current``: the current report's name, whose Table 1 README.md's results show; a scaling report, which
-    has none, is refused under it before anything is written.
+    has none, is refused under it before anything is written, and so is a report under it (``--name``, or
+    the runs' data profile) where ``readme`` lacks the results markers (it ended in a traceback after the
+    report was written).
     """
     from mcd.reporting import records
     from mcd.reporting.runs import NoRunsError, find_runs, find_sweeps
@@ -365,6 +368,14 @@ def make_report(
     if scaling and name == current:
         raise ReportOutError(f"--name {name} is the current report, whose Table 1 README.md's results show, "
                              "and a scaling report has no Table 1; give the scaling report another --name")
+    if name == current and readme is not None:  # README.md's markers, before any long work
+        from mcd.reporting import index
+
+        try:
+            index.markers(readme)
+        except (FileNotFoundError, ValueError) as err:
+            raise ReportOutError(f"the report {name} is the current one, whose results go into {readme}: "
+                                 f"{err}") from err
     check_out(out_root, out_dir, [*(r.path for r in runs), *(s.path.resolve() for s in sweeps),
                                   *(d.resolve() for d in dirs)], scaling)
     try:
@@ -490,7 +501,7 @@ def main(argv: list[str] | None = None) -> None:
 
     current = args.current or index.CURRENT_REPORT
     readme = args.readme or args.out.resolve().parent / "README.md"
-    if args.index or args.name == current:  # README.md's markers are checked before any long work
+    if args.index:  # README.md's markers are checked before any work (a report's: in make_report)
         try:
             index.markers(readme)
         except (FileNotFoundError, ValueError) as err:
@@ -511,7 +522,7 @@ def main(argv: list[str] | None = None) -> None:
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     try:
         out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
-                              not args.no_viewer, args.kind, current)
+                              not args.no_viewer, args.kind, current, readme)
     except (UnsafeNameError, NoRunsError, ReportOutError) as err:  # a name leaving the output root, an --out
         # over files it did not write, or nothing to report on:
         sys.exit(f"error: {err}")  # one line, and nothing was written

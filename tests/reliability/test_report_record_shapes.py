@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from mcd.data.exr import write_exr
+from tests.conftest import module_env
 from tests.reliability.test_report_inputs import GARBAGE, _job, _report
 
 
@@ -155,3 +158,26 @@ def test_a_record_that_is_a_fifo_fails_that_run_instead_of_waiting_for_ever(tmp_
     assert proc.returncode == 1, proc.stderr
     assert f"error: {bad.resolve() / file} is corrupt (not a regular file)" in proc.stderr, proc.stderr
     assert "2 found, 1 finished, 1 failed" in (tmp_path / "reports" / "t" / "README.md").read_text()
+
+
+@pytest.mark.parametrize("how", ["profile", "--name"])
+def test_a_current_report_without_readme_markers_is_refused_before_anything_is_written(tmp_path, how):
+    sweep, unet = _sweep(tmp_path)
+    if how == "profile":  # the report's name comes from the runs' data profile
+        for run in (sweep / "F_spp4", unet):
+            path = run / "metrics.json"
+            path.write_text(json.dumps({**json.loads(path.read_text()), "data_profile": "small_current"}))
+    top = tmp_path / "top"
+    top.mkdir()
+    (top / "README.md").write_text("# my README, without the results markers\n")
+    name = ["--name", "small_current"] if how == "--name" else []
+    argv = [str(sweep), "--out", str(top / "reports"), *name, "--no-viewer", "--current", "small_current"]
+    proc = subprocess.run([sys.executable, "-m", "mcd.report", *argv], cwd=tmp_path, env=module_env(),
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    readme = top / "README.md"
+    assert proc.stderr.startswith(f"error: the report small_current is the current one, whose results go "
+                                  f"into {readme}: {readme} needs exactly one line"), proc.stderr
+    assert not (top / "reports").exists()
+    assert (top / "README.md").read_text() == "# my README, without the results markers\n"
