@@ -151,16 +151,17 @@ def profiles_of(runs: list[Run]) -> dict[str, int]:
     differ (``width=48``, ``metrics.json`` ``data_settings``) where runs of one name were made from other
     data: their scores do not compare either."""
     capacities = {r.capacity_profile for r in runs}
-    settings = [r.data_settings for r in runs]
-    recorded = [own for own in settings if own]
-    differ = sorted({k for a in recorded for b in recorded for k in {*a, *b} if a.get(k) != b.get(k)})
+    differ: dict[str, list[str]] = {}  # per profile name, the data settings its runs differ in
+    for name in {r.data_profile for r in runs}:
+        kept = [r.data_settings for r in runs if r.data_profile == name and r.data_settings]
+        differ[name] = sorted({k for a in kept for b in kept for k in {*a, *b} if a.get(k) != b.get(k)})
     counts: dict[str, int] = {}
-    for r, own in zip(runs, settings, strict=True):
+    for r in runs:
         label = f"`{r.data_profile}`"
         if len(capacities) > 1:
             label += f" capacity `{r.capacity_profile}`"
-        if own and differ:
-            label += " (" + ", ".join(f"{k}={own.get(k)}" for k in differ) + ")"
+        if r.data_settings and differ[r.data_profile]:
+            label += " (" + ", ".join(f"{k}={r.data_settings.get(k)}" for k in differ[r.data_profile]) + ")"
         counts[label] = counts.get(label, 0) + 1
     return dict(sorted(counts.items()))
 
