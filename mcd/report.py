@@ -362,6 +362,10 @@ def make_report(
             f"{', '.join(map(str, dirs))}: pass the multirun dirs of `mcd.run -m`"
         )
     records.keys(runs)  # two runs that would share a record folder: refused before anything is written
+    from mcd.reporting.speed import bench_problem
+
+    if (problem := bench_problem(bench)) is not None:
+        raise ReportOutError(f"{problem}; give a CSV of python -m mcd.bench speed as --bench")
     sweeps = find_sweeps(dirs)
     scaling = kind == "scaling" or (kind == "auto" and is_scaling(runs))
     name = report_name(runs, name, scaling)

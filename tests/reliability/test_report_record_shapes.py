@@ -181,3 +181,20 @@ def test_a_current_report_without_readme_markers_is_refused_before_anything_is_w
                                   f"into {readme}: {readme} needs exactly one line"), proc.stderr
     assert not (top / "reports").exists()
     assert (top / "README.md").read_text() == "# my README, without the results markers\n"
+
+
+@pytest.mark.parametrize(("text", "why"), [
+    ("method,device,height,width,ms_median\nF,cpu,abc,16,5.0\n", "a height that is not a whole number"),
+    ("method,device,ms_median\nF,cpu,5.0\n", "no column height, width"),
+])
+def test_a_damaged_bench_csv_is_named_before_anything_is_written(tmp_path, text, why):
+    sweep, _ = _sweep(tmp_path)
+    bench = tmp_path / "bench.csv"
+    bench.write_text(text)
+    proc = subprocess.run([sys.executable, "-m", "mcd.report", str(sweep), "--out", str(tmp_path / "reports"),
+                           "--name", "t", "--no-viewer", "--bench", str(bench)], cwd=tmp_path,
+                          env=module_env(), capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.strip() == (f"error: --bench {bench}: {why}; give a CSV of python -m mcd.bench speed "
+                                   "as --bench"), proc.stderr
+    assert not (tmp_path / "reports").exists()
