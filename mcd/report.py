@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import os
 import sys
 import time
 from pathlib import Path
@@ -148,23 +149,39 @@ def write_readme(
 
 
 def profiles_of(runs: list[Run]) -> dict[str, int]:
-    """``{data profile: number of runs}`` of the report's runs, by profile name."""
+    """``{data profile: number of runs}`` of the report's runs. A profile's name is followed by its capacity
+    profile where the runs have more than one (``tiny`` capacity ``paper``), and by the data settings that
+    differ (``width=48``, ``metrics.json`` ``data_settings``) where runs of one name were made from other
+    data: their scores do not compare either."""
+    capacities = {r.capacity_profile for r in runs}
+    differ: dict[str, list[str]] = {}  # per profile name, the data settings its runs differ in
+    for name in {r.data_profile for r in runs}:
+        kept = [r.data_settings for r in runs if r.data_profile == name and r.data_settings]
+        differ[name] = sorted({k for a in kept for b in kept for k in {*a, *b} if a.get(k) != b.get(k)})
     counts: dict[str, int] = {}
     for r in runs:
-        counts[r.data_profile] = counts.get(r.data_profile, 0) + 1
+        label = f"`{r.data_profile}`"
+        if len(capacities) > 1:
+            label += f" capacity `{r.capacity_profile}`"
+        if r.data_settings and differ[r.data_profile]:
+            label += " (" + ", ".join(f"{k}={r.data_settings.get(k)}" for k in differ[r.data_profile]) + ")"
+        counts[label] = counts.get(label, 0) + 1
     return dict(sorted(counts.items()))
 
 
 def mixed_profiles_note(runs: list[Run]) -> str | None:
-    """None when every run has one data profile; else the sentence the README states where its findings
-    would be: which profiles (and how many runs of each), and that no finding compares across them."""
+    """None when every run has one data profile (and one capacity profile, and the same data settings);
+    else the sentence the README states where its findings would be: which profiles (and how many runs of
+    each), and that no finding compares across them."""
     counts = profiles_of(runs)
     if len(counts) < 2:
         return None
-    listed = ", ".join(f"`{p}` ({n} run{'s' if n > 1 else ''})" for p, n in counts.items())
-    return (f"None: the runs come from {len(counts)} data profiles, {listed}, whose scores do not compare "
-            "(other scenes, sizes and sample counts), so no finding is made across them and the tables below "
-            "mix them. Report each profile's sweeps on their own.")
+    what = ("data profiles" if len({r.data_profile for r in runs}) == len(counts)
+            else "data profiles, capacity profiles or data settings")
+    listed = ", ".join(f"{p} ({n} run{'s' if n > 1 else ''})" for p, n in counts.items())
+    return (f"None: the runs come from {len(counts)} {what}, {listed}, whose scores do not compare "
+            "(other scenes, sizes, sample counts or models), so no finding is made across them and the "
+            "tables below mix them. Report each profile's sweeps on their own.")
 
 
 def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[Finding]:
@@ -284,6 +301,18 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
                                  f"{what} would replace it; give another --out (or --name)")
     if out_dir is None:
         return
+    from mcd.reporting import outputs, viewer
+
+    # every name a writer declares, and the records and viewer being written before they replace the old ones
+    staging = (f"{records.RECORDS_DIR}.new", f".{viewer.VIEWER_DIR}.partial")
+    for name in (*(n for kind in outputs.KINDS for n in outputs.declared(kind)), *staging):
+        path = out_dir / name
+        inside = sorted(p for p in path.rglob("*") if p.is_symlink()) if path.is_dir() else []
+        links = [path] if path.is_symlink() else inside
+        if links:  # written or removed through it, the report would change what lies outside its folder
+            raise ReportOutError(f"{links[0]}: a link where the report writes (to {os.readlink(links[0])}); "
+                                 "a report writes only inside its folder: remove the link, or give another "
+                                 "--name")
     notes = out_dir / "notes.md"
     if scaling and notes.exists() and not _written_by_report(notes, GENERATED_NOTES):
         raise ReportOutError(f"{notes}: hand-written notes (its first line is not {GENERATED_NOTES!r}), "
@@ -307,13 +336,16 @@ def make_report(
     with_viewer: bool = True,
     kind: str = "auto",
     current: str | None = None,
+    readme: Path | None = None,
 ) -> Path:
     """Write the whole report for the runs under `dirs`; returns the report directory. ``with_viewer=False``
     writes no viewer and removes an earlier one (``mcd.reporting.viewer.remove``). ``kind``: ``scaling``
     writes the scaling study's report (``mcd.reporting.scaling``), ``standard`` the report above, ``auto``
     the scaling report where a run is a job of the scaling sweep (``mcd.reporting.scaling.grid.is_scaling``).
     ``current``: the current report's name, whose Table 1 README.md's results show; a scaling report, which
-    has none, is refused under it before anything is written.
+    has none, is refused under it before anything is written, and so is a report under it (``--name``, or
+    the runs' data profile) where ``readme`` lacks the results markers (it ended in a traceback after the
+    report was written).
     """
     from mcd.reporting import records
     from mcd.reporting.runs import NoRunsError, find_runs, find_sweeps
@@ -327,6 +359,10 @@ def make_report(
             f"{', '.join(map(str, dirs))}: pass the multirun dirs of `mcd.run -m`"
         )
     records.keys(runs)  # two runs that would share a record folder: refused before anything is written
+    from mcd.reporting.speed import bench_problem
+
+    if (problem := bench_problem(bench)) is not None:
+        raise ReportOutError(f"{problem}; give a CSV of python -m mcd.bench speed as --bench")
     sweeps = find_sweeps(dirs)
     scaling = kind == "scaling" or (kind == "auto" and is_scaling(runs))
     name = report_name(runs, name, scaling)
@@ -334,6 +370,14 @@ def make_report(
     if scaling and name == current:
         raise ReportOutError(f"--name {name} is the current report, whose Table 1 README.md's results show, "
                              "and a scaling report has no Table 1; give the scaling report another --name")
+    if name == current and readme is not None:  # README.md's markers, before any long work
+        from mcd.reporting import index
+
+        try:
+            index.markers(readme)
+        except (FileNotFoundError, ValueError) as err:
+            raise ReportOutError(f"the report {name} is the current one, whose results go into {readme}: "
+                                 f"{err}") from err
     check_out(out_root, out_dir, [*(r.path for r in runs), *(s.path.resolve() for s in sweeps),
                                   *(d.resolve() for d in dirs)], scaling)
     try:
@@ -470,7 +514,7 @@ def main(argv: list[str] | None = None) -> None:
 
     current = args.current or index.CURRENT_REPORT
     readme = args.readme or args.out.resolve().parent / "README.md"
-    if args.index or args.name == current:  # README.md's markers are checked before any long work
+    if args.index:  # README.md's markers are checked before any work (a report's: in make_report)
         try:
             index.markers(readme)
         except (FileNotFoundError, ValueError) as err:
@@ -491,7 +535,7 @@ def main(argv: list[str] | None = None) -> None:
     command = "python -m mcd.report " + " ".join(argv if argv is not None else sys.argv[1:])
     try:
         out_dir = make_report(args.dirs, args.out, args.name, args.bench, args.note, command,
-                              not args.no_viewer, args.kind, current)
+                              not args.no_viewer, args.kind, current, readme)
     except (UnsafeNameError, NoRunsError, ReportOutError) as err:  # a name leaving the output root, an --out
         # over files it did not write, or nothing to report on:
         sys.exit(f"error: {err}")  # one line, and nothing was written

@@ -24,8 +24,9 @@ from pathlib import Path
 
 import torch
 
-from mcd.config.compose import compose
+from mcd.config.compose import compose, experiment_names
 from mcd.core.machine import device_name
+from mcd.core.paths import CONF_DIR
 from mcd.core.provenance import short_commit
 from mcd.data.buffers import run_buffers
 from mcd.data.loader_rate import measure
@@ -39,21 +40,38 @@ def run_buffers_of(experiment: str, capacity: str) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> dict:
+    from mcd.denoise.arguments import float_in, int_in  # numbers checked by the parser, naming the flag
+
     p = argparse.ArgumentParser(prog="python -m mcd.bench loader", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--dir", type=Path, default=None, help="folder for the synthetic stores (kept)")
-    p.add_argument("--width", type=int, default=1920)
-    p.add_argument("--height", type=int, default=1080)
-    p.add_argument("--frames", type=int, default=11, help="frames of the synthetic scene (one test frame)")
-    p.add_argument("--crop", type=int, default=256)
-    p.add_argument("--clip-len", type=int, default=5)
+    p.add_argument("--width", type=int_in(1, 16384), default=1920)
+    p.add_argument("--height", type=int_in(1, 16384), default=1080)
+    p.add_argument("--frames", type=int_in(2, 10**5), default=11,
+                   help="frames of the synthetic scene (one test frame)")
+    p.add_argument("--crop", type=int_in(1, 16384), default=256)
+    p.add_argument("--clip-len", type=int_in(1, 10**5), default=5)
     p.add_argument("--dtype", choices=("float32", "float16"), default="float32")
-    p.add_argument("--seconds", type=float, default=5.0, help="timed seconds per figure")
+    p.add_argument("--seconds", type=float_in(0, 3600, lo_open=True), default=5.0,
+                   help="timed seconds per figure")
     p.add_argument("--experiment", default="F", help="whose buffers (+experiment=<name>)")
     p.add_argument("--capacity", default="paper", help="capacity profile (conf/capacity/)")
     p.add_argument("--zarr", action="store_true", help="also the Zarr v3 design (needs zarr)")
     args = p.parse_args(argv)
+    # every check before the synthetic store (about 3 GB at the defaults) is written
+    if args.crop > min(args.width, args.height):
+        p.error(f"--crop {args.crop} is larger than the {args.width}x{args.height} frames: give --crop <= "
+                f"{min(args.width, args.height)}")
+    if args.frames < args.clip_len + 1:
+        p.error(f"--frames {args.frames}: one test frame and one clip of --clip-len {args.clip_len} need "
+                f"--frames >= {args.clip_len + 1}")
+    if args.experiment not in experiment_names():
+        p.error(f"--experiment {args.experiment}: no such experiment (conf/experiment: "
+                f"{', '.join(sorted(experiment_names()))})")
+    if not (CONF_DIR / "capacity" / f"{args.capacity}.yaml").is_file():
+        p.error(f"--capacity {args.capacity}: no such capacity profile (conf/capacity: "
+                f"{', '.join(sorted(c.stem for c in (CONF_DIR / 'capacity').glob('*.yaml')))})")
     if args.zarr:
         try:
             import zarr  # noqa: F401

@@ -59,7 +59,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from mcd.config.compose import compose
+from mcd.config.compose import compose, experiment_names
 from mcd.config.methods import CATALOGUE, display_name
 from mcd.core import allocator
 from mcd.core.machine import device_name, restart_peak_rss, status_mb
@@ -585,10 +585,22 @@ def main(argv: list[str] | None = None) -> None:
         overrides.append("capacity=paper")
     if (why := check_readme(args.out)) is not None:
         parser.error(why)
-    if unknown := sorted({d for d in args.devices.split(",") if d} - {"cpu", "cuda"}):
+    devices = [d for d in args.devices.split(",") if d]
+    if unknown := sorted(set(devices) - {"cpu", "cuda"}):
         parser.error(f"--devices {args.devices}: {', '.join(unknown)} is not a device this bench runs on; "
                      "give cpu and/or cuda")
+    methods = [m for m in args.methods.split(",") if m]
+    if unknown := sorted(set(methods) - set(experiment_names())):
+        parser.error(f"--methods: no experiment {', '.join(unknown)} (conf/experiment: "
+                     f"{', '.join(sorted(experiment_names()))})")
     sizes = [s for s in args.sizes.split(",") if s]
+    here = [d for d in devices if d != "cuda" or torch.cuda.is_available()]
+    for flag, given, value in (("--methods", methods, args.methods), ("--sizes", sizes, args.sizes),
+                               ("--devices", here, args.devices)):
+        if not given:  # nothing would be measured, and --out would be replaced by an empty table
+            why = "torch sees no CUDA device here" if flag == "--devices" and devices else "none given"
+            parser.error(f"{flag} {value!r}: {why}, so nothing would be measured (and {args.out} would be "
+                         "replaced by an empty table)")
     for s in sizes:
         try:
             parse_size(s)
@@ -598,9 +610,9 @@ def main(argv: list[str] | None = None) -> None:
     load_start = load_average()
     started = time.perf_counter()
     rows = run(
-        [m for m in args.methods.split(",") if m],
+        methods,
         sizes,
-        [d for d in args.devices.split(",") if d],
+        devices,
         overrides,
         args.warmup,
         args.reps,
@@ -610,7 +622,7 @@ def main(argv: list[str] | None = None) -> None:
         None if args.synthetic else store_frame(args.data, args.scene),
         cuda_compile=not args.no_cuda_compile,
     )
-    ceilings = matmul_ceilings([d for d in args.devices.split(",") if d])
+    ceilings = matmul_ceilings(devices)
     for name, rate in sorted(ceilings.items()):
         log.info("dense matmul ceiling %s: %.1f GMAC/s", name, rate)
     write_csv(rows, args.out)

@@ -52,7 +52,8 @@ OUTLIER_QUANTILE = 0.999
 OUTLIER_WARN = 0.01
 
 
-def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> float | None:
+def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0",
+                   warn: bool = True) -> float | None:
     """The scale that brings a robust mean of ``frame0`` (a user's noisy colour, sanitised first) to
     ``target``; None if black. What ``mcd-denoise`` sets the network's input exposure from (docs/denoise.md,
     "Frames from disk").
@@ -62,7 +63,8 @@ def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> 
     here is winsorised: values above :data:`OUTLIER_FACTOR` times the :data:`OUTLIER_QUANTILE` of the positive
     values are clamped to that bound. On a frame without such outliers it is the plain mean of
     :func:`auto_exposure` (the statistic the training data's exposure comes from). When the clamp moves the
-    mean by more than :data:`OUTLIER_WARN`, a warning names ``name``, the values clamped and both exposures.
+    mean by more than :data:`OUTLIER_WARN`, a warning names ``name``, the values clamped and both exposures
+    (``warn=False``: none, for a frame whose exposure is only compared with the sequence's).
 
     No absolute clamp (:data:`EXPOSURE_CLAMP`) applies here: the mean is taken in float64, which float32's
     largest values cannot overflow, and a sequence whose values are all above such a clamp (physical units
@@ -79,7 +81,7 @@ def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0") -> 
     mean = float(np.minimum(clean, bound).mean(dtype=np.float64))
     if mean <= 0:
         return None
-    if plain > mean * (1 + OUTLIER_WARN):
+    if warn and plain > mean * (1 + OUTLIER_WARN):
         log.warning("%s: %d of %d values above %.4g (%g x its %g quantile) clamped for the exposure: they "
                     "would have moved it from x%.4g to x%.4g (fireflies? one exposure holds for every frame)",
                     name,

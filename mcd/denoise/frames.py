@@ -130,8 +130,9 @@ def find_frames(inputs: list[str]) -> list[Path]:
     """The colour frames named by ``inputs`` (folders, files, glob patterns), in order.
 
     A folder gives its ``*.exr`` that are frames (:func:`_frames_among`: a sibling layer file without its
-    frame is named in a warning). FrameError if none, or if two frames share a name (their outputs would
-    overwrite each other in ``-o``), naming both.
+    frame is named in a warning). FrameError if none, if one is not a regular file (a FIFO, on which reading
+    waits for ever), or if two frames share a name (their outputs would overwrite each other in ``-o``),
+    naming both.
     """
     frames: list[Path] = []
     for item in inputs:
@@ -150,6 +151,9 @@ def find_frames(inputs: list[str]) -> list[Path]:
                          "files <stem>.albedo.exr / .normal.exr / .depth.exr and hidden files excluded)")
     seen: dict[str, Path] = {}
     for f in frames:
+        if not f.is_file():  # a FIFO was waited on for ever; a device or a folder is no frame either
+            raise FrameError(f"{f}: not a regular file (a FIFO, a device or a folder named like a frame); "
+                             "give EXR files, or move it out of the folder")
         if f.stem in seen:
             same = seen[f.stem].resolve() == f.resolve()
             raise FrameError(
@@ -233,6 +237,11 @@ def check_frames(paths: list[Path], want: set[str]) -> tuple[int, int]:
     return size
 
 
+#: How far (a factor) frame 0's exposure may lie from the median of the sequence's frames before the frame
+#: nearest the median gives the sequence's exposure instead (:meth:`FrameSequence._first_exposure`).
+EXPOSURE_SPREAD = 8.0
+
+
 @dataclass
 class FrameSequence:
     """Frames of one sequence, loaded on demand and normalised like training data (module docstring).
@@ -266,17 +275,32 @@ class FrameSequence:
     def _first_exposure(self, colour0: np.ndarray) -> float | None:
         """The exposure of the first frame that is not black (:func:`input_exposure`), logged where that is
         not frame 0; None (a warning) when every frame is. A sequence that fades in from black must not take
-        1 from its black frame 0: its HDR frames would reach the network at their own scale."""
-        for i, path in enumerate(self.paths):
-            colour = colour0 if i == 0 else read_frame(path, set(), self.size)["colour"]
-            exposure = input_exposure(colour, self.exposure_target, str(path))
-            if exposure is not None:
-                if i:
-                    log.info("%s: frames 0-%d are black; exposure x%.4g from frame %d", self.paths[0], i - 1,
-                             exposure, i)
-                return exposure
-        log.warning("%s: every frame is black; exposure left at 1", self.paths[0])
-        return None
+        1 from its black frame 0: its HDR frames would reach the network at their own scale. Nor may it take
+        the exposure of a frame far darker or brighter than the rest (a fade from near black: frame 0 at a
+        thousandth of the others made them come out 2.7 times too bright): where that frame's exposure is more
+        than :data:`EXPOSURE_SPREAD` times off the median of every lit frame's, the frame nearest the median
+        gives it, with a warning naming both (``--exposure`` chooses another). Every frame's colour is read
+        once more for this."""
+        exposures = [input_exposure(colour0 if i == 0 else read_frame(path, set(), self.size)["colour"],
+                                    self.exposure_target, str(path), warn=i == 0)
+                     for i, path in enumerate(self.paths)]
+        lit = [(i, e) for i, e in enumerate(exposures) if e is not None]
+        if not lit:
+            log.warning("%s: every frame is black; exposure left at 1", self.paths[0])
+            return None
+        first, exposure = lit[0]
+        if first:
+            log.info("%s: frames 0-%d are black; exposure x%.4g from frame %d", self.paths[0], first - 1,
+                     exposure, first)
+        typical = float(np.median([e for _, e in lit]))
+        if EXPOSURE_SPREAD ** -1 <= exposure / typical <= EXPOSURE_SPREAD:
+            return exposure
+        near, chosen = min(lit, key=lambda item: abs(np.log(item[1] / typical)))
+        log.warning("%s: its exposure x%.4g is %.3g times the median of the sequence's frames; one exposure "
+                    "holds for every frame, so it is x%.4g, from frame %d (%s), nearest the median (give "
+                    "--exposure to choose another, or denoise the frames apart)", self.paths[first], exposure,
+                    exposure / typical, chosen, near, self.paths[near].name)
+        return chosen
 
     def __len__(self) -> int:
         return len(self.paths)

@@ -2,8 +2,8 @@
 settings (docs/denoise.md, "Output"; docs/reliability.md, "Denoising your frames").
 
 ``<out>/denoise.json`` is rewritten (atomically) after every frame with ``settings`` (what the outputs depend
-on: the input files with their sizes and modification times, the weights' SHA-256, the experiment, budget,
-precision, device, tile cap and overlap), ``finished`` (the stems whose every file is written) and
+on: the input files with their sizes, modification times and SHA-256, the weights' SHA-256, the experiment,
+budget, precision, device, tile cap and overlap), ``finished`` (the stems whose every file is written) and
 ``checksums`` (the SHA-256 of each of those files). A rerun with equal ``settings`` skips a finished frame
 whose files are all there with their recorded SHA-256 (one emptied or replaced since is denoised again); any
 other difference (or no record) denoises every frame again, naming the settings that changed. A method with
@@ -39,11 +39,13 @@ def weights_digest(model: nn.Module) -> str:
 
 
 def file_stamps(paths: list[Path]) -> list[list[Any]]:
-    """``[resolved path, bytes, mtime_ns]`` of each file: enough to tell that an input changed."""
+    """``[resolved path, bytes, mtime_ns, SHA-256]`` of each file. The size and time alone did not tell
+    that an input changed: a frame replaced by another of the same size with the same time (a copy that
+    keeps times, an archive's fixed times, a file system's coarse clock) kept the old frame's output."""
     out = []
     for p in paths:
         st = p.stat()
-        out.append([str(p.resolve()), st.st_size, st.st_mtime_ns])
+        out.append([str(p.resolve()), st.st_size, st.st_mtime_ns, sha256(p)])
     return out
 
 

@@ -85,7 +85,7 @@ def describe(folder: Path) -> ReportInfo:
     viewer = _viewer(folder)
     if not readme.is_file():
         return ReportInfo(folder.name, "no README.md", viewer=viewer)
-    text = readme.read_text()
+    text = readme.read_text(errors="replace")  # a folder's own README need not be UTF-8 (it ended the index)
     title = next((line.lstrip("# ").strip() for line in text.splitlines() if line.startswith("#")), "")
     generated = re.search(r"^Generated (\S+) by `.*` at commit `([^`]+)`", text, re.M)
     if generated is None:  # not a report of python -m mcd.report: a bench's folder
@@ -114,7 +114,7 @@ def index_text(root: Path, current: str = CURRENT_REPORT) -> str:
     rows = []
     for folder in folders:
         info = describe(folder)
-        name = f"**{info.name}** (current)" if info.name == current else info.name
+        name = f"**{escape(info.name)}** (current)" if info.name == current else escape(info.name)
         links = [f"[README]({info.name}/{info.readme})" if info.readme else "",
                  f"[viewer]({info.name}/{info.viewer})" if info.viewer else ""]
         rows.append(f"| {name} | {escape(info.what)} | {escape(info.data)} | {escape(info.capacity)} | "

@@ -16,20 +16,8 @@ import shutil
 from pathlib import Path
 
 from mcd.reporting.outputs import writes
-from mcd.reporting.runs import EDGES_FILE, Run, Sweep
+from mcd.reporting.runs import RECORD_FILES, Run, Sweep
 
-#: What a run directory's records are: every file the report reads apart from ``samples/``.
-RECORD_FILES = (
-    "metrics.json",
-    EDGES_FILE,
-    "error.json",
-    "frames.csv",
-    "curve.csv",
-    "resolved_config.yaml",
-    ".hydra/config.yaml",
-    ".hydra/overrides.yaml",
-    ".hydra/hydra.yaml",
-)
 #: The folder of a report that holds its runs' records (every report kind's: mcd.reporting.outputs).
 RECORDS_DIR, = writes("both", "runs")
 

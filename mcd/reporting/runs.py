@@ -11,6 +11,8 @@ from __future__ import annotations
 import json
 import logging
 import math
+import types
+import typing
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -20,7 +22,9 @@ import pandas as pd
 import yaml
 from omegaconf import OmegaConf
 
-from mcd.core.metrics import FRAME_METRICS, PSNR_CAP_DB
+from mcd.core.metrics import FRAME_METRICS, MODEL_METRICS, PSNR_CAP_DB
+from mcd.core.paths import SAFE_NAME
+from mcd.lit.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +70,8 @@ class Run:
     choices: dict[str, str] = field(default_factory=dict)
     metrics: dict[str, Any] | None = None
     error: dict[str, Any] | None = None
+    #: ``resolved_config.yaml`` (the composed config the run ran with), None where it has none
+    resolved: dict[str, Any] | None = None
 
     @property
     def status(self) -> str:
@@ -129,6 +135,18 @@ class Run:
         return str(profile) if profile else "?"
 
     @property
+    def capacity_profile(self) -> str:
+        """The capacity profile the job ran with (``metrics.json``, else Hydra's choice), ``?`` unrecorded."""
+        profile = self._get("capacity_profile") or self.choices.get("capacity")
+        return str(profile) if profile else "?"
+
+    @property
+    def data_settings(self) -> dict[str, Any] | None:
+        """What determined the job's data (``metrics.json`` ``data_settings``), None where unrecorded."""
+        value = self.metrics.get("data_settings") if self.metrics is not None else None
+        return value if isinstance(value, dict) else None
+
+    @property
     def method_switches(self) -> dict[str, bool]:
         """The component switches (docs/method.md) this job ran with, from its config."""
         method = self.config.get("method", {})
@@ -170,8 +188,8 @@ class Run:
         curve, train_s = self.curve, self.metrics.get("train_s")
         if curve is None or curve.empty or "seconds" not in curve or not train_s:
             return []
-        earlier = float(curve["seconds"].iloc[-1]) - float(train_s)
-        if earlier <= RESUMED_SLACK_S:
+        earlier = float(pd.to_numeric(curve["seconds"], errors="coerce").iloc[-1]) - float(train_s)
+        if not earlier > RESUMED_SLACK_S:  # also NaN: a clock that is not a number says nothing
             return []
         last = {"commit": self.metrics.get("commit"), "dirty": self.metrics.get("dirty"), "start_step": None,
                 "end_step": self.metrics.get("train_steps"), "seconds": float(train_s)}
@@ -225,7 +243,76 @@ def metrics_problem(path: Path) -> str | None:
            if data.get(k) is not None and not lo <= data[k] <= hi]
     if out:
         return f"{path} is corrupt (a score out of range: {', '.join(out)})"
+    shape = record_shape_problems(data)
+    if shape:
+        return f"{path} is corrupt (a field of another type: {', '.join(shape)})"
     return None
+
+
+#: The type of each ``metrics.json`` field (``mcd.lit.run_record.RunRecord``'s), by which a report reads it.
+RECORD_TYPES = typing.get_type_hints(RunRecord)
+#: The fields of one training segment (``metrics.json`` ``segments``, mcd/lit/segments.py) a report reads.
+SEGMENT_TYPES = {"commit": str | None, "dirty": bool | None, "device": str | None, "start_step": int | None,
+                 "end_step": int | None, "seconds": float | None}
+#: What a report reads from a run's config (``.hydra/config.yaml``, ``resolved_config.yaml``, or an
+#: ``error.json``'s ``config``), with its type; a section that is absent is not checked.
+CONFIG_TYPES = {"experiment": str, "budget": float, "seed": int, "sweep_name": str | None,
+                "data": dict, "method": dict, "transfer": dict | None, "train": dict}
+CONFIG_SECTION_TYPES = {"data": {"width": int, "height": int, "train_scenes": list | None,
+                                 "test_scenes": list | None, "transfer_scenes": list | None},
+                        "transfer": {"finetune_epochs": int | None},
+                        "train": {"max_steps": int | None}}
+
+
+def _fits(value: object, hint: object) -> bool:
+    """Whether a JSON or YAML value is of the type ``hint`` (an annotation of :data:`RECORD_TYPES` and the
+    tables above): ``float`` a finite number (or null, how NaN is written), ``int`` an integer, never a bool;
+    a generic (``dict[str, Any]``) its container."""
+    if hint is typing.Any:
+        return True
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        return any(_fits(value, h) for h in typing.get_args(hint))
+    if hint is type(None):
+        return value is None
+    hint = typing.get_origin(hint) or hint
+    if isinstance(value, bool):
+        return hint is bool
+    if hint is float:
+        return value is None or (isinstance(value, int | float) and math.isfinite(value))
+    return isinstance(value, hint)  # type: ignore[arg-type]
+
+
+def _mismatches(data: dict[str, Any], kinds: dict[str, Any], where: str = "") -> list[str]:
+    return [f"{where}{k}={data[k]!r}" for k, hint in kinds.items() if k in data and not _fits(data[k], hint)]
+
+
+def record_shape_problems(data: dict[str, Any]) -> list[str]:
+    """The fields of a ``metrics.json`` object whose value is not of its type (:data:`RECORD_TYPES`, the
+    model metrics numbers or null, each ``segments`` entry as :data:`SEGMENT_TYPES`, ``per_scene`` scores
+    numbers or null): a report reads each as that type, and one of another (``"budget": "abc"``) ended the
+    whole report in a traceback."""
+    bad = _mismatches(data, {k: v for k, v in RECORD_TYPES.items() if k != "scores"})
+    bad += _mismatches(data, dict.fromkeys(MODEL_METRICS, float | None))
+    for i, seg in enumerate(data.get("segments") or [] if isinstance(data.get("segments"), list) else []):
+        bad += ([f"segments[{i}]={seg!r}"] if not isinstance(seg, dict)
+                else _mismatches(seg, SEGMENT_TYPES, f"segments[{i}]."))
+    per_scene = data.get("per_scene") if isinstance(data.get("per_scene"), dict) else {}
+    for scene, scores in per_scene.items():
+        bad += ([f"per_scene.{scene}={scores!r}"] if not isinstance(scores, dict)
+                else _mismatches(scores, dict.fromkeys(scores, float | None), f"per_scene.{scene}."))
+    return bad
+
+
+def config_problems(config: object) -> list[str]:
+    """What a report reads from a run's config that is not of its type (:data:`CONFIG_TYPES`,
+    :data:`CONFIG_SECTION_TYPES`): ``method: 5`` or ``data: x`` ended the whole report in a traceback."""
+    if not isinstance(config, dict):
+        return [f"a {type(config).__name__}, not a mapping"]
+    bad = _mismatches(config, CONFIG_TYPES)
+    for section, kinds in CONFIG_SECTION_TYPES.items():
+        if isinstance(config.get(section), dict):
+            bad += _mismatches(config[section], kinds, f"{section}.")
+    return bad
 
 
 def frames_problem(path: Path) -> str | None:
@@ -244,6 +331,13 @@ def frames_problem(path: Path) -> str | None:
     lo, hi = SCORE_RANGES["psnr"]
     if not psnr.between(lo, hi).all():
         return f"{path} is corrupt (a psnr that is not a number in [{lo:g}, {hi:g}])"
+    for col in ("frame", *SCORE_RANGES):  # read as numbers (the viewer's metrics, the per-frame plots)
+        if col in df.columns and (pd.to_numeric(df[col], errors="coerce").isna() & df[col].notna()).any():
+            return f"{path} is corrupt (a {col} that is not a number)"
+    unsafe = sorted({str(s) for s in df["scene"] if not SAFE_NAME.fullmatch(str(s))})
+    if unsafe:  # a scene names the report's per-frame plot: "../x" wrote outside the report folder
+        return (f"{path} is corrupt (a scene that is not a plain name: {unsafe[0]!r}; scenes are letters, "
+                "digits, '_', '-', '.', and name the report's files)")
     return None
 
 
@@ -268,10 +362,31 @@ def _choices(hydra_file: Path) -> Any:
     return OmegaConf.select(OmegaConf.load(hydra_file), "hydra.runtime.choices", default=None)
 
 
+#: What a run directory's records are: every file the report reads apart from ``samples/`` (a report keeps
+#: a copy of each, mcd.reporting.records).
+RECORD_FILES = (
+    "metrics.json",
+    EDGES_FILE,
+    "error.json",
+    "frames.csv",
+    "curve.csv",
+    "resolved_config.yaml",
+    ".hydra/config.yaml",
+    ".hydra/overrides.yaml",
+    ".hydra/hydra.yaml",
+)
+
+
 def load_run(path: Path) -> Run:
     """Read one run directory. A corrupt record (``metrics.json``: :func:`metrics_problem`; ``frames.csv``:
     :func:`frames_problem`; a ``.hydra/`` file that is not readable YAML) makes the job failed, the file
-    named in its error; one without ``psnr`` is incomplete (mcd.run reruns it)."""
+    named in its error; one without ``psnr`` is incomplete (mcd.run reruns it). A record that is there but
+    is not a regular file (a FIFO, on which reading waited for ever; a device; a folder) fails the job
+    before anything of it is read."""
+    odd = next((path / n for n in RECORD_FILES if (path / n).exists() and not (path / n).is_file()), None)
+    if odd is not None:
+        why = f"{odd} is corrupt (not a regular file)"
+        return Run(path=path, error={"error": why, "corrupt": why})
     problem = metrics_problem(path / "metrics.json") or frames_problem(path / "frames.csv")
     metrics = None if problem else _load_json(path / "metrics.json")
     if metrics is not None and "psnr" not in metrics:
@@ -290,16 +405,28 @@ def load_run(path: Path) -> Run:
         overrides = [str(o) for o in error["overrides"]]
     config, bad = _read_yaml(path / ".hydra" / "config.yaml", lambda f: dict(_load_yaml(f)))
     problem = problem or bad
+    source = path / ".hydra" / "config.yaml"
     if not config and error is not None and isinstance(error.get("config"), dict):
-        config = error["config"]
+        config, source = error["config"], path / "error.json"
     config = config or {}
+    resolved_file = path / "resolved_config.yaml"
+    resolved, bad = _read_yaml(resolved_file, lambda f: OmegaConf.to_container(OmegaConf.load(f),
+                                                                               resolve=False)
+                               if f.is_file() else None)
+    problem = problem or bad
+    for what, cfg in ((source, config), (resolved_file, resolved)):
+        shape = config_problems(cfg) if cfg is not None else []
+        if shape:
+            problem = problem or f"{what} is corrupt (a value of another type: {', '.join(shape)})"
+    # what the failed run's row shows is read from its config: only the parts of their types stay
+    config = {k: v for k, v in config.items() if not config_problems({k: v})}
     choices, bad = _read_yaml(path / ".hydra" / "hydra.yaml", _choices)
     problem = problem or bad
     choices = {str(k): str(v) for k, v in (choices or {}).items() if not str(k).startswith("hydra")}
     if problem:
         metrics, error = None, {**(error or {}), "error": problem, "corrupt": problem}
     return Run(path=path, config=config, overrides=overrides or [], choices=choices, metrics=metrics,
-               error=error)
+               error=error, resolved=resolved if isinstance(resolved, dict) and not problem else None)
 
 
 def _is_run_dir(path: Path) -> bool:
@@ -344,9 +471,11 @@ def _widened(task: list[str], sweep_dir: Path) -> list[str]:
     key no job ran with is left out, and a value no job ran with is replaced by those they ran with (a
     skipped rerun with ``capacity=paper`` named that in the report of runs trained with ``capacity=cpu``)."""
     seen: dict[str, list[str]] = {}
-    for overrides in sorted(sweep_dir.glob("*/.hydra/overrides.yaml")):
+    for overrides in sorted(p for p in sweep_dir.glob("*/.hydra/overrides.yaml") if p.is_file()):
         # as typed: an override like transfer.init_from=.../${experiment}_spp4 stays unresolved
-        for item in OmegaConf.to_container(OmegaConf.load(overrides), resolve=False):  # type: ignore[union-attr]
+        items, _ = _read_yaml(overrides, lambda f: list(OmegaConf.to_container(OmegaConf.load(f),
+                                                                                  resolve=False)))
+        for item in items or []:  # a damaged one fails its job (load_run), and adds nothing here
             key, _, value = str(item).partition("=")
             values = seen.setdefault(key, [])
             if value not in values:
@@ -370,7 +499,7 @@ def find_sweeps(roots: list[Path]) -> list[Sweep]:
     """The sweep directories (holding multirun.yaml) under or above `roots`."""
     files: set[Path] = set()
     for root in roots:
-        files.update(p.resolve() for p in root.rglob("multirun.yaml"))
+        files.update(p.resolve() for p in root.rglob("multirun.yaml") if p.is_file())
         files.update(
             p.resolve() for p in [root / "multirun.yaml", root.parent / "multirun.yaml"] if p.is_file()
         )

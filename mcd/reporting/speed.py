@@ -51,6 +51,31 @@ def timed_size(height: int, width: int) -> tuple[int, int]:
     return max(1, round(height * scale)), max(1, round(width * scale))
 
 
+#: The columns of a bench CSV (``python -m mcd.bench``) that :func:`best_paths` reads.
+BENCH_COLUMNS = ("method", "device", "height", "width", "ms_median")
+
+
+def bench_problem(bench_csv: Path | None) -> str | None:
+    """What makes ``bench_csv`` (``mcd.report --bench``) unusable, naming it, else None (also when it is not
+    a file: the report then has no ``speed_bench.csv``): not a readable CSV, a column of
+    :data:`BENCH_COLUMNS` missing, or a height or width that is not a whole number (one ended the report in
+    a traceback after its tables)."""
+    if bench_csv is None or not bench_csv.is_file():
+        return None
+    try:
+        bench = pd.read_csv(bench_csv)
+    except (OSError, ValueError) as err:
+        return f"--bench {bench_csv}: not a readable CSV ({type(err).__name__})"
+    missing = [c for c in BENCH_COLUMNS if c not in bench.columns]
+    if missing:
+        return f"--bench {bench_csv}: no column {', '.join(missing)}"
+    for col in ("height", "width"):
+        values = pd.to_numeric(bench[col], errors="coerce")
+        if values.isna().any() or (values % 1 != 0).any():
+            return f"--bench {bench_csv}: a {col} that is not a whole number"
+    return None
+
+
 def best_paths(bench: pd.DataFrame) -> pd.DataFrame:
     """Per method and device, the fastest measured path at the largest resolution measured on that device."""
     ok = bench[pd.to_numeric(bench["ms_median"], errors="coerce").notna()].copy()
@@ -65,10 +90,7 @@ def best_paths(bench: pd.DataFrame) -> pd.DataFrame:
 def run_config(run: Run) -> dict:
     """The run's composed config: ``resolved_config.yaml`` where the run has one, else its
     ``.hydra/config.yaml``."""
-    resolved = run.path / "resolved_config.yaml"
-    if resolved.is_file():
-        return OmegaConf.to_container(OmegaConf.load(resolved), resolve=False)
-    return run.config
+    return run.resolved if run.resolved is not None else run.config
 
 
 def capacity(run: Run) -> str:

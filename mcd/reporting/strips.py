@@ -5,6 +5,7 @@ strip comparing every method's output on the same crop, with its FLIP error map 
 
 from __future__ import annotations
 
+import logging
 import re
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from mcd.config.methods import (
     display_name,  # noqa: E402
 )
 from mcd.core.metrics import flip_map, to_display  # noqa: E402
+from mcd.core.paths import SAFE_NAME  # noqa: E402
 from mcd.data.exr import read_exr  # noqa: E402
 from mcd.lit.samples import picture  # noqa: E402
 from mcd.reporting.outputs import writes  # noqa: E402
@@ -39,6 +41,7 @@ COLUMNS = (
     ("flip", "FLIP error of the output"),
     ("reference", "reference"),
 )
+log = logging.getLogger(__name__)
 _NAME = re.compile(r"^(?P<frame>\d+)_(?P<name>[a-z_]+?)(?:_\d+spp)?$")
 
 #: What it writes in a report's folder (mcd.reporting.outputs).
@@ -52,8 +55,11 @@ def samples(run: Run) -> dict[str, dict[int, dict[str, Path]]]:
     if not root.is_dir():
         return found
     for exr in sorted(root.glob("*/*.exr")):
-        m = _NAME.match(exr.stem)
-        if m:
+        m = _NAME.match(exr.stem) if exr.is_file() else None  # a FIFO would be waited on for ever
+        if m and not SAFE_NAME.fullmatch(exr.parent.name):  # a scene names the report's files
+            log.warning("%s: the scene folder's name is not a plain name (letters, digits, '_', '-', '.'): "
+                        "left out of the strips and the viewer", exr)
+        elif m:
             found.setdefault(exr.parent.name, {}).setdefault(int(m["frame"]), {})[m["name"]] = exr
     return found
 
@@ -169,8 +175,12 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         crops = [(display_name("noisy"), imgs["noisy"])] if "noisy" in imgs else []
         for title, smp in others:
             exr = smp.get(scene, {}).get(frame, {}).get("output")
-            if exr is not None:
-                crops.append((title, read_exr(exr)))
+            image = None if exr is None else read_exr(exr)
+            if image is not None and image.shape != ref.shape:  # as the viewer: another size is left out
+                log.warning("strips: %s is %s, the reference %s is %s: left out (a run of other data?)", exr,
+                            image.shape, names["reference"], ref.shape)
+            elif image is not None:
+                crops.append((title, image))
         crops.append(("reference", ref))
         fig, axes = plt.subplots(2, len(crops), figsize=(2.2 * len(crops), 5.6), squeeze=False)
         for j, (title, image) in enumerate(crops):
