@@ -148,23 +148,33 @@ def write_readme(
     return path
 
 
+#: Data settings that leave a run's test scores as they are: the transfer scenes are scored in their own table
+#: (``transfer.md``), so runs of one profile that differ only there still compare.
+SCORE_FREE_SETTINGS = ("transfer_scenes",)
+
+
 def profiles_of(runs: list[Run]) -> dict[str, int]:
     """``{data profile: number of runs}`` of the report's runs. A profile's name is followed by its capacity
     profile where the runs have more than one (``tiny`` capacity ``paper``), and by the data settings that
     differ (``width=48``, ``metrics.json`` ``data_settings``) where runs of one name were made from other
-    data: their scores do not compare either."""
+    data: their scores do not compare either (:data:`SCORE_FREE_SETTINGS` aside). A run without recorded
+    settings (one that failed before its record) joins its profile's first group."""
     capacities = {r.capacity_profile for r in runs}
     differ: dict[str, list[str]] = {}  # per profile name, the data settings its runs differ in
     for name in {r.data_profile for r in runs}:
         kept = [r.data_settings for r in runs if r.data_profile == name and r.data_settings]
-        differ[name] = sorted({k for a in kept for b in kept for k in {*a, *b} if a.get(k) != b.get(k)})
+        differ[name] = sorted({k for a in kept for b in kept for k in {*a, *b}
+                               if k not in SCORE_FREE_SETTINGS and a.get(k) != b.get(k)})
+    first = {name: next((r.data_settings for r in runs if r.data_profile == name and r.data_settings), None)
+             for name in differ}
     counts: dict[str, int] = {}
     for r in runs:
         label = f"`{r.data_profile}`"
         if len(capacities) > 1:
             label += f" capacity `{r.capacity_profile}`"
-        if r.data_settings and differ[r.data_profile]:
-            label += " (" + ", ".join(f"{k}={r.data_settings.get(k)}" for k in differ[r.data_profile]) + ")"
+        settings = r.data_settings or first[r.data_profile]
+        if settings and differ[r.data_profile]:
+            label += " (" + ", ".join(f"{k}={settings.get(k)}" for k in differ[r.data_profile]) + ")"
         counts[label] = counts.get(label, 0) + 1
     return dict(sorted(counts.items()))
 

@@ -119,13 +119,15 @@ def _samples(run: Path, size: int, names: tuple[str, ...]) -> None:
         write_exr(run / "samples" / "cbox" / f"0000_{name}.exr", image)
 
 
-@pytest.mark.parametrize("differ", ["data_settings", "capacity_profile", "nothing"])
+@pytest.mark.parametrize("differ", ["data_settings", "capacity_profile", "nothing", "transfer_scenes"])
 def test_runs_of_other_data_or_capacity_under_one_profile_make_no_finding_and_no_crash(tmp_path, differ):
     sweep, unet = _sweep(tmp_path)
     base = {"data_profile": "tiny", "capacity_profile": "cpu",
             "data_settings": {"name": "test32", "width": 32, "height": 32}}
     other = {"data_settings": {"data_settings": {"name": "test48", "width": 48, "height": 48}},
-             "capacity_profile": {"capacity_profile": "paper"}, "nothing": {}}[differ]
+             "capacity_profile": {"capacity_profile": "paper"}, "nothing": {},
+             "transfer_scenes": {"data_settings": {**base["data_settings"],
+                                                   "transfer_scenes": ["cornell-box-picture"]}}}[differ]
     for run, extra in ((sweep / "F_spp4", {}), (unet, other)):
         path = run / "metrics.json"
         path.write_text(json.dumps({**json.loads(path.read_text()), **base, **extra}))
@@ -137,7 +139,7 @@ def test_runs_of_other_data_or_capacity_under_one_profile_make_no_finding_and_no
     found = json.loads((report / "findings.json").read_text())["findings"]
     findings = (report / "README.md").read_text().split("## Findings", 1)[1].split("## Table 1", 1)[0]
     assert (report / "strips" / "cbox.png").is_file()
-    if differ == "nothing":  # one profile, one capacity, one kind of data: its findings are made
+    if differ in ("nothing", "transfer_scenes"):  # one kind of data (transfer scenes are scored apart)
         assert found != [] and "None: the runs come from" not in findings
         return
     named = ("`tiny` (height=32, name=test32, width=32) (1 run), `tiny` (height=48, name=test48, width=48) "
