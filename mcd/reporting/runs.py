@@ -315,18 +315,25 @@ def config_problems(config: object) -> list[str]:
     return bad
 
 
+def read_table(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame | None, str | None]:
+    """``path`` read as a CSV that has ``columns``: ``(table, None)``, or ``(None, what is wrong)`` (not a
+    readable CSV, or the columns it lacks) for the caller to name with its file or flag."""
+    try:
+        df = pd.read_csv(path)
+    except (OSError, ValueError) as err:
+        return None, f"not a readable CSV: {type(err).__name__}"
+    missing = [c for c in columns if c not in df.columns]
+    return (None, f"no column {', '.join(missing)}") if missing else (df, None)
+
+
 def frames_problem(path: Path) -> str | None:
     """What is wrong with the ``frames.csv`` at ``path`` (None: absent or sound): not a readable CSV, without
     the columns :data:`FRAMES_COLUMNS`, or with a PSNR that is not a number in its range."""
     if not path.exists():
         return None
-    try:
-        df = pd.read_csv(path)
-    except (OSError, ValueError) as err:
-        return f"{path} is corrupt (not a readable CSV: {type(err).__name__})"
-    missing = [c for c in FRAMES_COLUMNS if c not in df.columns]
-    if missing:
-        return f"{path} is corrupt (no column {', '.join(missing)})"
+    df, why = read_table(path, FRAMES_COLUMNS)
+    if df is None:
+        return f"{path} is corrupt ({why})"
     psnr = pd.to_numeric(df["psnr"], errors="coerce")
     lo, hi = SCORE_RANGES["psnr"]
     if not psnr.between(lo, hi).all():

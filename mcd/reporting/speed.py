@@ -30,7 +30,7 @@ from omegaconf import OmegaConf  # noqa: E402
 from mcd.config.methods import BY_EXPERIMENT, display_name  # noqa: E402
 from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
-from mcd.reporting.runs import Run  # noqa: E402
+from mcd.reporting.runs import Run, read_table  # noqa: E402
 from mcd.reporting.select import metric, pick  # noqa: E402
 from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, table1_experiments  # noqa: E402
 
@@ -62,13 +62,9 @@ def bench_problem(bench_csv: Path | None) -> str | None:
     a traceback after its tables)."""
     if bench_csv is None or not bench_csv.is_file():
         return None
-    try:
-        bench = pd.read_csv(bench_csv)
-    except (OSError, ValueError) as err:
-        return f"--bench {bench_csv}: not a readable CSV ({type(err).__name__})"
-    missing = [c for c in BENCH_COLUMNS if c not in bench.columns]
-    if missing:
-        return f"--bench {bench_csv}: no column {', '.join(missing)}"
+    bench, why = read_table(bench_csv, BENCH_COLUMNS)
+    if bench is None:
+        return f"--bench {bench_csv}: {why}"
     for col in ("height", "width"):
         values = pd.to_numeric(bench[col], errors="coerce")
         if values.isna().any() or (values % 1 != 0).any():
