@@ -469,7 +469,9 @@ class StoreBuilder(StoreReader):
         elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
             return False
         self._fill_scales(spec, man)
-        if man != on_disk:
+        # a manifest from before exposure_target whose exposure the current target gives again needs no write
+        if man != on_disk and not ("exposure_target" not in on_disk
+                                   and man == {**on_disk, "exposure_target": man.get("exposure_target")}):
             return False
         return all(self._is_done(man, spec.name, f, b, verify) for f in frames for b in order)
 
@@ -594,6 +596,7 @@ class StoreBuilder(StoreReader):
             if f == 0 and b == "ref":  # before the estimate, which is taken on exposed images
                 self._set_exposure(spec, man, img)
                 scales["exposure"] = man["exposure"]
+                scales["exposure_target"] = man.get("exposure_target")
             if halves is not None:
                 extra["psnr_estimate"] = round(estimate_psnr(*halves, float(man["exposure"] or 1.0)), 3)
             self._write(spec.name, man, f, b, img, spp, seed, mi.variant(), extra)
@@ -603,23 +606,36 @@ class StoreBuilder(StoreReader):
         return scales
 
     def _fill_scales(self, spec: SceneSpec, man: dict) -> None:
-        """Exposure and depth scale from frame 0 when unknown (e.g. files kept from an older manifest)."""
+        """Exposure and depth scale from frame 0 when unknown (e.g. files kept from an older manifest); an auto
+        exposure also when the manifest's was set for another ``data.exposure_target`` or was a fixed one (its
+        ``exposure_target``: what it was set for; a manifest from before the key has its exposure computed
+        again from frame 0's reference, which gives the same value where the target is the same). No file
+        depends on the exposure (it is applied at load), so nothing is rendered again: a store rendered at one
+        target kept its exposure for every later target, and a run trained on data exposed for the old one
+        while its record named the new."""
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
-        elif man.get("exposure") is None and "0000/ref.exr" in man["files"]:
+            man.pop("exposure_target", None)
+        elif "0000/ref.exr" in man["files"] and (man.get("exposure") is None
+                                                 or man.get("exposure_target") != self._exposure_target()):
             self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command("ref")))
         if man.get("depth_scale") is None and "0000/depth.exr" in man["files"]:
             man["depth_scale"] = depth_scale(
                 read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth"))
             )
 
+    def _exposure_target(self) -> float:
+        """``data.exposure_target``: the mean of frame 0's reference after an auto exposure."""
+        return float(self.data_cfg.get("exposure_target", 0.5))
+
     def _set_exposure(self, spec: SceneSpec, man: dict, ref0: np.ndarray) -> None:
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
+            man.pop("exposure_target", None)
             return
-        exposure = auto_exposure(ref0, float(self.data_cfg.get("exposure_target", 0.5)),
-                                 str(self.path(spec.name, 0, "ref")))
+        exposure = auto_exposure(ref0, self._exposure_target(), str(self.path(spec.name, 0, "ref")))
         man["exposure"] = exposure or 1.0
+        man["exposure_target"] = self._exposure_target()
         if exposure is None:
             log.warning("scene %s: frame 0's reference is black; exposure left at 1", spec.name)
 
