@@ -381,7 +381,15 @@ def _skip_finished(out_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> b
     return True
 
 
-@hydra_main(job_errors=True)  # a sweep's job with a bad value writes its error.json (build's preflight)
+#: What a run writes in its directory, and the records that make a folder a run's (mcd.config.compose
+#: check_unclaimed: a folder holding the first and none of the second is a user's, refused before any write)
+RUN_OUTPUTS = ("resolved_config.yaml", "curve.csv", "frames.csv", "metrics.json", "error.json", "logs", "tb",
+               "samples", "checkpoints", "run.log")
+RUN_RECORDS = (".hydra", "job.json", run_dir.LOCK_NAME)
+
+
+# a sweep's job with a bad value writes its error.json (build's preflight)
+@hydra_main(job_errors=True, run_files=(RUN_OUTPUTS, RUN_RECORDS))
 def main(cfg: DictConfig) -> None:
     """Hydra entry point (see the module docstring)."""
     from lightning.pytorch.utilities import rank_zero_only

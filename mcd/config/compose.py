@@ -63,6 +63,27 @@ def check_run_dir(cfg: DictConfig) -> None:
     writable_folder_to_be("hydra.run.dir", path)
 
 
+def check_unclaimed(cfg: DictConfig, outputs: Iterable[str], records: Iterable[str]) -> None:
+    """ValueError naming ``hydra.run.dir`` (resolved by :func:`check_run_dir`) where that folder holds entries
+    named like what the command writes there (``outputs``) but none of a run's own records (``records``): a
+    folder of the user's, whose files the run would write over (its own ``frames.csv``, ``curve.csv``,
+    ``logs/``, ...). A run's own directory (finished, interrupted or a DDP rank's) holds its records; a new or
+    empty folder is taken as before."""
+    from omegaconf.errors import OmegaConfBaseException
+
+    try:
+        path = Path(str(OmegaConf.select(cfg, "hydra.run.dir")))
+    except OmegaConfBaseException:
+        return
+    if not path.is_dir() or any((path / name).exists() for name in records):
+        return
+    clash = sorted(name for name in outputs if (path / name).exists() or (path / name).is_symlink())
+    if clash:
+        raise ValueError(f"hydra.run.dir={path} holds {', '.join(clash)}, which a run writes, and no run's "
+                         f"records ({', '.join(records)}): it is not a run directory, and a run there would "
+                         "write over those files; give the run a new or empty folder (hydra.run.dir=<dir>)")
+
+
 def exit_on_invalid(cfg: DictConfig) -> None:
     """End the command with the first value that breaks its key's rule
     (:func:`mcd.core.config_rules.check_config`) on one line (``error: <key>=<value>: ...``, no traceback),
@@ -91,8 +112,8 @@ def print_to_pipe(text: str) -> None:
         raise SystemExit(0) from None
 
 
-def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
-               job_errors: bool = False) -> Any:
+def hydra_main(task: Callable[[DictConfig], Any] | None = None, *, job_errors: bool = False,
+               run_files: tuple[tuple[str, ...], tuple[str, ...]] = ((), ())) -> Any:
     """``@hydra.main`` on the root config (``conf/config.yaml``): the decorator of every Hydra command. Before
     any work the config is checked against every key's rule (:mod:`mcd.core.config_rules`): a single run
     composes it first (:func:`compose`) and ends with one ``error:`` line and exit status 2 before Hydra
@@ -100,10 +121,11 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
     ending a single run the same way and raising
     :class:`mcd.core.config_rules.ConfigError` in a sweep's job or a direct call ``main(cfg)``, except with
     ``job_errors=True`` (``mcd.run``, whose preflight checks it and writes the job's ``error.json`` so
-    that the sweep goes on).
+    that the sweep goes on). ``run_files``: ``(outputs, records)`` of :func:`check_unclaimed`, checked on a
+    single run's directory before Hydra writes there (``mcd.run``).
     """
     if task is None:
-        return functools.partial(hydra_main, job_errors=job_errors)
+        return functools.partial(hydra_main, job_errors=job_errors, run_files=run_files)
     import hydra
 
     @functools.wraps(task)
@@ -142,6 +164,7 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *,
                 cfg = None  # Hydra says what is wrong with the overrides, in its own words
             if cfg is not None:
                 exit_2_on(ValueError, check_run_dir, cfg)  # before Hydra makes it
+                exit_2_on(ValueError, lambda c: check_unclaimed(c, *run_files), cfg)  # a user's folder
                 with open_dict(cfg):
                     del cfg["hydra"]
                 exit_on_invalid(cfg)

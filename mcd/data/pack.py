@@ -21,6 +21,7 @@ import os
 import time
 import zlib
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -86,6 +87,7 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
             "height": int(cfg.data.height), "profile": str(cfg.data.name),
             "channels": {b: list(r) for b, r in channel_ranges(buffers).items()}}
     meta_path = settings.dir / "store.json"
+    check_unclaimed(settings.dir, meta_path, scenes)
     if meta_path.is_file():
         meta = read_meta(meta_path, command)
         check_meta(meta, settings, cfg.data, buffers, meta_path)
@@ -111,6 +113,21 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
              "range, in %.1f s", settings.dir, settings.dtype, report["packed"], report["reused"],
              report["clamped"], report["seconds"])
     return report
+
+
+def check_unclaimed(root: Path, meta_path: Path, scenes: Iterable[str]) -> None:
+    """FileExistsError naming ``data.train_store.dir`` and the files where a folder without ``store.json``
+    holds files named like the pack's own (``<scene>.npy``, ``<scene>.json``, ``<scene>.lock``): a folder of
+    the user's, whose files the pack replaced (a ``cbox.npy`` of another shape was "packed again"). Checked
+    before anything is written."""
+    if meta_path.exists() or not root.is_dir():
+        return
+    clash = sorted(p.name for s in scenes for p in (root / f"{s}.npy", root / f"{s}.json", root / f"{s}.lock")
+                   if p.exists() or p.is_symlink())
+    if clash:
+        raise FileExistsError(f"data.train_store.dir={root} holds {', '.join(clash)} and no store.json: it "
+                              "is not a training store, and packing there would write over those files; give "
+                              "data.train_store.dir a new or empty folder (or null, the default one)")
 
 
 #: Room left on the store's disk beyond the frames themselves (the pack records, the store's own JSON).

@@ -129,11 +129,16 @@ class SceneSpec:
                              "is rendered from): add one (docs/scenes.md)")
 
     def source(self) -> dict[str, Any]:
-        """What the scene is made of, with a hash: recorded in the manifest; a change invalidates renders."""
+        """What the scene is made of, with a hash: recorded in the manifest; a change invalidates renders. An
+        XML scene's ``sha256`` is its file's; ``reads`` hashes the files it reads besides
+        (:func:`scene_reads`:
+        meshes, textures, included XML), which :class:`mcd.data.store_builder.StoreBuilder` compares apart,
+        so that stores rendered before the key keep their renders."""
         if self.kind == "xml":
             self.check_exists()
             h = hashlib.sha256(self.file.read_bytes()).hexdigest()
-            return {"kind": "xml", "file": str(self.file), "sha256": h, "path": self.path}
+            return {"kind": "xml", "file": str(self.file), "sha256": h, "path": self.path,
+                    "reads": reads_digest(self.file)}
         from mcd.data.procedural import GENERATOR_VERSION
 
         desc = {
@@ -267,6 +272,49 @@ def check_segments_clear(scene: Any, nodes: list[np.ndarray], name: str) -> None
 
 
 SCENE_LISTS = ("train_scenes", "transfer_scenes", "test_scenes")
+
+
+def scene_reads(file: Path) -> list[Path]:
+    """The files an XML scene reads besides itself: each ``filename`` its elements name (``<include
+    filename>``, ``<string name="filename" value>``), found beside the file that names it or beside the scene
+    file (Mitsuba's file resolver), and the files the included XML reads in turn; a value holding a ``$``
+    parameter is left out (its value is Mitsuba's). A file not found is listed by its path as named."""
+    import xml.etree.ElementTree as ET
+
+    found: dict[Path, None] = {}
+    todo = [file]
+    while todo:
+        xml = todo.pop()
+        try:
+            root = ET.parse(xml).getroot()
+        except (OSError, ET.ParseError):
+            continue
+        for el in root.iter():
+            name = el.get("filename") if el.tag == "include" else (
+                el.get("value") if el.get("name") == "filename" else None)
+            if not name or "$" in name:
+                continue
+            candidates = (xml.parent / name, file.parent / name)
+            path = next((c for c in candidates if c.is_file()), candidates[0])
+            if path not in found and path != file:
+                found[path] = None
+                if path.suffix == ".xml" and path.is_file():
+                    todo.append(path)
+    return list(found)
+
+
+def reads_digest(file: Path) -> str:
+    """SHA-256 over the files :func:`scene_reads` lists (each its path relative to the scene's folder and its
+    bytes' SHA-256; ``missing`` for one not found)."""
+    lines = []
+    for path in scene_reads(file):
+        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else "missing"
+        try:
+            rel = path.relative_to(file.parent).as_posix()
+        except ValueError:
+            rel = str(path)
+        lines.append(f"{rel} {digest}")
+    return hashlib.sha256("\n".join(sorted(lines)).encode()).hexdigest()
 
 
 def path_scene_name(file: str | Path) -> str:

@@ -59,6 +59,26 @@ log = logging.getLogger("mcd.data.store")
 MANIFEST_VERSION = 1
 
 
+def reads_changed(man: dict, source: dict) -> bool:
+    """Whether a manifest's scene ``source`` records other files read (``reads``,
+    :func:`mcd.data.scenes.reads_digest`) than the scene reads now; a manifest from before the key: no."""
+    recorded = (man.get("source") or {}).get("reads")
+    return recorded is not None and recorded != source.get("reads")
+
+
+def upgraded(on_disk: dict, man: dict) -> dict:
+    """``on_disk`` with what this code adds to a manifest from before it and ``man`` holds (``reads`` in the
+    scene's source, ``exposure_target``): a scene whose manifest differs from it only so is reused by reading
+    alone, without a write (a store on a read-only mount still trains)."""
+    out = dict(on_disk)
+    source = out.get("source")
+    if isinstance(source, dict) and "reads" not in source and "reads" in man.get("source", {}):
+        out["source"] = {**out["source"], "reads": man["source"]["reads"]}
+    if "exposure_target" not in out and "exposure_target" in man:
+        out["exposure_target"] = man["exposure_target"]
+    return out
+
+
 def _hash(obj: Any) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
@@ -202,8 +222,10 @@ class StoreBuilder(StoreReader):
         for scene, numbers in frames.items():
             man = self.manifest(scene)
             spec = self.specs[scene]
-            same_cameras = (man.get("camera_key") == self._camera_key(spec, spec.source())
-                            and max(numbers, default=-1) < len(man["cameras"]))
+            source = spec.source()
+            same_cameras = (man.get("camera_key") == self._camera_key(spec, source)
+                            and max(numbers, default=-1) < len(man["cameras"])
+                            and not reads_changed(man, source))
             stale = [f"{f:04d}/{b}.exr" for f in numbers for b in buffers
                      if not same_cameras or man["files"].get(f"{f:04d}/{b}.exr", {}).get("key")
                      != self._file_key(man, f, b)]
@@ -251,6 +273,10 @@ class StoreBuilder(StoreReader):
                 if not (self.render_cfg.get("force", False) or self.render_cfg.get("verify", False)):
                     raise
                 log.warning("%s: unreadable manifest replaced; every file of the scene is rendered again", p)
+        if man is not None and reads_changed(man, source):
+            log.warning("scene %s: a file it reads (a mesh, a texture, an included XML) changed since it was "
+                        "rendered: every file of the scene is rendered again", spec.name)
+            man = None  # a new manifest, no file kept: each was rendered from the old scene
         if man is not None and man.get("camera_key") == cam_key and man.get("version") == MANIFEST_VERSION:
             man["source"] = source
             man["settings"] = self._settings()
@@ -459,7 +485,7 @@ class StoreBuilder(StoreReader):
             return False
         source = spec.source()
         if (on_disk.get("camera_key") != self._camera_key(spec, source)
-                or on_disk.get("version") != MANIFEST_VERSION):
+                or on_disk.get("version") != MANIFEST_VERSION or reads_changed(on_disk, source)):
             return False
         man = copy.deepcopy(on_disk)
         man["source"], man["settings"] = source, self._settings()
@@ -469,7 +495,7 @@ class StoreBuilder(StoreReader):
         elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
             return False
         self._fill_scales(spec, man)
-        if man != on_disk:
+        if man != upgraded(on_disk, man):
             return False
         return all(self._is_done(man, spec.name, f, b, verify) for f in frames for b in order)
 
@@ -594,6 +620,7 @@ class StoreBuilder(StoreReader):
             if f == 0 and b == "ref":  # before the estimate, which is taken on exposed images
                 self._set_exposure(spec, man, img)
                 scales["exposure"] = man["exposure"]
+                scales["exposure_target"] = man.get("exposure_target")
             if halves is not None:
                 extra["psnr_estimate"] = round(estimate_psnr(*halves, float(man["exposure"] or 1.0)), 3)
             self._write(spec.name, man, f, b, img, spp, seed, mi.variant(), extra)
@@ -603,23 +630,36 @@ class StoreBuilder(StoreReader):
         return scales
 
     def _fill_scales(self, spec: SceneSpec, man: dict) -> None:
-        """Exposure and depth scale from frame 0 when unknown (e.g. files kept from an older manifest)."""
+        """Exposure and depth scale from frame 0 when unknown (e.g. files kept from an older manifest); an
+        auto exposure also when the manifest's was set for another ``data.exposure_target`` or was a fixed
+        one (its ``exposure_target``: what it was set for; a manifest from before the key has its exposure
+        computed again from frame 0's reference, the same value for the same target). No file depends on the
+        exposure (it is applied at load), so nothing is rendered again: a store rendered at one target kept
+        its exposure for every later target, and a run trained on data exposed for the old one while its
+        record named the new."""
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
-        elif man.get("exposure") is None and "0000/ref.exr" in man["files"]:
+            man.pop("exposure_target", None)
+        elif "0000/ref.exr" in man["files"] and (man.get("exposure") is None
+                                                 or man.get("exposure_target") != self._exposure_target()):
             self._set_exposure(spec, man, read_exr(self.path(spec.name, 0, "ref"), self.fix_command("ref")))
         if man.get("depth_scale") is None and "0000/depth.exr" in man["files"]:
             man["depth_scale"] = depth_scale(
                 read_exr(self.path(spec.name, 0, "depth"), self.fix_command("depth"))
             )
 
+    def _exposure_target(self) -> float:
+        """``data.exposure_target``: the mean of frame 0's reference after an auto exposure."""
+        return float(self.data_cfg.get("exposure_target", 0.5))
+
     def _set_exposure(self, spec: SceneSpec, man: dict, ref0: np.ndarray) -> None:
         if spec.exposure != "auto":
             man["exposure"] = float(spec.exposure)
+            man.pop("exposure_target", None)
             return
-        exposure = auto_exposure(ref0, float(self.data_cfg.get("exposure_target", 0.5)),
-                                 str(self.path(spec.name, 0, "ref")))
+        exposure = auto_exposure(ref0, self._exposure_target(), str(self.path(spec.name, 0, "ref")))
         man["exposure"] = exposure or 1.0
+        man["exposure_target"] = self._exposure_target()
         if exposure is None:
             log.warning("scene %s: frame 0's reference is black; exposure left at 1", spec.name)
 
