@@ -305,14 +305,6 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
         return
     from mcd.reporting import outputs, viewer
 
-    if out_dir.is_dir() and not (out_dir / "README.md").exists():  # no report wrote there: a user's folder
-        found = sorted({n for kind in outputs.KINDS for n in outputs.declared(kind)
-                        if (out_dir / n).exists() or (out_dir / n).is_symlink()})
-        if found:
-            raise ReportOutError(f"{out_dir}: holds {', '.join(found[:3])} and no report README.md, so no "
-                                 "report wrote them, and a report would replace them; move them, or give "
-                                 "another --name (a report stopped before its README: delete its folder)")
-
     # every name a writer declares, and the records and viewer being written before they replace the old ones
     staging = (f"{records.RECORDS_DIR}.new", f".{viewer.VIEWER_DIR}.partial")
     for name in (*(n for kind in outputs.KINDS for n in outputs.declared(kind)), *staging):
@@ -323,6 +315,13 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
             raise ReportOutError(f"{links[0]}: a link where the report writes (to {os.readlink(links[0])}); "
                                  "a report writes only inside its folder: remove the link, or give another "
                                  "--name")
+    if out_dir.is_dir() and not (out_dir / "README.md").exists():  # no report wrote there: a user's folder
+        found = sorted({n for kind in outputs.KINDS for n in outputs.declared(kind)
+                        if (out_dir / n).exists() or (out_dir / n).is_symlink()})
+        if found:
+            raise ReportOutError(f"{out_dir}: holds {', '.join(found[:3])} and no report README.md, so no "
+                                 "report wrote them, and a report would replace them; move them, or give "
+                                 "another --name (a report stopped before its README: delete its folder)")
     notes = out_dir / "notes.md"
     if scaling and notes.exists() and not _written_by_report(notes, GENERATED_NOTES):
         raise ReportOutError(f"{notes}: hand-written notes (its first line is not {GENERATED_NOTES!r}), "
