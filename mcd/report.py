@@ -243,13 +243,14 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
 GENERATED_NOTES = "# Scaling study: generated notes"
 
 
-def remove_stale(out_dir: Path, written: list[Path], scaling: bool) -> list[str]:
+def remove_stale(out_dir: Path, written: list[Path], scaling: bool, regenerated: bool = False) -> list[str]:
     """Remove from ``out_dir`` what an earlier report wrote there and this one did not: the names the other
     kind's writers declare and this kind's that are absent from ``written`` (:mod:`mcd.reporting.outputs`;
     an earlier standard report's ``table1.csv`` left beside a scaling report became README.md's results of the
-    current report). A standard report keeps ``strips/`` (kept as measured where the runs saved no samples,
-    like the viewer), and a ``notes.md`` goes only where a report generated it (:data:`GENERATED_NOTES`).
-    Returns the names removed. Nothing else of the folder is touched."""
+    current report). A standard report ``regenerated`` from its own run records keeps ``strips/`` (kept as
+    measured: the records hold no samples, like the viewer; :func:`mcd.reporting.records.from_own_records`),
+    and a ``notes.md`` goes only where a report generated it (:data:`GENERATED_NOTES`). Returns the names
+    removed. Nothing else of the folder is touched."""
     import shutil
 
     from mcd.reporting import outputs, strips
@@ -258,7 +259,8 @@ def remove_stale(out_dir: Path, written: list[Path], scaling: bool) -> list[str]
     kept = {p.relative_to(out_dir).parts[0] for p in written}
     ours, theirs = ("scaling", "standard") if scaling else ("standard", "scaling")
     stale = [*outputs.declared(theirs),
-             *(n for n in outputs.declared(ours) if n not in kept and not (n == strips.DIR and not scaling))]
+             *(n for n in outputs.declared(ours)
+               if n not in kept and not (n == strips.DIR and not scaling and regenerated))]
     removed = []
     for name in stale:
         path = out_dir / name
@@ -323,6 +325,13 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
             raise ReportOutError(f"{links[0]}: a link where the report writes (to {os.readlink(links[0])}); "
                                  "a report writes only inside its folder: remove the link, or give another "
                                  "--name")
+    if out_dir.is_dir() and not (out_dir / "README.md").exists():  # no report wrote there: a user's folder
+        found = sorted({n for kind in outputs.KINDS for n in outputs.declared(kind)
+                        if (out_dir / n).exists() or (out_dir / n).is_symlink()})
+        if found:
+            raise ReportOutError(f"{out_dir}: holds {', '.join(found[:3])} and no report README.md, so no "
+                                 "report wrote them, and a report would replace them; move them, or give "
+                                 "another --name (a report stopped before its README: delete its folder)")
     notes = out_dir / "notes.md"
     if scaling and notes.exists() and not _written_by_report(notes, GENERATED_NOTES):
         raise ReportOutError(f"{notes}: hand-written notes (its first line is not {GENERATED_NOTES!r}), "
@@ -435,6 +444,7 @@ def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench
                      scaling=True)
         return
 
+    regenerated = records.from_own_records(runs, out_dir)  # before records.keep replaces runs/
     results = tables.write_all(runs, out_dir, root)
     results.update(seeds.write(runs, out_dir))
     results["spp"] = spp.write(runs, out_dir, prov, root)
@@ -469,7 +479,7 @@ def _write(runs: list[Run], sweeps: list[Sweep], out_dir: Path, name: str, bench
         found,
         viewer_page,
     )
-    remove_stale(out_dir, files, scaling=False)
+    remove_stale(out_dir, files, scaling=False, regenerated=regenerated)
 
 
 def main(argv: list[str] | None = None) -> None:

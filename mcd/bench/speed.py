@@ -63,6 +63,7 @@ from mcd.config.compose import compose, experiment_names
 from mcd.config.methods import CATALOGUE, display_name
 from mcd.core import allocator
 from mcd.core.machine import device_name, restart_peak_rss, status_mb
+from mcd.core.paths import writable_file_to_be
 from mcd.core.provenance import short_commit
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
@@ -497,8 +498,12 @@ README_TITLE = "# Inference speed (python -m mcd.bench)"
 
 def check_readme(csv_path: Path) -> str | None:
     """Why the README.md beside ``csv_path`` may not be written (it exists and is not one the bench wrote: a
-    user's own README.md in that folder was replaced), or None; asked before anything is measured."""
+    user's own README.md in that folder was replaced; or ``--out`` is that README, which the CSV's README
+    would replace), or None; asked before anything is measured."""
     path = csv_path.parent / "README.md"
+    if csv_path.name == path.name:
+        return (f"--out {csv_path}: the bench writes its README.md beside the CSV, which would replace "
+                "the CSV; give the CSV another name")
     if not path.exists():
         return None
     if path.is_file():
@@ -585,6 +590,10 @@ def main(argv: list[str] | None = None) -> None:
         overrides.append("capacity=paper")
     if (why := check_readme(args.out)) is not None:
         parser.error(why)
+    try:
+        writable_file_to_be("--out", args.out)  # a folder or an unwritable place: before the measurement
+    except ValueError as err:
+        parser.error(str(err))
     devices = [d for d in args.devices.split(",") if d]
     if unknown := sorted(set(devices) - {"cpu", "cuda"}):
         parser.error(f"--devices {args.devices}: {', '.join(unknown)} is not a device this bench runs on; "

@@ -52,7 +52,7 @@ import torch
 from mcd.config.methods import CATALOGUE
 from mcd.core import allocator
 from mcd.core.machine import device_name
-from mcd.core.paths import REPO_ROOT
+from mcd.core.paths import REPO_ROOT, writable_file_to_be
 
 log = logging.getLogger("mcd.bench.train")
 
@@ -164,6 +164,32 @@ def child(args: list[str]) -> dict[str, object]:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def check_names(args: argparse.Namespace) -> str | None:
+    """Why ``--methods``, ``--profiles``, ``--paths`` or ``--profile-methods`` name nothing to measure (empty,
+    or an experiment, data profile or path that does not exist), naming the flag and what is valid; None
+    when each names something. Asked before any job starts."""
+    from mcd.config.compose import experiment_names
+    from mcd.core.paths import CONF_DIR
+
+    profiles = sorted(p.stem for p in (CONF_DIR / "data").glob("*.yaml"))
+    valid = {"--methods": experiment_names(), "--profiles": profiles, "--paths": list(PATHS)}
+    given = {"--methods": [args.methods], "--profiles": [args.profiles], "--paths": [args.paths]}
+    for item in args.profile_methods:
+        profile, sep, methods = item.partition("=")
+        if not sep:
+            return f"--profile-methods {item!r}: give PROFILE=M1,M2"
+        given["--profiles"].append(profile)
+        given["--methods"].append(methods)
+    for flag, values in given.items():
+        for value in values:
+            names = [n for n in value.split(",") if n]
+            unknown = sorted(set(names) - set(valid[flag]))
+            if not names or unknown:
+                return (f"{flag} {value!r}: {'none given' if not names else 'no ' + ', '.join(unknown)}; "
+                        f"give one or more of {', '.join(sorted(valid[flag]))}")
+    return None
+
+
 def main(argv: list[str] | None = None) -> None:
     from mcd.denoise.arguments import int_in  # the numbers are checked before any job starts (0 steps ran
     # every job's warm-up, then failed each on a division by zero)
@@ -194,6 +220,12 @@ def main(argv: list[str] | None = None) -> None:
     allocators = [a for a in args.allocators.split(",") if a]
     if not allocators or set(allocators) - set(allocator.CHOICES):
         ap.error(f"--allocators {args.allocators!r}: give one or more of {', '.join(allocator.CHOICES)}")
+    if (why := check_names(args)) is not None:  # each job failed on it, and --out became an empty table
+        ap.error(why)
+    try:
+        writable_file_to_be("--out", args.out)  # a folder or an unwritable place: before any job
+    except ValueError as err:
+        ap.error(str(err))
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     rows: list[dict[str, object]] = []
     failed: list[str] = []
@@ -230,6 +262,11 @@ def main(argv: list[str] | None = None) -> None:
                              "pixels_per_s": sum(r["pixels_per_s"] for r in pair),
                              "steps_per_cpu_s": sum(r["steps_per_cpu_s"] for r in pair) / 2,
                              "peak_rss_mb": max(r["peak_rss_mb"] for r in pair)})
+    if not rows:  # an earlier measurement at --out is not replaced by an empty table
+        for line in failed:
+            print(f"failed: {line}")
+        sys.exit(f"error: no path was measured ({len(failed)} failed, the others skipped); "
+                 f"{args.out} is left as it was")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with args.out.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)

@@ -72,6 +72,17 @@ def writable_folder_to_be(key: str, path: Path) -> Path:
     return path
 
 
+def writable_file_to_be(key: str, path: Path) -> Path:
+    """``path``, a file that ``key`` names and a command writes at its end: ValueError naming the key when it
+    is a folder, or its folder cannot be made or written (:func:`writable_folder_to_be`), before any work
+    starts (a measurement of minutes ended in an IsADirectoryError traceback where ``--out`` named a
+    folder)."""
+    if path.is_dir():
+        raise ValueError(f"{key}={path} is a folder, not a file: give a file name (in that folder, say)")
+    writable_folder_to_be(key, path.parent)
+    return path
+
+
 def scenes_dir(value: str | Path | None) -> Path | None:
     """The folder of the scenes not vendored in ``scenes/`` from ``paths.scenes_dir`` (env ``MCD_SCENES_DIR``;
     docs/scenes.md), or ``None`` when unset (then only those scenes fail, each naming the key).

@@ -192,6 +192,10 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     outputs = [n for f in range(args.frames) for n in frame_files(f"{name}_{f:04d}")]
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
     output_folder.check_unrecorded(args.output, SUMMARY, outputs)
+    if (args.output / SUMMARY).exists():  # another program's (or a damaged) denoise.json: never replaced
+        from mcd.denoise.resume import read_record
+
+        read_record(args.output / SUMMARY)
     output_folder.check_writable(args.output)
     folder_lock.enter_context(output_folder.hold(args.output))
     output_folder.claim(args.output, SUMMARY)
@@ -211,7 +215,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
         raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
     from mcd.denoise.frame_scores import check_references, find_references, score_text
     from mcd.denoise.frames import check_frames, find_frames, read_header, siblings
-    from mcd.denoise.resume import Record, file_stamps, weights_digest
+    from mcd.denoise.resume import Record, config_digest, file_stamps, weights_digest
     from mcd.denoise.sequence import denoise_frames, wanted_layers
 
     paths = find_frames(args.inputs)
@@ -231,6 +235,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     if refs:
         check_references(refs, size)
     settings = {"inputs": file_stamps(inputs), "weights_sha256": weights_digest(loaded.model),
+                "config_sha256": config_digest(loaded.cfg),
                 "experiment": loaded.experiment, "budget": loaded.cfg.budget, "precision": args.precision,
                 "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap,
                 "exposure": args.exposure}

@@ -270,7 +270,20 @@ class FrameSequence:
             exposure = self._first_exposure(first["colour"])
         self.exposure = exposure or 1.0
         if "depth" in first:
-            self.depth_scale = depth_scale(first["depth"])
+            self.depth_scale = self._depth_scale(first["depth"])
+
+    def _depth_scale(self, depth0: np.ndarray) -> float:
+        """The depth scale (:func:`depth_scale`) of the first frame whose depth layer holds a hit (a positive
+        finite distance), logged where that is not frame 0: a frame 0 that hits nothing (the sky) gave 1, and
+        a sequence in centimetres then reached the network hundreds of times too far."""
+        for i, path in enumerate(self.paths):
+            depth = depth0 if i == 0 else read_frame(path, {"depth"}, self.size)["depth"]
+            if np.any(np.isfinite(depth) & (depth > 0)):
+                if i:
+                    log.info("%s: frames 0-%d hit nothing (depth 0); depth scale %.4g from frame %d",
+                             self.paths[0], i - 1, depth_scale(depth), i)
+                return depth_scale(depth)
+        return 1.0
 
     def _first_exposure(self, colour0: np.ndarray) -> float | None:
         """The exposure of the first frame that is not black (:func:`input_exposure`), logged where that is

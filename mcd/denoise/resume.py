@@ -2,7 +2,8 @@
 settings (docs/denoise.md, "Output"; docs/reliability.md, "Denoising your frames").
 
 ``<out>/denoise.json`` is rewritten (atomically) after every frame with ``settings`` (what the outputs depend
-on: the input files with their sizes, modification times and SHA-256, the weights' SHA-256, the experiment,
+on: the input files with their sizes, modification times and SHA-256, the weights' and the configuration's
+SHA-256, the experiment,
 budget, precision, device, tile cap and overlap), ``finished`` (the stems whose every file is written) and
 ``checksums`` (the SHA-256 of each of those files). A rerun with equal ``settings`` skips a finished frame
 whose files are all there with their recorded SHA-256 (one emptied or replaced since is denoised again); any
@@ -38,6 +39,16 @@ def weights_digest(model: nn.Module) -> str:
     return h.hexdigest()
 
 
+def config_digest(cfg: Any) -> str:
+    """SHA-256 of the configuration the model is built and fed with (a checkpoint's, or a bundle's JSON): the
+    same weights under another configuration (``data.exposure_target``, which sets the input exposure) give
+    other outputs, and a resume compared the weights alone."""
+    from omegaconf import OmegaConf
+
+    plain = OmegaConf.to_container(cfg, resolve=False) if OmegaConf.is_config(cfg) else cfg
+    return hashlib.sha256(json.dumps(plain, sort_keys=True, default=str).encode()).hexdigest()
+
+
 def file_stamps(paths: list[Path]) -> list[list[Any]]:
     """``[resolved path, bytes, mtime_ns, SHA-256]`` of each file. The size and time alone did not tell
     that an input changed: a frame replaced by another of the same size with the same time (a copy that
@@ -55,16 +66,27 @@ class RecordError(ValueError):
 
 #: The type of each field of ``denoise.json`` that resuming reads (a field may be absent: no record).
 RECORD_TYPES = {"settings": dict, "finished": list, "checksums": dict}
+#: Every ``denoise.json`` that ``mcd-denoise`` writes holds one of these fields: ``complete`` (the first
+#: record, written before any output, and every record of frames mode) or ``out_dir`` (the summary of a
+#: finished run, either mode). A JSON object with neither is another program's file, which a run must not
+#: replace.
+OWN_FIELDS = ("complete", "out_dir")
 
 
 def read_record(path: Path) -> dict[str, Any]:
     """The previous run's ``denoise.json`` at ``path``; RecordError naming it and the fix when it is not a
-    JSON object or a field of :data:`RECORD_TYPES` has another type."""
+    JSON object, a field of :data:`RECORD_TYPES` has another type, or it holds none of :data:`OWN_FIELDS` (a
+    user's own ``denoise.json`` in ``-o`` was replaced, and the files named like outputs beside it
+    overwritten)."""
     try:
         old = json.loads(path.read_text())
     except (OSError, ValueError) as err:
         why = f"not readable JSON: {type(err).__name__}"
     else:
+        if isinstance(old, dict) and not any(k in old for k in OWN_FIELDS):
+            raise RecordError(f"{path}: not a record of mcd-denoise (a JSON object without its fields "
+                              f"{' or '.join(OWN_FIELDS)}: another program's file?); it is kept as it "
+                              "is, and so is every file beside it: give another -o")
         bad = ([f"{k} is a JSON {type(old[k]).__name__}, not {t.__name__}" for k, t in RECORD_TYPES.items()
                 if k in old and not isinstance(old[k], t)] if isinstance(old, dict)
                else [f"a JSON {type(old).__name__}, not an object"])

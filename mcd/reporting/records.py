@@ -23,8 +23,20 @@ RECORDS_DIR, = writes("both", "runs")
 
 
 def _key(path: Path) -> Path:
-    """Where a run directory (or a sweep's ``multirun.yaml``) goes under ``runs/``: its last 3 path parts."""
-    return Path(*path.parts[-3:])
+    """Where a run directory (or a sweep's ``multirun.yaml``) goes under ``runs/``: its last 3 path parts,
+    never the root (``/`` of a run at ``/tmp/run``, which made the key absolute: the copy went onto the run's
+    own files and ended the report in a SameFileError after its tables)."""
+    parts = path.parts[1:] if path.is_absolute() else path.parts
+    return Path(*parts[-3:])
+
+
+def from_own_records(runs: list[Run], out_dir: Path) -> bool:
+    """Whether every run of the report is read from the report's own ``runs/`` (a report regenerated from its
+    records, which keep no samples): only then are an earlier viewer and strips of ``out_dir`` its runs' own,
+    kept as measured; otherwise they show other runs and go (:func:`mcd.reporting.viewer.write`,
+    ``mcd.report.remove_stale``)."""
+    own = (out_dir / RECORDS_DIR).resolve()
+    return all(own in r.path.resolve().parents for r in runs)
 
 
 def keys(runs: list[Run]) -> list[Path]:

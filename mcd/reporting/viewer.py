@@ -46,6 +46,7 @@ from mcd.core.metrics import flip_map, to_display
 from mcd.data.exr import read_exr
 from mcd.lit.samples import picture
 from mcd.reporting.outputs import writes
+from mcd.reporting.records import from_own_records
 from mcd.reporting.runs import Run
 from mcd.reporting.strips import crop_box, samples, strip_run, table1_runs
 
@@ -161,18 +162,23 @@ def _frame(folder: Path, scene: str, frame: int, colour: list[tuple[str, str, np
 def write(runs: list[Run], out_dir: Path, name: str) -> Path | None:
     """Write ``out_dir/viewer/`` for the report ``name`` (see the module docstring) and return its page.
 
-    Where no finished run saved samples (a report regenerated from its run records, which keep none), an
-    earlier viewer is left as it was, as the strips are, and its page is returned (None without one).
-    Otherwise the viewer is written whole, anew, beside the old one, which it then replaces: it holds only
-    what these runs saved, and a failure half-way leaves the old one whole."""
+    Where no finished run saved samples: a report regenerated from its own run records (which keep none,
+    :func:`mcd.reporting.records.from_own_records`) leaves an earlier viewer as it was, as the strips are, and
+    returns its page (None without one); any other report removes it and returns None (a report of other runs
+    under the same name kept the earlier runs' viewer and linked it as its own). Otherwise the viewer is
+    written whole, anew, beside the old one, which it then replaces: it holds only what these runs saved, and
+    a failure half-way leaves the old one whole."""
     folder = out_dir / f".{VIEWER_DIR}.partial"
     main = strip_run(runs)
-    if main is None:
-        return index_path(out_dir)
-    complete = [(scene, frame, names) for scene, by_frame in sorted(samples(main).items())
-                for frame, names in sorted(by_frame.items()) if "output" in names and "reference" in names]
+    complete = [] if main is None else [
+        (scene, frame, names) for scene, by_frame in sorted(samples(main).items())
+        for frame, names in sorted(by_frame.items()) if "output" in names and "reference" in names]
     if not complete:
-        return index_path(out_dir)
+        if from_own_records(runs, out_dir):
+            return index_path(out_dir)
+        remove(out_dir)
+        return None
+    assert main is not None
     shutil.rmtree(folder, ignore_errors=True)
     methods = [(key, title, run, samples(run)) for key, title, run in _methods(runs, main)]
     frames = []

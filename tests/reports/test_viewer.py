@@ -271,6 +271,7 @@ def test_hdr_extremes_black_frames_and_odd_sizes_make_finite_pictures(tmp_path):
 def test_no_viewer_writes_none_and_removes_an_earlier_one(report, tmp_path):
     out, sweep = report
     shutil.copytree(out / "viewer", tmp_path / "nv" / "viewer")
+    shutil.copy(out / "README.md", tmp_path / "nv" / "README.md")  # an earlier report's folder, not a user's
     make_report([sweep], tmp_path, name="nv", bench=None, with_viewer=False)
     assert not (tmp_path / "nv" / "viewer").exists() and viewer.index_path(tmp_path / "nv") is None
     assert "viewer/index.html" not in (tmp_path / "nv" / "README.md").read_text()
