@@ -315,9 +315,10 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
         return
     from mcd.reporting import outputs, viewer
 
-    # every name a writer declares, and the records and viewer being written before they replace the old ones
+    declared = sorted({n for kind in outputs.KINDS for n in outputs.declared(kind)})  # what any report writes
+    # and the records and viewer being written before they replace the old ones
     staging = (f"{records.RECORDS_DIR}.new", f".{viewer.VIEWER_DIR}.partial")
-    for name in (*(n for kind in outputs.KINDS for n in outputs.declared(kind)), *staging):
+    for name in (*declared, *staging):
         path = out_dir / name
         inside = sorted(p for p in path.rglob("*") if p.is_symlink()) if path.is_dir() else []
         links = [path] if path.is_symlink() else inside
@@ -326,8 +327,7 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
                                  "a report writes only inside its folder: remove the link, or give another "
                                  "--name")
     if out_dir.is_dir() and not (out_dir / "README.md").exists():  # no report wrote there: a user's folder
-        found = sorted({n for kind in outputs.KINDS for n in outputs.declared(kind)
-                        if (out_dir / n).exists() or (out_dir / n).is_symlink()})
+        found = [n for n in declared if (out_dir / n).exists() or (out_dir / n).is_symlink()]
         if found:
             raise ReportOutError(f"{out_dir}: holds {', '.join(found[:3])} and no report README.md, so no "
                                  "report wrote them, and a report would replace them; move them, or give "
