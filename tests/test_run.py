@@ -97,6 +97,7 @@ def test_auto_resume_continues_an_interrupted_run_in_its_own_directory(f_run):
     killed = root / "F_killed"
     (killed / "checkpoints").mkdir(parents=True)
     shutil.copy(root / "F" / "checkpoints" / "last.ckpt", killed / "checkpoints" / "last.ckpt")
+    shutil.copy(root / "F" / "job.json", killed / "job.json")  # a killed run leaves its records beside it
     proc = mcd_run("+experiment=F", *TINY, "train.epochs=2", "ckpt_path=auto",
                    f"paths.data_dir={root / 'data'}", f"hydra.run.dir={killed}")
     assert proc.returncode == 0, proc.stderr[-4000:]

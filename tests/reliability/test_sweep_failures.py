@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from mcd.lit.run_record import REQUIRED_KEYS, job_identity
+from mcd.lit.run_record import JOB_FILE, REQUIRED_KEYS, job_identity
 from tests.conftest import compose_cfg
 from tests.test_run import mcd_run
 
@@ -16,9 +16,12 @@ CHOICES = {"data": "tiny"}
 
 
 def _finished(run_dir: Path, *overrides: str) -> Path:
-    """A complete ``metrics.json`` of the job that ``overrides`` describe (as if it had finished earlier)."""
+    """A complete ``metrics.json`` of the job that ``overrides`` describe (as if it had finished earlier),
+    with the ``job.json`` record a run writes beside it (a folder of outputs without records is a user's)."""
     run_dir.mkdir(parents=True)
-    metrics = {**dict.fromkeys(REQUIRED_KEYS, 0.0), **job_identity(compose_cfg(*overrides), CHOICES)}
+    identity = job_identity(compose_cfg(*overrides), CHOICES)
+    (run_dir / JOB_FILE).write_text(json.dumps(identity))
+    metrics = {**dict.fromkeys(REQUIRED_KEYS, 0.0), **identity}
     path = run_dir / "metrics.json"
     path.write_text(json.dumps(metrics))
     return path
