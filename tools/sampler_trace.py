@@ -9,9 +9,9 @@ build: data, model, module, trainer) and, every ``--every`` optimiser steps, wri
 - ``first_constant``: the first block of ``F_s``'s U-Net whose output is constant over the frame (a spatial
   deviation below 1e-6; empty while none is) and ``dead_units``: the units of that U-Net's blocks that are 0
   on every pixel (a ReLU unit negative everywhere passes no gradient);
-- the gradient norms of that step: ``grad_logits_head`` (the 1x1 convolution that makes the logits: only the
-  adaptive render's DASR gradient reaches it), ``grad_sampler`` (all of ``F_s``: the DASR gradient and, with KP,
-  the kernel-map head's), ``grad_denoiser`` (``F_d``), and the step's learning rate.
+- the gradient norms of that step: ``grad_logits_head`` (the 1x1 convolution that makes the logits: only
+  the adaptive render's DASR gradient reaches it), ``grad_sampler`` (all of ``F_s``: the DASR gradient and,
+  with KP, the kernel-map head's), ``grad_denoiser`` (``F_d``), and the step's learning rate.
 
     PYTHONPATH=. python tools/sampler_trace.py --out trace.csv --every 25 \
         +experiment=F data=tiny train=plateau train.max_steps=1000 seed=2 paths.data_dir=<data>

@@ -33,8 +33,9 @@ def test_torch_init_starts_constant_and_he_alive():
 def test_the_trace_of_a_real_training(cbox_store, tmp_path):
     cfg, _ = cbox_store
     out = tmp_path / "trace.csv"
-    overrides = [*store32_overrides(cfg.paths.data_dir), "+experiment=F", "train.max_steps=3", "train.epochs=null",
-                 "train.max_minutes=null", "train.batch_size=1", "trainer.enable_progress_bar=false"]
+    overrides = [*store32_overrides(cfg.paths.data_dir), "+experiment=F", "train.max_steps=3",
+                 "train.epochs=null", "train.max_minutes=null", "train.batch_size=1",
+                 "trainer.enable_progress_bar=false"]
     assert main(["--out", str(out), "--every", "2", "--run-dir", str(tmp_path / "run"), *overrides]) == 0
     rows = list(csv.DictReader(out.open()))
     assert [int(r["step"]) for r in rows] == [0, 2]
