@@ -6,7 +6,9 @@
 #      (below) while `small` still renders;
 #   2. the diagnostics of the F - NTASAD gap at tiny x 1000 steps, seeds 0-2: NTASAD without its warp, without
 #      its previous output, and F whose F_d reads the warped previous output (docs/method.md); and F with a
-#      per-pixel identity channel (F_pixel_switch), there and at 1000 and 3000 steps on small;
+#      per-pixel identity channel (F_pixel_switch), there and at 1000 and 3000 steps on small; and F started
+#      from He's initialisation (F_he: why F's sampling map collapses on some seeds, docs/method.md
+#      "Initialisation") at the same point with seeds 0-2;
 #   3. F and NTASAD at 3000 steps (seed 0), then F_paper, C and A at 1000 and 3000 on tiny and small;
 #   4. seeds 1-2 of F and NTASAD at 3000 on small, F without SA (row E) at 3000 on small with seeds 0-2 (the
 #      fourth diagnostic, paired with F's seeds), then 10000 steps on small;
@@ -47,6 +49,7 @@ leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0  # while `small` render
 wait_render small
 leg data=small train.max_steps=1000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0,1,2 "$GAP"
+leg data=tiny train.max_steps=1000 +experiment=F_he seed=0,1,2 "$GAP"
 leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0

@@ -106,6 +106,7 @@ CATALOGUE: tuple[Method, ...] = (
     Method("F_pixel_switch", "F, per-pixel identity channel", variant_of="F"),
     Method("F_warp_previous", "F + warped previous output (not the paper's)",
            variant_of="F", diagnostic=True),
+    Method("F_he", "F, He's initialisation (diagnostic)", variant_of="F", diagnostic=True),
     Method("oidn", "OIDN", table1=True, bench=True),
     Method("noisy", "Noisy input", table1=True, bench=True),
     Method("A", "A", train_bench=True),
