@@ -4,8 +4,9 @@ line of ``mcd.plan``; it imports neither Lightning nor Hydra.
 
 :func:`measure` writes a synthetic EXR store of the given shape in a folder (:mod:`mcd.data.synthetic_store`;
 reused when a previous call left one of the same shape there), packs it into the training store with the real
-pack (:func:`mcd.data.pack.pack`; a synthetic pack of another shape left there is packed again), then times, each in its own forked process that does what one DataLoader
-worker does (read a clip at a random crop, collate it):
+pack (:func:`mcd.data.pack.pack`; a synthetic pack of another shape left there is packed again), then times,
+each in its own forked process that does what one DataLoader worker does (read a clip at a random crop,
+collate it):
 
 - ``exr``: today's EXR path (:class:`mcd.data.clips.ExrClips`: whole-frame decodes, then the crop);
 - ``array``, warm page cache: :meth:`mcd.data.train_store.TrainStore.clip` after the files were read once;
