@@ -126,22 +126,33 @@ def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
 
     ``data_settings`` is what determines the data (:func:`mcd.data.store.store_settings`: ``data.name``, the
     frames' size and count, the samples, the data seed, the exposure, the scene lists), so that a run is not
-    resumed, or skipped as finished, on other data under the same profile. Settings a rerun may change
+    resumed, or skipped as finished, on other data under the same profile; ``transfer`` the checkpoint a
+    transfer starts from and its fine-tuning (:func:`mcd.lit.transfer.identity`). Settings a rerun may change
     without making it another job (epochs, capacity, ...) are left out (sweeps/_sweep_dirs.yaml: such a rerun
     goes to another ``sweep_tag``).
     """
+    from mcd.lit.transfer import identity as transfer_identity
+
     return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
             "data_profile": choices.get("data"), "data_settings": store_settings(cfg.data),
-            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None}
+            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None,
+            "transfer": transfer_identity(cfg)}
 
 
 def _flat(identity: dict[str, Any]) -> dict[str, Any]:
     """``identity`` with ``data_settings`` spread into one ``data.<key>`` entry per setting (older records,
-    without it, compare the other keys only)."""
-    settings = identity.get("data_settings")
-    flat = {k: v for k, v in identity.items() if k != "data_settings"}
+    without it, compare the other keys only), and ``transfer`` into ``transfer`` (whether the run is a
+    transfer) and one ``transfer.<key>`` entry per key of :func:`mcd.lit.transfer.identity` (a finished run's
+    ``metrics.json`` holds more under it; those are not compared)."""
+    settings, transfer = identity.get("data_settings"), identity.get("transfer")
+    flat = {k: v for k, v in identity.items() if k not in ("data_settings", "transfer")}
     if isinstance(settings, dict):
         flat.update({f"data.{k}": v for k, v in settings.items()})
+    if "transfer" in identity:
+        flat["transfer"] = transfer is not None
+    if isinstance(transfer, dict):
+        flat.update({f"transfer.{k}": transfer[k] for k in ("init_from", "finetune_epochs", "finetune_clips")
+                     if k in transfer})
     return flat
 
 
