@@ -29,18 +29,21 @@ if TYPE_CHECKING:
 
 def grid(config: DictConfig, loader: ConfigLoader) -> list[list[str]]:
     """The jobs (each a list of overrides) the sweeper of ``config`` (the sweep's config, with ``hydra``)
-    runs, in its order; ``loader``: Hydra's config loader."""
+    runs, in its order, where it is Hydra's basic sweeper or :class:`mcd.lit.sweep_plan.PlannedSweeper` (none
+    for another sweeper); ``loader``: Hydra's config loader."""
     from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
     from mcd.lit.sweep_plan import PlannedSweeper, kept_jobs
 
+    target = str(config.hydra.sweeper.get("_target_", "")).rsplit(".", 1)[-1]
+    if target not in (BasicSweeper.__name__, PlannedSweeper.__name__):
+        return []  # another sweeper's grid (Optuna's, ...) is its own
     params = [f"{k}={v}" for k, v in (config.hydra.sweeper.get("params") or {}).items()]
     params += list(OmegaConf.to_container(config.hydra.overrides.task, resolve=False))  # type: ignore[arg-type]
     overrides = OverridesParser.create(config_loader=loader).parse_overrides(params)
     jobs = [list(j) for batch in BasicSweeper.split_arguments(overrides, None) for j in batch]
-    target = str(config.hydra.sweeper.get("_target_", ""))
-    if target.rsplit(".", 1)[-1] == PlannedSweeper.__name__:
+    if target == PlannedSweeper.__name__:
         jobs = kept_jobs(jobs, config)
     return jobs
 
