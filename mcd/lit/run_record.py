@@ -181,7 +181,32 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
         if not isinstance(recorded, dict):
             raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
         _refuse_another_job(recorded, cfg, choices, run_dir, "an interrupted run")
-    atomic_write_json(path, job_identity(cfg, choices), indent=2)  # the processes of a DDP run all write it
+        _refuse_another_optimiser(recorded.get("optimiser"), cfg, run_dir)
+    # the processes of a DDP run all write it
+    atomic_write_json(path, {**job_identity(cfg, choices), "optimiser": optimiser_settings(cfg)}, indent=2)
+
+
+def optimiser_settings(cfg: DictConfig) -> dict[str, float]:
+    """The ``train.*`` settings of the optimiser and its schedule (:meth:`mcd.lit.module.DenoiseModule
+    .configure_optimizers`) that a resumed run cannot change: Lightning restores the optimiser's and the
+    schedule's state from the checkpoint, so a resume with another ``train.lr`` trained at a mix of the two
+    rates while its records named the new one. Recorded in ``job.json`` beside the job's identity."""
+    return {f"train.{k}": float(cfg.train[k]) for k in ("lr", "lr_min", "weight_decay")}
+
+
+def _refuse_another_optimiser(recorded: Any, cfg: DictConfig, run_dir: Path) -> None:
+    """FileExistsError naming each :func:`optimiser_settings` key whose value differs from ``recorded`` (an
+    interrupted run's ``job.json``; one from before the key is not compared)."""
+    if not isinstance(recorded, dict):
+        return
+    differs = {k: (recorded[k], v) for k, v in optimiser_settings(cfg).items()
+               if k in recorded and recorded[k] != v}
+    if differs:
+        detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
+        raise FileExistsError(f"{run_dir} holds an interrupted run trained with other optimiser settings "
+                              f"({detail}): its checkpoint carries the optimiser's and the schedule's "
+                              "state, so a resume keeps training at the old rate; resume it with the old "
+                              "values, or give this run its own directory (hydra.run.dir=<dir>)")
 
 
 def _refuse_another_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], run_dir: Path,
