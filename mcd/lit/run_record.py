@@ -157,8 +157,17 @@ def _flat(identity: dict[str, Any]) -> dict[str, Any]:
 
 
 def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
-    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped)."""
+    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped), or
+    its ``job.json`` records another split of the frames (:func:`split_settings`)."""
     _refuse_another_job(json.loads(path.read_text()), cfg, choices, path.parent, "a finished run")
+    try:
+        recorded = json.loads((path.parent / JOB_FILE).read_text())
+    except (OSError, ValueError):
+        return
+    if isinstance(recorded, dict):
+        _refuse_other_settings(recorded.get("split"), split_settings(cfg), path.parent,
+                               "a finished run of another split of the frames",
+                               "its scores are of other test frames")
 
 
 #: The job identity (:func:`job_identity`) of the run that trains in a run directory, written before training.
@@ -181,9 +190,26 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
         if not isinstance(recorded, dict):
             raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
         _refuse_another_job(recorded, cfg, choices, run_dir, "an interrupted run")
-        _refuse_another_optimiser(recorded.get("optimiser"), cfg, run_dir)
+        _refuse_other_settings(recorded.get("split"), split_settings(cfg), run_dir,
+                               "an interrupted run of another split of the frames",
+                               "its steps so far trained on frames of the old split, which this one may test")
+        _refuse_other_settings(recorded.get("optimiser"), optimiser_settings(cfg), run_dir,
+                               "an interrupted run trained with other optimiser settings", "its checkpoint "
+                               "carries the optimiser's and the schedule's state, so a resume keeps training "
+                               "at the old rate")
     # the processes of a DDP run all write it
-    atomic_write_json(path, {**job_identity(cfg, choices), "optimiser": optimiser_settings(cfg)}, indent=2)
+    atomic_write_json(path, {**job_identity(cfg, choices), "split": split_settings(cfg),
+                             "optimiser": optimiser_settings(cfg)}, indent=2)
+
+
+def split_settings(cfg: DictConfig) -> dict[str, float | int]:
+    """The ``data.*`` settings that split each sequence into test, validation and training frames
+    (:func:`mcd.data.splits.split_frames`). A resume under another split tested frames its first steps had
+    trained on (``data.test_fraction`` 0.2, then 0.5: frame 9 of 20 trained, then tested), and a rerun under
+    another was skipped as finished. Recorded in ``job.json`` beside the job's identity."""
+    d = cfg.data
+    return {"data.test_fraction": float(d.get("test_fraction", 0.2)), "data.val_clips": int(d.val_clips),
+            "data.clip_len": int(d.clip_len)}
 
 
 def optimiser_settings(cfg: DictConfig) -> dict[str, float]:
@@ -194,19 +220,18 @@ def optimiser_settings(cfg: DictConfig) -> dict[str, float]:
     return {f"train.{k}": float(cfg.train[k]) for k in ("lr", "lr_min", "weight_decay")}
 
 
-def _refuse_another_optimiser(recorded: Any, cfg: DictConfig, run_dir: Path) -> None:
-    """FileExistsError naming each :func:`optimiser_settings` key whose value differs from ``recorded`` (an
-    interrupted run's ``job.json``; one from before the key is not compared)."""
+def _refuse_other_settings(recorded: Any, mine: dict[str, Any], run_dir: Path, what: str, why: str) -> None:
+    """FileExistsError naming each key of ``mine`` whose value differs from ``recorded`` (a section of the
+    run's ``job.json``; one from before the section is not compared): ``run_dir`` holds ``what``, and
+    ``why`` a rerun there cannot go on."""
     if not isinstance(recorded, dict):
         return
-    differs = {k: (recorded[k], v) for k, v in optimiser_settings(cfg).items()
-               if k in recorded and recorded[k] != v}
+    differs = {k: (recorded[k], v) for k, v in mine.items() if k in recorded and recorded[k] != v}
     if differs:
         detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
-        raise FileExistsError(f"{run_dir} holds an interrupted run trained with other optimiser settings "
-                              f"({detail}): its checkpoint carries the optimiser's and the schedule's "
-                              "state, so a resume keeps training at the old rate; resume it with the old "
-                              "values, or give this run its own directory (hydra.run.dir=<dir>)")
+        raise FileExistsError(f"{run_dir} holds {what} ({detail}): {why}; run it with the old values, or "
+                              "give this run its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a "
+                              "sweep)")
 
 
 def _refuse_another_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], run_dir: Path,
