@@ -125,7 +125,7 @@ def lines(p: dict[str, Any]) -> list[str]:
         f"training: none on this profile: {wk['train_error']}",
     ]
     if "pilot" not in p:
-        return [*out, "(not measured: plan.measure=false)"]
+        return [*out, p.get("not_measured", "(not measured: plan.measure=false)")]
     pi, st = p["pilot"], p["train_step"]
     out += [
         f"pilot render: {pi['scene']} at {pi['width']}x{pi['height']}, {pi['frames']} frame(s) x "
@@ -175,7 +175,12 @@ def main(cfg: DictConfig) -> dict[str, Any]:
     from mcd.lit.transfer import prepare
 
     cfg, _ = prepare(cfg)
-    p = plan(cfg, measure=bool(cfg.get("plan", {}).get("measure", True)))
+    measure = bool(cfg.get("plan", {}).get("measure", True))
+    trained = bool(cfg.method.get("trainable", True))  # an untrained method has no training step to measure
+    p = plan(cfg, measure=measure and trained)
+    if measure and not trained:
+        p["not_measured"] = (f"(not measured: method {cfg.method.name} is not trained "
+                             "(method.trainable=false): no training step to measure; the counts only)")
     for line in lines(p):
         print(line, flush=True)
     return p

@@ -403,6 +403,8 @@ def main(cfg: DictConfig) -> None:
     # job's, before the lock is taken and outside the try (no error.json); Hydra wrote nothing there either
     if _skip_finished(out_dir, cfg, choices):
         return
+    # a link where the run writes (a sweep's job: a single run was checked before Hydra wrote anything)
+    run_dir.check_links("hydra.runtime.output_dir", out_dir, (*RUN_OUTPUTS, *RUN_RECORDS))
     # one owner per run directory (mcd/lit/run_dir.py): a second process is refused here, before it touches
     # the directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
     owner = run_dir.hold(out_dir) if rank_zero_only.rank == 0 else contextlib.nullcontext()

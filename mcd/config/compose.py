@@ -84,6 +84,20 @@ def check_unclaimed(cfg: DictConfig, outputs: Iterable[str], records: Iterable[s
                          "write over those files; give the run a new or empty folder (hydra.run.dir=<dir>)")
 
 
+def check_run_links(cfg: DictConfig, names: Iterable[str]) -> None:
+    """ValueError naming ``hydra.run.dir`` (resolved by :func:`check_run_dir`) where it holds a symbolic link
+    at a name a run writes (``names``) or inside such a folder (:func:`mcd.lit.run_dir.check_links`)."""
+    from omegaconf.errors import OmegaConfBaseException
+
+    from mcd.lit.run_dir import check_links
+
+    try:
+        path = Path(str(OmegaConf.select(cfg, "hydra.run.dir")))
+    except OmegaConfBaseException:
+        return
+    check_links("hydra.run.dir", path, names)
+
+
 def exit_on_invalid(cfg: DictConfig) -> None:
     """End the command with the first value that breaks its key's rule
     (:func:`mcd.core.config_rules.check_config`) on one line (``error: <key>=<value>: ...``, no traceback),
@@ -165,6 +179,7 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *, job_errors: b
             if cfg is not None:
                 exit_2_on(ValueError, check_run_dir, cfg)  # before Hydra makes it
                 exit_2_on(ValueError, lambda c: check_unclaimed(c, *run_files), cfg)  # a user's folder
+                exit_2_on(ValueError, lambda c: check_run_links(c, [*run_files[0], *run_files[1]]), cfg)
                 with open_dict(cfg):
                     del cfg["hydra"]
                 exit_on_invalid(cfg)

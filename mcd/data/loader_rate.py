@@ -4,8 +4,9 @@ line of ``mcd.plan``; it imports neither Lightning nor Hydra.
 
 :func:`measure` writes a synthetic EXR store of the given shape in a folder (:mod:`mcd.data.synthetic_store`;
 reused when a previous call left one of the same shape there), packs it into the training store with the real
-pack (:func:`mcd.data.pack.pack`), then times, each in its own forked process that does what one DataLoader
-worker does (read a clip at a random crop, collate it):
+pack (:func:`mcd.data.pack.pack`; a synthetic pack of another shape left there is packed again), then times,
+each in its own forked process that does what one DataLoader worker does (read a clip at a random crop,
+collate it):
 
 - ``exr``: today's EXR path (:class:`mcd.data.clips.ExrClips`: whole-frame decodes, then the crop);
 - ``array``, warm page cache: :meth:`mcd.data.train_store.TrainStore.clip` after the files were read once;
@@ -29,9 +30,11 @@ worker's resident memory (``VmRSS``: private memory plus the pages of the store 
 from __future__ import annotations
 
 import json
+import logging
 import multiprocessing as mp
 import os
 import random
+import shutil
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -46,7 +49,9 @@ from mcd.data.clips import ExrClips
 from mcd.data.pack import pack
 from mcd.data.store import StoreReader
 from mcd.data.synthetic_store import synthetic_data_cfg, write_synthetic_store
-from mcd.data.train_store import TrainStore, TrainStoreSettings, frame_bytes
+from mcd.data.train_store import TrainStore, TrainStoreError, TrainStoreSettings, check_meta, frame_bytes
+
+log = logging.getLogger(__name__)
 
 PROFILE, SCENE = "loaderbench", "synthetic"
 #: bytes fetched from storage over the bytes of the clips, from which a figure counts as disk-bound
@@ -195,6 +200,7 @@ def measure(folder: Path | str, buffers: Sequence[str], *, width: int = 1920, he
     data_cfg.train_store = {"format": "array", "dtype": dtype, "dir": str(folder / f"train_{dtype}")}
     cfg = OmegaConf.create({"data": data_cfg, "paths": {"data_dir": str(folder / "exr")}})
     buffers = list(buffers)
+    _drop_other_pack(TrainStoreSettings.from_cfg(cfg), data_cfg, buffers)
     t0 = time.perf_counter()
     if not _store_ready(folder / "exr", data_cfg, buffers):
         write_synthetic_store(folder / "exr", data_cfg, buffers, seed)
@@ -252,6 +258,26 @@ def measure(folder: Path | str, buffers: Sequence[str], *, width: int = 1920, he
         out["cpu_fraction"]["zarr_clips_per_s"] = z["cpu_s"] / z["wall_s"]
         out["clips_per_cpu_s"]["zarr_clips_per_s"] = z["clips"] / z["cpu_s"]
     return out
+
+
+def _drop_other_pack(settings: TrainStoreSettings, data_cfg: Any, buffers: list[str]) -> None:
+    """Remove the synthetic training store a previous call left at ``settings.dir`` where it was packed at
+    another frame size or without one of ``buffers`` (its ``store.json`` names :data:`PROFILE`), with a
+    warning: the pack would refuse it after the EXR store was written again. A folder of another profile
+    there is not this module's, and is left for the pack to name."""
+    path = settings.dir / "store.json"
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return
+    if not isinstance(meta, dict) or meta.get("profile") != PROFILE:
+        return
+    try:
+        check_meta(meta, settings, data_cfg, buffers, path)
+    except (TrainStoreError, KeyError) as err:
+        log.warning("the synthetic training store %s is of another shape (%s): packing it again",
+                    settings.dir, err)
+        shutil.rmtree(settings.dir)
 
 
 def _store_ready(data_dir: Path, data_cfg: Any, buffers: list[str]) -> bool:

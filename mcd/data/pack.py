@@ -40,6 +40,7 @@ from mcd.data.train_store import (
     TILE,
     VERSION,
     TrainStore,
+    TrainStoreError,
     TrainStoreSettings,
     channel_ranges,
     check_meta,
@@ -47,6 +48,7 @@ from mcd.data.train_store import (
     frame_digest,
     pack_command,
     read_meta,
+    readers_elsewhere,
     tile_grid,
     to_tiles,
 )
@@ -216,6 +218,15 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
     done = record["frames"]
     got = {"packed": 0, "reused": 0, "clamped": 0}
     fp16 = store.dtype == np.dtype(DTYPES["float16"])
+    stale = [f for f in frames
+             if str(f) in done and done[str(f)].get("sources") != frame_digest(man, f, store.packed)]
+    if stale and readers_elsewhere(store.root):
+        raise TrainStoreError(
+            f"{store.root} is being trained from by another run (it holds store.json's lock), and this "
+            f"config's EXR files differ from those {len(stale)} of scene {scene!r}'s packed frames were made "
+            f"from (e.g. frame {stale[0]}): packing them now would change the frames that run reads. Give "
+            "this config its own data.train_store.dir (or null, the default below its data folder), or pack "
+            "after that run ends")
     with open(store.scene_path(scene), "rb") as fh:
         for f in frames:
             digest = frame_digest(man, f, store.packed)

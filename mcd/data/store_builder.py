@@ -166,6 +166,23 @@ class StoreBuilder(StoreReader):
         return {**quality, "pilot_spp": pilot, "pilot_db": round(db, 3), "spp": spp,
                 "samples": r.samples_rendered}
 
+    def _pilot_exposure(self, spec: SceneSpec) -> dict[str, float]:
+        """The exposure the pilot's PSNR is estimated at (:meth:`_pilot`): the scene's fixed ``exposure``, or
+        the auto exposure's ``data.exposure_target``. Display-mapped errors depend on it, so the test frames'
+        spp does too."""
+        if spec.exposure != "auto":
+            return {"fixed": float(spec.exposure)}
+        return {"target": float(self.data_cfg.get("exposure_target", 0.5))}
+
+    def _pilot_stale(self, spec: SceneSpec, man: dict, quality: dict[str, Any]) -> bool:
+        """Whether the scene's reference-quality pilot must run (again): none recorded, or one of other
+        settings (:meth:`_pilot_key`) or of another exposure (:meth:`_pilot_exposure`; a pilot recorded
+        without it was estimated at the default target, 0.5, or at the scene's fixed exposure of then, so a
+        store of the default target keeps it and another runs it again: a render of frame 0)."""
+        rq = man.get("ref_quality") or {}
+        return (rq.get("key") != self._pilot_key(man, quality)
+                or rq.get("exposure", {"target": 0.5}) != self._pilot_exposure(spec))
+
     def _pilot_key(self, man: dict, quality: dict[str, Any]) -> str:
         s = self._settings()
         return _hash([man["source"]["sha256"], man["cameras"][0], s["width"], s["height"], s["max_depth"],
@@ -417,9 +434,10 @@ class StoreBuilder(StoreReader):
             quality = self._quality_cfg()
             if quality is None:
                 man.pop("ref_quality", None)
-            elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
+            elif self._pilot_stale(spec, man, quality):
                 tally.variant = tally.variant or self._variant()
                 man["ref_quality"] = {"key": self._pilot_key(man, quality),
+                                      "exposure": self._pilot_exposure(spec),
                                       **self._pilot(spec, man, loader(), quality)}
                 tally.msamples += man["ref_quality"]["samples"] / 1e6
             self._fill_scales(spec, man)
@@ -492,7 +510,7 @@ class StoreBuilder(StoreReader):
         quality = self._quality_cfg()
         if quality is None:
             man.pop("ref_quality", None)
-        elif (man.get("ref_quality") or {}).get("key") != self._pilot_key(man, quality):
+        elif self._pilot_stale(spec, man, quality):
             return False
         self._fill_scales(spec, man)
         if man != upgraded(on_disk, man):

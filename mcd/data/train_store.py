@@ -31,6 +31,12 @@ the loader does no arithmetic and, in the lossless ``float32`` mode, a crop read
 crop of the EXR path. ``float16`` halves the bytes; values beyond its range (``|x| > 65504``) are clamped to
 ``+-65504`` and counted at pack time (never an Inf), and a read converts back to float32.
 
+A store being trained from is held: :meth:`TrainStore.open` (the datamodule's) takes a shared ``flock`` on
+``store.json`` for the life of the object (its loader workers inherit it), and a pack that would write over a
+frame packed from other EXR files refuses while any reader holds it (:func:`readers_elsewhere`,
+:mod:`mcd.data.pack`): the frames are memory-mapped, so a run beside such a pack read the other store's
+frames from then on without a word.
+
 Memory maps are opened lazily on first read in the process that reads (a DataLoader worker), never pickled
 open: :class:`TrainStore` pickles its paths and settings only. A loader worker that opens one also has glibc
 keep freed memory (:func:`mcd.core.allocator.keep_freed_memory`): a clip's arrays then reuse the pages the
@@ -40,6 +46,7 @@ last clip freed instead of faulting in fresh zeroed ones, which nearly doubled t
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import mmap
@@ -47,7 +54,7 @@ import shlex
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Self
+from typing import Any, BinaryIO, Self
 
 import numpy as np
 import numpy.typing as npt
@@ -171,6 +178,8 @@ class TrainStore:
             else:
                 self._runs.append((c0, c1))
         self._maps: dict[str, tuple[mmap.mmap, np.ndarray, int]] = {}
+        #: ``store.json`` open with a shared ``flock`` while this store is read (:meth:`open`)
+        self._reading: BinaryIO | None = None
 
     # ------------------------------------------------------------------------------------------- opening
     @classmethod
@@ -186,7 +195,10 @@ class TrainStore:
                                   f"it first: {pack_command}")
         meta = read_meta(path, pack_command)
         check_meta(meta, settings, data_cfg, buffers, path)
-        return cls(settings.dir, meta, pack_command, buffers)
+        store = cls(settings.dir, meta, pack_command, buffers)
+        store._reading = open(path, "rb")  # noqa: SIM115  # held, shared, while this store is read
+        fcntl.flock(store._reading, fcntl.LOCK_SH)
+        return store
 
     def scene_path(self, scene: str) -> Path:
         return self.root / f"{scene}.npy"
@@ -293,7 +305,22 @@ class TrainStore:
 
     def __getstate__(self) -> dict:
         """Pickled without its memory maps: a DataLoader worker opens its own on first read."""
-        return {**self.__dict__, "_maps": {}}
+        return {**self.__dict__, "_maps": {}, "_reading": None}
+
+
+def readers_elsewhere(root: Path) -> bool:
+    """Whether an open :class:`TrainStore` (:meth:`TrainStore.open`: a run training from the store at
+    ``root``, in any process) holds its shared lock on ``store.json`` now; probed with an exclusive lock taken
+    and dropped at once."""
+    path = root / "store.json"
+    if not path.is_file():
+        return False
+    with open(path, "rb") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)  # dropped when f closes
+        except BlockingIOError:
+            return True
+    return False
 
 
 def _spans(start: int, size: int, tile: int) -> list[tuple[int, int, int]]:

@@ -1,6 +1,9 @@
 """Hydra callbacks of ``python -m mcd.run`` (registered in ``conf/config.yaml``, ``hydra.callbacks``), and
 the place that registers ``${run_id:}`` for every command composing that config (see below).
 
+:class:`SweepDirs`: before a sweep's first job, ``hydra.sweep.dir`` must be writable and no two jobs may
+share a directory (:mod:`mcd.lit.sweep_dirs`); otherwise one ``error:`` line, exit status 2, nothing written.
+
 :class:`FailedJobs`: a sweep runs every job (a failing job writes ``error.json`` and the sweep goes on,
 ``mcd.run``), then exits with status 1 naming how many jobs failed, so that scripts and CI see the failure.
 """
@@ -22,6 +25,22 @@ log = logging.getLogger("mcd.run")
 # Hydra instantiates this module's callbacks before it resolves hydra.run.dir or hydra.sweep.dir, so every
 # command composing conf/config.yaml gets the ${run_id:} of their defaults (mcd/lit/run_dir.py) from here
 run_dir.register_resolvers()
+
+
+class SweepDirs(Callback):
+    """Refuse a sweep whose folder cannot be written or whose jobs share a directory, before it starts."""
+
+    def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        """:func:`mcd.lit.sweep_dirs.check_sweep`; its ValueError ends the command (``error:``, exit 2)."""
+        from hydra.core.global_hydra import GlobalHydra
+
+        from mcd.lit.sweep_dirs import check_sweep
+
+        try:
+            check_sweep(config, GlobalHydra.instance().config_loader())
+        except ValueError as err:
+            print(f"error: {err}", file=sys.stderr)
+            sys.exit(2)
 
 
 class FailedJobs(Callback):

@@ -6,8 +6,9 @@
   :data:`CPU_BF16_PAYS` says the benchmark found it faster; else ``32-true``.
 Any other value of ``trainer.precision`` is Lightning's and passes through unchanged, with two exceptions
 checked before any work: ``16-mixed`` on the CPU, where Lightning trains in ``bf16-mixed`` instead, resolves
-to ``bf16-mixed`` (so the run's record says what ran), and a value Lightning does not know, or a 64-bit one
-(the data are float32, so the first step fails), is refused naming the key. The choice is logged.
+to ``bf16-mixed`` (so the run's record says what ran), and a value Lightning does not know, a 64-bit one or
+one with half-precision weights (``bf16-true``, ``16-true``: the data are float32, so the first step fails)
+is refused naming the key. The choice is logged.
 """
 
 from __future__ import annotations
@@ -46,12 +47,21 @@ def on_cpu(accelerator: str) -> bool:
     return accelerator == "cpu" or (accelerator == "auto" and not torch.cuda.is_available())
 
 
-#: The values of ``trainer.precision`` a run may have (``auto`` and Lightning's, less the 64-bit ones).
-CHOICES = ("auto", "32-true", "32", "bf16-mixed", "16-mixed", "bf16-true", "16-true", "bf16", "16")
+#: The values of ``trainer.precision`` a run may have (``auto`` and Lightning's, less the 64-bit ones and
+#: :data:`HALF_WEIGHTS`).
+CHOICES = ("auto", "32-true", "32", "bf16-mixed", "16-mixed", "bf16", "16")
+#: Lightning's precisions that cast the weights to half: the clips reach the model in float32, so the first
+#: training step failed ("Input type (float) and bias type (c10::BFloat16) should be the same"), after the
+#: store was rendered.
+HALF_WEIGHTS = ("bf16-true", "16-true")
 
 
 def check(precision: str) -> None:
     """ValueError naming the key for a ``trainer.precision`` outside :data:`CHOICES`."""
+    if precision in HALF_WEIGHTS:
+        raise ValueError(f"trainer.precision={precision}: half-precision weights are not supported (the "
+                         f"clips are float32 and the first step fails); give bf16-mixed (or 16-mixed on a "
+                         f"GPU), or one of {', '.join(CHOICES)}")
     if precision not in CHOICES:
         raise ValueError(f"trainer.precision={precision}: give one of {', '.join(CHOICES)} (64-bit training "
                          "is not supported: the data are float32)")

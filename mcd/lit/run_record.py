@@ -126,28 +126,48 @@ def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
 
     ``data_settings`` is what determines the data (:func:`mcd.data.store.store_settings`: ``data.name``, the
     frames' size and count, the samples, the data seed, the exposure, the scene lists), so that a run is not
-    resumed, or skipped as finished, on other data under the same profile. Settings a rerun may change
+    resumed, or skipped as finished, on other data under the same profile; ``transfer`` the checkpoint a
+    transfer starts from and its fine-tuning (:func:`mcd.lit.transfer.identity`). Settings a rerun may change
     without making it another job (epochs, capacity, ...) are left out (sweeps/_sweep_dirs.yaml: such a rerun
     goes to another ``sweep_tag``).
     """
+    from mcd.lit.transfer import identity as transfer_identity
+
     return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
             "data_profile": choices.get("data"), "data_settings": store_settings(cfg.data),
-            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None}
+            "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None,
+            "transfer": transfer_identity(cfg)}
 
 
 def _flat(identity: dict[str, Any]) -> dict[str, Any]:
     """``identity`` with ``data_settings`` spread into one ``data.<key>`` entry per setting (older records,
-    without it, compare the other keys only)."""
-    settings = identity.get("data_settings")
-    flat = {k: v for k, v in identity.items() if k != "data_settings"}
+    without it, compare the other keys only), and ``transfer`` into ``transfer`` (whether the run is a
+    transfer) and one ``transfer.<key>`` entry per key of :func:`mcd.lit.transfer.identity` (a finished run's
+    ``metrics.json`` holds more under it; those are not compared)."""
+    settings, transfer = identity.get("data_settings"), identity.get("transfer")
+    flat = {k: v for k, v in identity.items() if k not in ("data_settings", "transfer")}
     if isinstance(settings, dict):
         flat.update({f"data.{k}": v for k, v in settings.items()})
+    if "transfer" in identity:
+        flat["transfer"] = transfer is not None
+    if isinstance(transfer, dict):
+        flat.update({f"transfer.{k}": transfer[k] for k in ("init_from", "finetune_epochs", "finetune_clips")
+                     if k in transfer})
     return flat
 
 
 def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
-    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped)."""
+    """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped), or
+    its ``job.json`` records another split of the frames (:func:`split_settings`)."""
     _refuse_another_job(json.loads(path.read_text()), cfg, choices, path.parent, "a finished run")
+    try:
+        recorded = json.loads((path.parent / JOB_FILE).read_text())
+    except (OSError, ValueError):
+        return
+    if isinstance(recorded, dict):
+        _refuse_other_settings(recorded.get("split"), split_settings(cfg), path.parent,
+                               "a finished run of another split of the frames",
+                               "its scores are of other test frames")
 
 
 #: The job identity (:func:`job_identity`) of the run that trains in a run directory, written before training.
@@ -170,7 +190,48 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
         if not isinstance(recorded, dict):
             raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
         _refuse_another_job(recorded, cfg, choices, run_dir, "an interrupted run")
-    atomic_write_json(path, job_identity(cfg, choices), indent=2)  # the processes of a DDP run all write it
+        _refuse_other_settings(recorded.get("split"), split_settings(cfg), run_dir,
+                               "an interrupted run of another split of the frames",
+                               "its steps so far trained on frames of the old split, which this one may test")
+        _refuse_other_settings(recorded.get("optimiser"), optimiser_settings(cfg), run_dir,
+                               "an interrupted run trained with other optimiser settings", "its checkpoint "
+                               "carries the optimiser's and the schedule's state, so a resume keeps training "
+                               "at the old rate")
+    # the processes of a DDP run all write it
+    atomic_write_json(path, {**job_identity(cfg, choices), "split": split_settings(cfg),
+                             "optimiser": optimiser_settings(cfg)}, indent=2)
+
+
+def split_settings(cfg: DictConfig) -> dict[str, float | int]:
+    """The ``data.*`` settings that split each sequence into test, validation and training frames
+    (:func:`mcd.data.splits.split_frames`). A resume under another split tested frames its first steps had
+    trained on (``data.test_fraction`` 0.2, then 0.5: frame 9 of 20 trained, then tested), and a rerun under
+    another was skipped as finished. Recorded in ``job.json`` beside the job's identity."""
+    d = cfg.data
+    return {"data.test_fraction": float(d.get("test_fraction", 0.2)), "data.val_clips": int(d.val_clips),
+            "data.clip_len": int(d.clip_len)}
+
+
+def optimiser_settings(cfg: DictConfig) -> dict[str, float]:
+    """The ``train.*`` settings of the optimiser and its schedule (:meth:`mcd.lit.module.DenoiseModule
+    .configure_optimizers`) that a resumed run cannot change: Lightning restores the optimiser's and the
+    schedule's state from the checkpoint, so a resume with another ``train.lr`` trained at a mix of the two
+    rates while its records named the new one. Recorded in ``job.json`` beside the job's identity."""
+    return {f"train.{k}": float(cfg.train[k]) for k in ("lr", "lr_min", "weight_decay")}
+
+
+def _refuse_other_settings(recorded: Any, mine: dict[str, Any], run_dir: Path, what: str, why: str) -> None:
+    """FileExistsError naming each key of ``mine`` whose value differs from ``recorded`` (a section of the
+    run's ``job.json``; one from before the section is not compared): ``run_dir`` holds ``what``, and
+    ``why`` a rerun there cannot go on."""
+    if not isinstance(recorded, dict):
+        return
+    differs = {k: (recorded[k], v) for k, v in mine.items() if k in recorded and recorded[k] != v}
+    if differs:
+        detail = "; ".join(f"{k}: {old!r} there, {new!r} here" for k, (old, new) in differs.items())
+        raise FileExistsError(f"{run_dir} holds {what} ({detail}): {why}; run it with the old values, or "
+                              "give this run its own directory (hydra.run.dir=<dir>, or sweep_tag=<tag> in a "
+                              "sweep)")
 
 
 def _refuse_another_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], run_dir: Path,

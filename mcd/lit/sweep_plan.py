@@ -44,6 +44,14 @@ def keep(job: Mapping[str, str], base_seed: int, only_where: Mapping[str, Iterab
     return all(str(job.get(k)) in {str(v) for v in values} for k, values in only_where.items())
 
 
+def kept_jobs(grid: list[list[str]], config: DictConfig) -> list[list[str]]:
+    """The jobs of ``grid`` that run under ``config``'s ``sweep_plan.seeds_only_where`` (:func:`keep`)."""
+    only = (config.get("sweep_plan") or {}).get("seeds_only_where")
+    only = OmegaConf.to_container(only) if only is not None else None
+    base = int(config.get("seed", 0))
+    return [j for j in grid if keep(job_values(j), base, only)]  # type: ignore[arg-type]
+
+
 def plan_rows(jobs: list[list[str]], job_config: Callable[[list[str]], DictConfig],
               step_seconds: Callable[[DictConfig], float]) -> list[dict[str, Any]]:
     """One row per cell (data, steps, experiment) of ``jobs`` (each a list of overrides): its seeds, the
@@ -116,16 +124,13 @@ class PlannedSweeper(BasicSweeper):
         plan; ValueError naming ``sweep_plan.allow_large`` when the grid is above its limit."""
         assert self.config is not None and self.hydra_context is not None
         settings = self.config.get("sweep_plan") or {}
-        base = int(self.config.get("seed", 0))
-        only = settings.get("seeds_only_where")
-        only = OmegaConf.to_container(only) if only is not None else None
         grid = [list(j) for batch in BasicSweeper.split_arguments(overrides, None) for j in batch]
-        jobs = [j for j in grid if keep(job_values(j), base, only)]  # type: ignore[arg-type]
+        jobs = kept_jobs(grid, self.config)
         if len(jobs) < len(grid):  # named, so that seeds typed on the command line do not vanish unsaid
             log.info("sweep_plan.seeds_only_where=%s leaves out %d of the grid's %d jobs (seeds other than "
                      "seed=%d outside those cells; sweep_plan.seeds_only_where=null runs them)",
                      OmegaConf.to_container(settings.get("seeds_only_where")), len(grid) - len(jobs),
-                     len(grid), base)
+                     len(grid), int(self.config.get("seed", 0)))
         loader, config = self.hydra_context.config_loader, self.config
 
         def job_config(job: list[str]) -> DictConfig:

@@ -42,6 +42,23 @@ def checkpoint_of(init_from: str | Path) -> Path:
     )
 
 
+def identity(cfg: DictConfig) -> dict[str, Any] | None:
+    """What of ``cfg``'s transfer makes a run another job (:func:`mcd.lit.run_record.job_identity`): the
+    checkpoint it starts from (as :func:`prepare` records it: the file :func:`checkpoint_of` finds, or the
+    path as given where it finds none) and the fine-tuning; None for an ordinary run. A rerun with another
+    source run or fine-tuning was skipped as finished, its ``metrics.json`` the first transfer's."""
+    t = cfg.get("transfer")
+    if t is None or not t.get("init_from"):
+        return None
+    try:
+        ckpt = str(checkpoint_of(t.init_from))
+    except FileNotFoundError:
+        ckpt = str(t.init_from)
+    epochs = int(t.get("finetune_epochs", 0))
+    return {"init_from": ckpt, "finetune_epochs": epochs,
+            "finetune_clips": int(t.get("finetune_clips", 1)) if epochs > 0 else 0}
+
+
 def prepare(cfg: DictConfig) -> tuple[DictConfig, dict[str, Any] | None]:
     """The run config of a transfer job and what to record about it (`None`, unchanged cfg: no transfer).
 

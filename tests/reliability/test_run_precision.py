@@ -34,3 +34,16 @@ def test_fp16_mixed_on_the_cpu_is_recorded_as_the_bf16_it_trains_in(cbox_store, 
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert json.loads((run / "metrics.json").read_text())["precision"] == "bf16-mixed"
     assert "trainer.precision=16-mixed -> bf16-mixed" in proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("value", ["bf16-true", "16-true"])
+def test_half_precision_weights_are_named_before_anything_is_rendered(tmp_path, value):
+    """Campaign 10, part 1: ``bf16-true`` and ``16-true`` were accepted, the store was rendered, and the first
+    training step failed ("Input type (float) and bias type (c10::BFloat16) should be the same")."""
+    data = tmp_path / "data"
+    proc = mcd_run(*RUN, *store32_overrides(data), f"trainer.precision={value}",
+                   f"hydra.run.dir={tmp_path / 'run'}")
+    assert proc.returncode != 0
+    assert f"trainer.precision={value}: half-precision weights are not supported" in proc.stderr, \
+        proc.stderr[-3000:]
+    assert not list(data.rglob("*.exr"))  # nothing rendered

@@ -6,7 +6,9 @@ at load; no file depends on it. A store rendered at the default target (0.5) kep
 only), so a run trained and was tested on frames whose mean was 0.5 while its ``metrics.json`` named 0.25; a
 scene's fixed ``exposure`` stayed too when it went back to ``auto``. Now the manifest records the target its
 exposure was set for, and another one (or a fixed exposure before) sets it again from frame 0's reference,
-rendering nothing (:meth:`mcd.data.store_builder.StoreBuilder._fill_scales`).
+rendering nothing (:meth:`mcd.data.store_builder.StoreBuilder._fill_scales`) but the test frames'
+references, whose spp the reference-quality pilot chooses at the new exposure (campaign 10,
+``test_store_pilot_exposure.py``).
 """
 
 from __future__ import annotations
@@ -34,8 +36,13 @@ def test_another_exposure_target_sets_the_exposure_again_without_rendering(own_s
     quarter = _store(store.data_dir, "data.exposure_target=0.25")
     quarter.ensure({"ref", "c4"}, progress=False)
     after = _manifest(quarter)
-    assert after["exposure"] == pytest.approx(e0 / 2, rel=1e-9)
-    assert after["files"] == before["files"]  # nothing rendered again
+    # the reference-quality pilot runs again at the new exposure (campaign 10, test_store_pilot_exposure.py):
+    # only the test frames' references are rendered again, at the spp it chooses, and frame 0's gives the
+    # exposure; every other file is kept
+    assert after["exposure"] == pytest.approx(e0 / 2, rel=0.01)
+    assert after["ref_quality"]["spp"] != before["ref_quality"]["spp"]
+    kept = {k: v for k, v in before["files"].items() if not k.endswith("/ref.exr")}
+    assert {k: after["files"][k] for k in kept} == kept
     assert float(quarter.load("cbox", 0, "ref").mean()) == pytest.approx(0.25, rel=1e-4)
     back = _store(store.data_dir)
     back.ensure({"ref"}, progress=False)
