@@ -246,7 +246,38 @@ def metrics_problem(path: Path) -> str | None:
     shape = record_shape_problems(data)
     if shape:
         return f"{path} is corrupt (a field of another type: {', '.join(shape)})"
+    absurd = absurd_numbers(data)
+    if absurd:
+        return f"{path} is corrupt (a number no run records: {', '.join(absurd)})"
     return None
+
+
+#: The largest magnitude of a number a run records: its scores and statistics are float32 tensors' (and
+#: its counts and seeds far smaller). A larger finite one (``"rmse": 1e300``) is damage, and printed in a
+#: table it filled the cell with 301 digits.
+RECORD_NUMBER_MAX = 3.4028234663852886e38
+#: The largest number of seconds a run records (``wall_s``, ``train_s``, a segment's ``seconds``, ...): about
+#: 31 years.
+RECORD_SECONDS_MAX = 1e9
+
+
+def absurd_numbers(data: object, where: str = "") -> list[str]:
+    """The numbers of a run record (``metrics.json``, ``edges.json``; nested objects and lists too) that no
+    run writes: a magnitude above :data:`RECORD_NUMBER_MAX`, or seconds (a key ending in ``_s`` or named
+    ``seconds``) outside [0, :data:`RECORD_SECONDS_MAX`]; each as ``key=value``, its path dotted."""
+    if isinstance(data, dict):
+        return [bad for k, v in data.items()
+                for bad in absurd_numbers(v, f"{where}.{k}" if where else str(k))]
+    if isinstance(data, list):
+        return [bad for i, v in enumerate(data) for bad in absurd_numbers(v, f"{where}[{i}]")]
+    if isinstance(data, bool) or not isinstance(data, int | float):
+        return []
+    name = where.rsplit(".", 1)[-1]
+    seconds = name.endswith("_s") or name == "seconds"
+    value = f"{data:.4g}" if isinstance(data, float) or abs(data) > 10**12 else str(data)
+    if abs(data) > RECORD_NUMBER_MAX or (seconds and not 0 <= data <= RECORD_SECONDS_MAX):
+        return [f"{where}={value}"]
+    return []
 
 
 #: The type of each ``metrics.json`` field (``mcd.lit.run_record.RunRecord``'s), by which a report reads it.
@@ -399,6 +430,10 @@ def load_run(path: Path) -> Run:
     if metrics is not None and "psnr" not in metrics:
         metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
     edges = _load_json(path / EDGES_FILE)  # measured after the run by tools/edge_effect.py
+    absurd = absurd_numbers(edges or {})  # its numbers join the tables
+    if absurd:
+        problem = problem or f"{path / EDGES_FILE} is corrupt (a number no run records: {', '.join(absurd)})"
+        metrics = None
     if metrics is not None and edges is not None and edges.get("checkpoint") == metrics.get("checkpoint"):
         metrics = {**metrics, **{k: edges.get(k) for k in ("edge_effect", *MAP_KEYS)}}
     error = _load_json(path / "error.json")

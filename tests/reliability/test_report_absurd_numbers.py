@@ -1,0 +1,48 @@
+"""Campaign 10, part 2 (notes/reliability_campaigns.md): a run record's number that no run writes
+(``"rmse": 1e300``, ``"wall_s": 1e300``, an ``edges.json`` ``edge_effect`` of 1e300) was printed in full:
+Table 1's rMSE cell and the README's wall time held 300-digit numbers, exit 0. Such a run is failed, named
+with its file and key (``mcd.reporting.runs.absurd_numbers``), and the others are reported. The command runs
+for real."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from mcd.reporting.select import to_markdown
+from tests.reliability.test_report_inputs import _job, _report
+
+
+@pytest.mark.parametrize(("file", "fields", "named"), [
+    ("metrics.json", {"rmse": 1e300}, "rmse=1e+300"),
+    ("metrics.json", {"wall_s": 1e300, "params_m": -1e300}, "wall_s=1e+300, params_m=-1e+300"),
+    ("metrics.json", {"train_s": -5.0}, "train_s=-5"),
+    ("metrics.json", {"per_scene": {"cbox": {"rmse": 1e39}}}, "per_scene.cbox.rmse=1e+39"),
+    ("edges.json", {"edge_effect": 1e300}, "edge_effect=1e+300"),
+])
+def test_a_number_no_run_records_fails_that_run_naming_the_key(tmp_path, file, fields, named):
+    sweep = tmp_path / "multirun"
+    _job(sweep, "F_spp4", {"psnr": 30.5, "ssim": 0.9, "experiment": "F", "budget": 4})
+    bad = _job(sweep, "unet_spp4", {"psnr": 29.0, "ssim": 0.8, "experiment": "unet", "budget": 4})
+    path = bad / file
+    old = json.loads(path.read_text()) if path.is_file() else {}
+    path.write_text(json.dumps({**old, **fields}))
+    proc = _report(tmp_path, str(sweep))
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert f"error: {bad.resolve() / file} is corrupt (a number no run records: {named})" in proc.stderr, \
+        proc.stderr
+    report = tmp_path / "reports" / "t"
+    assert "2 found, 1 finished, 1 failed" in (report / "README.md").read_text()
+    for md in report.glob("*.md"):
+        assert not re.search(r"\d{20}", md.read_text()), md
+
+
+def test_an_hdr_error_in_range_is_kept_and_its_cell_stays_short():
+    """The control: an rMSE of 1e6 (an HDR error, real) is a result; x1e3 in Table 1 it reads 1e+09."""
+    import pandas as pd
+
+    text = to_markdown(pd.DataFrame({"rMSE": [1e6 * 1e3, 12.345]}))
+    assert "| 1e+09 |" in text and "| 12.35 |" in text
