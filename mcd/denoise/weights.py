@@ -152,6 +152,38 @@ def param_count(cfg: DictConfig) -> int:
         return sum(p.numel() for p in build(cfg).parameters())
 
 
+def tested_checkpoint(run_dir: Path, flag: str) -> Path | None:
+    """The checkpoint file of the run directory ``run_dir`` that the run itself tested: the file named by its
+    ``metrics.json`` ``checkpoint``, looked up in its own ``checkpoints/`` (a run moved or copied keeps its
+    name there); for a run without that record (not finished, or tested as built), its only
+    ``checkpoints/best*.ckpt``, else ``last.ckpt`` (as :func:`mcd.lit.transfer.checkpoint_of`); None where
+    it holds neither.
+
+    FileNotFoundError (naming ``flag``) where the tested file is gone, or where several ``best*.ckpt`` leave
+    it open which is the run's own: taking the last by name took a foreign one copied in (another run's
+    best, of another experiment), whose bundle then stated this run's metrics."""
+    folder = run_dir / "checkpoints"
+    try:
+        record = json.loads((run_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        record = None
+    tested = record.get("checkpoint") if isinstance(record, dict) else None
+    if isinstance(tested, str) and tested:
+        own = folder / Path(tested).name
+        if not own.is_file():
+            raise FileNotFoundError(
+                f"{flag}={run_dir}: its metrics.json says it tested {tested}, and {own} is not there; "
+                "give that checkpoint file itself")
+        return own
+    best = sorted(folder.glob("best*.ckpt"))
+    if len(best) > 1:
+        raise FileNotFoundError(
+            f"{flag}={run_dir}: {len(best)} best checkpoints in {folder} ({', '.join(b.name for b in best)}) "
+            "and no metrics.json naming the one the run tested (a run keeps one); give the .ckpt file itself")
+    last = folder / "last.ckpt"
+    return best[0] if best else last if last.is_file() else None
+
+
 def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]:
     """``(config, weights, provenance, source)`` of what ``--checkpoint=spec`` names (module docstring)."""
     if spec in bundled_names():
@@ -162,15 +194,12 @@ def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]
         cfg, weights, prov = _from_bundle(path)
         return cfg, weights, prov, f"bundled checkpoint {path}"
     if path.is_dir() or path.is_file():
-        from mcd.lit.transfer import checkpoint_of
-
-        try:
-            ckpt = checkpoint_of(path)
-        except FileNotFoundError:
+        ckpt = path if path.is_file() else tested_checkpoint(path, "--checkpoint")
+        if ckpt is None:
             raise FileNotFoundError(
                 f"--checkpoint={spec}: a folder without checkpoints/best*.ckpt or checkpoints/last.ckpt; "
                 "give a finished run directory of python -m mcd.run, a .ckpt file, or a bundled name "
-                f"({', '.join(bundled_names()) or 'none installed'})") from None
+                f"({', '.join(bundled_names()) or 'none installed'})")
         cfg, weights, prov = _from_run_ckpt(ckpt)
         return cfg, weights, prov, str(ckpt)
     if path.exists():  # a device (/dev/zero), a FIFO, a socket: read whole, it could never end or block
