@@ -22,6 +22,7 @@ import pandas as pd
 import yaml
 from omegaconf import OmegaConf
 
+from mcd.core.config_rules import ConfigError, checked
 from mcd.core.metrics import FRAME_METRICS, MODEL_METRICS, PSNR_CAP_DB
 from mcd.core.paths import SAFE_NAME
 from mcd.lit.run_record import RunRecord
@@ -263,7 +264,8 @@ RECORD_SECONDS_MAX = 1e9
 
 def absurd_numbers(data: object, where: str = "") -> list[str]:
     """The numbers of a run record (``metrics.json``, ``edges.json``; nested objects and lists too) that no
-    run writes: a magnitude above :data:`RECORD_NUMBER_MAX`, or seconds (a key ending in ``_s`` or named
+    run writes: a magnitude above :data:`RECORD_NUMBER_MAX` (an integer: above int64's, which the tables'
+    columns hold), or seconds (a key ending in ``_s`` or named
     ``seconds``) outside [0, :data:`RECORD_SECONDS_MAX`]; each as ``key=value``, its path dotted."""
     if isinstance(data, dict):
         return [bad for k, v in data.items()
@@ -275,7 +277,8 @@ def absurd_numbers(data: object, where: str = "") -> list[str]:
     name = where.rsplit(".", 1)[-1]
     seconds = name.endswith("_s") or name == "seconds"
     value = f"{data:.4g}" if isinstance(data, float) or abs(data) > 10**12 else str(data)
-    if abs(data) > RECORD_NUMBER_MAX or (seconds and not 0 <= data <= RECORD_SECONDS_MAX):
+    too_large = abs(data) >= 2**63 if isinstance(data, int) else abs(data) > RECORD_NUMBER_MAX
+    if too_large or (seconds and not 0 <= data <= RECORD_SECONDS_MAX):
         return [f"{where}={value}"]
     return []
 
@@ -343,7 +346,24 @@ def config_problems(config: object) -> list[str]:
     for section, kinds in CONFIG_SECTION_TYPES.items():
         if isinstance(config.get(section), dict):
             bad += _mismatches(config[section], kinds, f"{section}.")
+    for key in RULED_KEYS:  # in range: the rule mcd.run checks them by before any work
+        section, _, name = key.rpartition(".")
+        part = config.get(section) if section else config
+        if isinstance(part, dict) and name in part and not bad:
+            value = part[name]
+            try:
+                checked(key, value)
+            except ConfigError as err:
+                bad.append(str(err))
+            else:
+                bad += absurd_numbers(value, key)
     return bad
+
+
+#: The config keys a report computes with (the scaling report's steps, the frame size of its timings) that
+#: have a rule in :data:`mcd.core.config_rules.RULES`: a record outside it (``train.max_steps: -5`` made a
+#: scale point of -5 steps; ``1e50`` ended the scaling report in a traceback half written) is no run's.
+RULED_KEYS = ("seed", "train.max_steps", "data.width", "data.height", "transfer.finetune_epochs")
 
 
 def read_table(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame | None, str | None]:
@@ -459,7 +479,8 @@ def load_run(path: Path) -> Run:
     for what, cfg in ((source, config), (resolved_file, resolved)):
         shape = config_problems(cfg) if cfg is not None else []
         if shape:
-            problem = problem or f"{what} is corrupt (a value of another type: {', '.join(shape)})"
+            problem = problem or (f"{what} is corrupt (a value of another type or out of range: "
+                                  f"{', '.join(shape)})")
     # what the failed run's row shows is read from its config: only the parts of their types stay
     config = {k: v for k, v in config.items() if not config_problems({k: v})}
     choices, bad = _read_yaml(path / ".hydra" / "hydra.yaml", _choices)

@@ -46,3 +46,31 @@ def test_an_hdr_error_in_range_is_kept_and_its_cell_stays_short():
 
     text = to_markdown(pd.DataFrame({"rMSE": [1e6 * 1e3, 12.345]}))
     assert "| 1e+09 |" in text and "| 12.35 |" in text
+
+
+@pytest.mark.parametrize(("where", "value", "named"), [
+    ("config", -5, "train.max_steps=-5: give a whole number >= 1 or null"),
+    ("config", 10**50, "train.max_steps=1e+50"),
+    ("metrics", 10**30, "train_steps=1e+30"),
+])
+def test_a_step_budget_no_run_records_fails_that_run_in_the_scaling_report(tmp_path, where, value, named):
+    """``train.max_steps: -5`` in a run's config made a scale point of -5 steps, exit 0; ``1e50`` (or
+    ``train_steps`` of 1e30 where no ``max_steps`` is set) ended the scaling report in a traceback after
+    half its tables were written."""
+    sweep = tmp_path / "multirun"
+    for i, exp in enumerate(("F", "unet")):
+        run = _job(sweep, f"{exp}_spp4", {"psnr": 30.5 - i, "ssim": 0.9, "experiment": exp, "budget": 4,
+                                          "seed": 0, "train_steps": 100})
+        steps = value if (where, exp) == ("config", "unet") else "null" if where == "metrics" else 100
+        with (run / ".hydra" / "config.yaml").open("a") as f:
+            f.write(f"train:\n  max_steps: {steps}\n")
+    bad = sweep / "unet_spp4"
+    if where == "metrics":
+        (bad / "metrics.json").write_text(json.dumps({**json.loads((bad / "metrics.json").read_text()),
+                                                      "train_steps": value}))
+    proc = _report(tmp_path, str(sweep), "--kind", "scaling")
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+    file = bad.resolve() / (".hydra/config.yaml" if where == "config" else "metrics.json")
+    assert f"error: {file} is corrupt (" in proc.stderr and named in proc.stderr, proc.stderr
+    assert (tmp_path / "reports" / "t" / "README.md").is_file()
