@@ -136,7 +136,21 @@ def _bundle_json(meta: Path) -> dict[str, Any]:
 
 
 def _from_bundle(pt: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
+    """A bundle's configuration, weights and provenance. The ``.pt`` must be the one its JSON was written
+    for (its ``sha256``, ``mcd.bundle``): another bundle's weights of the same model, copied over it, were
+    denoised with, and ``denoise.json`` stated the JSON's training for them."""
     provenance = _bundle_json(pt.with_suffix(".json"))
+    recorded = provenance.get("sha256")
+    if isinstance(recorded, str):
+        import hashlib
+
+        with pt.open("rb") as f:
+            actual = hashlib.file_digest(f, "sha256").hexdigest()
+        if actual != recorded:
+            raise checkpoint.CheckpointError(
+                f"--checkpoint: {pt}: its SHA-256 is {actual[:12]}..., but {pt.with_suffix('.json').name} "
+                f"was written for {recorded[:12]}... (the weights were replaced, or the JSON is another "
+                "bundle's); bundle the run again: python -m mcd.bundle RUN_DIR --name NAME --replace")
     weights = checkpoint.safe_load(pt, "--checkpoint")
     return OmegaConf.create(provenance["config"]), weights, provenance
 

@@ -80,3 +80,32 @@ def test_a_run_record_of_another_shape_is_one_error_line_naming_the_file(ab_swee
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert proc.stderr.startswith(f"error: {path}: {named}"), proc.stderr
     assert "Traceback" not in proc.stderr and not (tmp_path / "out" / "a.pt").exists()
+
+
+def test_a_bundles_weights_replaced_by_another_bundles_are_refused(ab_sweep, tmp_path, capsys):
+    """Two bundles of one model (row A's best and its last checkpoint): the second's ``.pt`` copied over the
+    first's was denoised with, and ``denoise.json`` stated the first's training for it, exit 0."""
+    from mcd.denoise.cli import run
+    from tests.reliability.denoise_helpers import write_frames
+
+    run_a, _ = _runs(ab_sweep, tmp_path)
+    last = tmp_path / "A_last"
+    shutil.copytree(run_a, last)
+    record = json.loads((last / "metrics.json").read_text())
+    (last / "metrics.json").write_text(json.dumps({**record, "checkpoint": "checkpoints/last.ckpt"}))
+    out = tmp_path / "out"
+    for run_dir, name in ((run_a, "a1"), (last, "a2")):
+        proc = _bundle(str(run_dir), "--name", name, "--out", str(out))
+        assert proc.returncode == 0, proc.stderr[-3000:]
+    assert (out / "a1.pt").read_bytes() != (out / "a2.pt").read_bytes()
+    write_frames(tmp_path / "frames", n=2, size=(32, 32))
+    run([str(tmp_path / "frames"), "-o", str(tmp_path / "ok"), "--checkpoint", str(out / "a1.pt"),
+         "--no-progress"])
+    shutil.copy(out / "a2.pt", out / "a1.pt")
+    with pytest.raises(SystemExit) as exc:
+        run([str(tmp_path / "frames"), "-o", str(tmp_path / "swapped"), "--checkpoint", str(out / "a1.pt"),
+             "--no-progress"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f"{out / 'a1.pt'}: its SHA-256 is" in err and "a1.json was written for" in err, err
+    assert not (tmp_path / "swapped" / "denoise.json").exists()
