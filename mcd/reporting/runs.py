@@ -392,6 +392,11 @@ def frames_problem(path: Path) -> str | None:
     for col in ("frame", *SCORE_RANGES):  # read as numbers (the viewer's metrics, the per-frame plots)
         if col in df.columns and (pd.to_numeric(df[col], errors="coerce").isna() & df[col].notna()).any():
             return f"{path} is corrupt (a {col} that is not a number)"
+    for col, (lo, hi) in SCORE_RANGES.items():  # in range, as metrics.json's (an empty cell: no such score)
+        values = pd.to_numeric(df[col], errors="coerce") if col in df.columns else pd.Series([], dtype=float)
+        hi = min(hi, RECORD_NUMBER_MAX)
+        if (values.notna() & ~values.between(lo, hi)).any():
+            return f"{path} is corrupt (a {col} outside [{lo:g}, {hi:g}])"
     unsafe = sorted({str(s) for s in df["scene"] if not SAFE_NAME.fullmatch(str(s))})
     if unsafe:  # a scene names the report's per-frame plot: "../x" wrote outside the report folder
         return (f"{path} is corrupt (a scene that is not a plain name: {unsafe[0]!r}; scenes are letters, "

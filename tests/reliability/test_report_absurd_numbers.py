@@ -74,3 +74,22 @@ def test_a_step_budget_no_run_records_fails_that_run_in_the_scaling_report(tmp_p
     file = bad.resolve() / (".hydra/config.yaml" if where == "config" else "metrics.json")
     assert f"error: {file} is corrupt (" in proc.stderr and named in proc.stderr, proc.stderr
     assert (tmp_path / "reports" / "t" / "README.md").is_file()
+
+
+@pytest.mark.parametrize(("column", "value", "named"), [
+    ("ssim", 1e300, "a ssim outside [-1, 1]"),
+    ("flip", -1e300, "a flip outside [0, 1]"),
+    ("rmse", 1e300, "a rmse outside [0, 3.40282e+38]"),
+])
+def test_a_frames_csv_score_out_of_its_range_fails_that_run(tmp_path, column, value, named):
+    """``frames.csv`` was held to the range of its PSNR only: an SSIM of 1e300 reached the viewer's data and
+    the per-frame table, exit 0."""
+    sweep = tmp_path / "multirun"
+    _job(sweep, "F_spp4", {"psnr": 30.5, "ssim": 0.9, "experiment": "F", "budget": 4})
+    bad = _job(sweep, "unet_spp4", {"psnr": 29.0, "ssim": 0.8, "experiment": "unet", "budget": 4})
+    frames = bad / "frames.csv"
+    frames.write_text(f"scene,frame,psnr,{column}\ncbox,0,30.0,{value}\ncbox,1,31.0,\n")
+    proc = _report(tmp_path, str(sweep))
+    assert proc.returncode == 1, proc.stderr
+    assert f"error: {frames.resolve()} is corrupt ({named})" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
