@@ -484,7 +484,7 @@ def load_run(path: Path) -> Run:
     for what, cfg in ((source, config), (resolved_file, resolved)):
         shape = config_problems(cfg) if cfg is not None else []
         if shape:
-            problem = problem or (f"{what} is corrupt (a value of another type or out of range: "
+            problem = problem or (f"{what} is corrupt (a value of another type: "
                                   f"{', '.join(shape)})")
     # what the failed run's row shows is read from its config: only the parts of their types stay
     config = {k: v for k, v in config.items() if not config_problems({k: v})}
