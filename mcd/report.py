@@ -225,7 +225,7 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
     before anything is written."""
     why = "the report is written to <out>/<name>/"
     if name is not None:
-        return check_folder_name(name, "--name", why)
+        return _not_the_index(check_folder_name(name, "--name", why), "--name")
     if scaling:
         return "scaling"
     profiles = sorted({r.data_profile for r in runs})
@@ -234,8 +234,21 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
     run = runs[0]
     source = (run.path / "metrics.json" if run.metrics is not None and "data_profile" in run.metrics
               else run.path / ".hydra" / "hydra.yaml")
-    return check_folder_name(profiles[0], f"data_profile in {source}",
-                             f"{why} and the default name is the runs' data profile (or give --name)")
+    field = f"data_profile in {source}"
+    return _not_the_index(check_folder_name(profiles[0], field, f"{why} and the default name is the runs' "
+                                            "data profile (or give --name)"), field)
+
+
+def _not_the_index(name: str, field: str) -> str:
+    """``name``, or UnsafeNameError where it is the reports index's file name (any case): a report named
+    ``README.md`` was written as the folder ``<out>/README.md``, and the index of that root then ended in an
+    IsADirectoryError traceback, after this report and every later one."""
+    from mcd.reporting.index import INDEX
+
+    if name.lower() == INDEX.lower():
+        raise UnsafeNameError(f"{field}={name!r}: the name of the reports index (<out>/{INDEX}); give "
+                              "another --name")
+    return name
 
 
 #: The first line of the ``notes.md`` that a scaling report writes (:mod:`mcd.reporting.scaling.notes`); a
