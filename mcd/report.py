@@ -302,6 +302,12 @@ def _written_by_report(path: Path, first_line: str) -> bool:
         return f.readline().startswith(first_line)
 
 
+def _linked(path: Path) -> bool:
+    """Whether ``path`` is a symlink, or a file whose bytes other names share (a hard link): a report writing
+    there (most of its files are written in place, not renamed) changed a user's file outside its folder."""
+    return path.is_symlink() or (path.is_file() and path.stat().st_nlink > 1)
+
+
 def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | None = None,
               scaling: bool = False) -> None:
     """ReportOutError, before anything is written, where ``<out>/README.md`` exists and is not a reports index
@@ -331,14 +337,14 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
     declared = sorted({n for kind in outputs.KINDS for n in outputs.declared(kind)})  # what any report writes
     # and the records and viewer being written before they replace the old ones
     staging = (f"{records.RECORDS_DIR}.new", f".{viewer.VIEWER_DIR}.partial")
-    for name in (*declared, *staging):
-        path = out_dir / name
-        inside = sorted(p for p in path.rglob("*") if p.is_symlink()) if path.is_dir() else []
-        links = [path] if path.is_symlink() else inside
+    for path in (out_root / INDEX, *(out_dir / name for name in (*declared, *staging))):
+        inside = sorted(p for p in path.rglob("*") if _linked(p)) if path.is_dir() else []
+        links = [path] if _linked(path) else inside
         if links:  # written or removed through it, the report would change what lies outside its folder
-            raise ReportOutError(f"{links[0]}: a link where the report writes (to {os.readlink(links[0])}); "
-                                 "a report writes only inside its folder: remove the link, or give another "
-                                 "--name")
+            to = (f"to {os.readlink(links[0])}" if links[0].is_symlink()
+                  else f"a hard link: {links[0].stat().st_nlink} names share its bytes")
+            raise ReportOutError(f"{links[0]}: a link where the report writes ({to}); a report writes only "
+                                 "inside its folder: remove the link, or give another --name")
     if out_dir.is_dir() and not (out_dir / "README.md").exists():  # no report wrote there: a user's folder
         found = [n for n in declared if (out_dir / n).exists() or (out_dir / n).is_symlink()]
         if found:
