@@ -139,6 +139,10 @@ def find_frames(inputs: list[str]) -> list[Path]:
         p = Path(item).expanduser()
         if p.is_dir():
             frames += _frames_among(p.glob("*.exr"))
+            other_case = sorted(q.name for q in p.iterdir() if q.suffix.lower() == ".exr" != q.suffix)
+            if other_case:  # f0003.EXR was left out of the sequence without a word
+                log.warning("%s: %s: not '.exr' in lower case, so not frames of the sequence; rename them to "
+                            "denoise them", p, ", ".join(other_case))
         elif p.is_file():
             frames.append(p)
         else:

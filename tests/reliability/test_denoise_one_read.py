@@ -6,6 +6,8 @@
 - Every frame's colour was read twice before any work (``check_frames``, then ``_first_exposure``) and a
   depth layer again for ``_depth_scale``: one read pass (:func:`mcd.denoise.frames.check_frames`, which
   returns what it measured) serves all three, and the outputs are those of the earlier reads.
+- A frame ``f0002.EXR`` (not ``.exr`` in lower case) was left out of its folder's sequence without a word; a
+  warning names it now.
 
 ``mcd-denoise`` runs for real on the bundled U-Net."""
 
@@ -80,3 +82,13 @@ def test_each_file_is_read_once_before_the_work_and_the_outputs_are_unchanged(tm
     seq = frames_module.FrameSequence(paths, set(LAYERS), "c4", 0.5)
     assert (seq.exposure, seq.depth_scale) == (report["exposure"], scan.depth_scale)
     assert np.isfinite(read_exr(tmp_path / "out" / "f0001.exr")).all()
+
+
+def test_a_frame_whose_suffix_is_not_lower_case_is_named(tmp_path, caplog):
+    """``f0002.EXR`` beside ``f0000.exr`` and ``f0001.exr`` was left out of the sequence without a word."""
+    paths = write_frames(tmp_path / "in", n=3, size=(16, 16))
+    paths[2].rename(paths[2].with_suffix(".EXR"))
+    with caplog.at_level(logging.WARNING, logger="mcd.denoise.frames"):
+        report = _denoise(tmp_path / "in", tmp_path / "out")
+    assert report["frames"] == 2
+    assert "f0002.EXR: not '.exr' in lower case" in caplog.text, caplog.text
