@@ -27,7 +27,7 @@ import yaml
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.core.atomic_write import atomic_write
-from mcd.core.paths import check_folder_name
+from mcd.core.paths import check_folder_name, writable_folder_to_be
 from mcd.denoise.weights import BUNDLED_DIR, check_schema, tested_checkpoint
 from mcd.lit import checkpoint
 
@@ -57,6 +57,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     from mcd.models import build
 
     check_folder_name(name, "--name", f"the bundle is written as {out_dir}/<name>.pt and .json")
+    writable_folder_to_be("--out", out_dir)  # a file, or below one: named before the run is read
     taken = [p for p in (out_dir / f"{name}.pt", out_dir / f"{name}.json") if p.exists() or p.is_symlink()]
     if taken and not replace:
         raise BundleExistsError(

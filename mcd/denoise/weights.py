@@ -185,8 +185,9 @@ def tested_checkpoint(run_dir: Path, flag: str) -> Path | None:
     if isinstance(tested, str) and tested:
         own = folder / Path(tested).name
         if not own.is_file():
+            there = "is not a regular file" if own.exists() else "is not there"
             raise FileNotFoundError(
-                f"{flag}={run_dir}: its metrics.json says it tested {tested}, and {own} is not there; "
+                f"{flag}={run_dir}: its metrics.json says it tested {tested}, and {own} {there}; "
                 "give that checkpoint file itself")
         return own
     best = sorted(folder.glob("best*.ckpt"))

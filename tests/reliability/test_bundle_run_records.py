@@ -109,3 +109,16 @@ def test_a_bundles_weights_replaced_by_another_bundles_are_refused(ab_sweep, tmp
     err = capsys.readouterr().err
     assert f"{out / 'a1.pt'}: its SHA-256 is" in err and "a1.json was written for" in err, err
     assert not (tmp_path / "swapped" / "denoise.json").exists()
+
+
+@pytest.mark.parametrize(("out", "named"), [
+    ("afile", "--out={out} is a file, not a folder"),
+    ("afile/sub", "--out={out} lies below"),
+])
+def test_an_out_that_cannot_be_a_folder_names_the_flag(ab_sweep, tmp_path, out, named):
+    """``--out`` a file said ``error: [Errno 17] File exists: 'afile'``: no flag, no fix."""
+    run, _ = _runs(ab_sweep, tmp_path)
+    (tmp_path / "afile").write_text("a user's file")
+    proc = _bundle(str(run), "--name", "a", "--out", str(tmp_path / out))
+    assert proc.returncode == 2 and named.format(out=tmp_path / out) in proc.stderr, proc.stderr
+    assert (tmp_path / "afile").read_text() == "a user's file"
