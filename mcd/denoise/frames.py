@@ -15,7 +15,7 @@ pattern. Every frame and layer must have one size. Colour and G-buffers go throu
 :mod:`mcd.data.exposure` as the training data: colour scaled so that frame 0's mean (a robust one, fireflies
 clamped: :func:`mcd.data.exposure.input_exposure`; the first frame that is not black where frame 0 is) is the
 checkpoint's ``data.exposure_target`` (the same scale for the whole sequence, undone on output), depth
-divided by frame 0's median, NaN/Inf/negative values replaced by 0 and counted.
+divided by the median of the first frame with a hit, NaN/Inf/negative values replaced by 0 and counted.
 """
 
 from __future__ import annotations
