@@ -584,11 +584,14 @@ def main(argv: list[str] | None = None) -> None:
         index.update_readme(readme, index.results_block(out_dir, readme.parent))
         print(f"results of {current} written to {readme}")
     from mcd.reporting.runs import find_runs
+    from mcd.reporting.strips import UNREADABLE
 
     corrupt = [r.corrupt for r in find_runs(args.dirs) if r.corrupt]
-    if corrupt:  # the report lists these jobs as failed; the exit status says the inputs were damaged
-        for problem in corrupt:
-            print(f"error: {problem}; the job is reported as failed: run it again", file=sys.stderr)
+    for problem in corrupt:  # the report lists these jobs as failed; the exit status says the inputs were bad
+        print(f"error: {problem}; the job is reported as failed: run it again", file=sys.stderr)
+    for problem in UNREADABLE.values():
+        print(f"error: {problem}; left out of the strips and the viewer", file=sys.stderr)
+    if corrupt or UNREADABLE:
         sys.exit(1)
 
 

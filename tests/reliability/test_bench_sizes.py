@@ -21,7 +21,7 @@ from tests.conftest import module_env
     ("profile", ["--method", "A", "--size", "16x20000", "--synthetic", "--dtype", "fp32"],
      "size '16x20000': a side above 16384 pixels"),
     ("profile", ["--method", "A", "--size", "16x16", "--synthetic", "--dtype", "fp32", "--tolerance", "-1"],
-     "--tolerance=-1.0: give a fraction above 0"),
+     "--tolerance=-1.0: give a fraction of at least 0"),
 ])
 def test_a_size_or_tolerance_out_of_range_is_refused_before_measuring(tmp_path, mode, args, named):
     out = tmp_path / "bench.csv"
