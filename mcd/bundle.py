@@ -18,6 +18,7 @@ import argparse
 import hashlib
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -26,10 +27,9 @@ import yaml
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.core.atomic_write import atomic_write
-from mcd.core.paths import check_folder_name
-from mcd.denoise.weights import BUNDLED_DIR, check_schema
+from mcd.core.paths import check_folder_name, writable_folder_to_be
+from mcd.denoise.weights import BUNDLED_DIR, check_schema, tested_checkpoint
 from mcd.lit import checkpoint
-from mcd.lit.transfer import checkpoint_of
 
 #: Keys of a run's metrics.json copied into the provenance.
 METRICS = ("psnr", "ssim", "rmse", "lt", "input_psnr", "input_ssim", "input_rmse", "per_scene",
@@ -57,6 +57,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     from mcd.models import build
 
     check_folder_name(name, "--name", f"the bundle is written as {out_dir}/<name>.pt and .json")
+    writable_folder_to_be("--out", out_dir)  # a file, or below one: named before the run is read
     taken = [p for p in (out_dir / f"{name}.pt", out_dir / f"{name}.json") if p.exists() or p.is_symlink()]
     if taken and not replace:
         raise BundleExistsError(
@@ -65,15 +66,24 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
     metrics_path = run_dir / "metrics.json"
     if not metrics_path.is_file():
         raise FileNotFoundError(f"{metrics_path}: missing; bundle a finished run of python -m mcd.run")
-    metrics = json.loads(metrics_path.read_text())
-    ckpt = checkpoint_of(run_dir)
+    metrics = read_record(metrics_path, json.loads, dict, "a JSON object")
+    ckpt = tested_checkpoint(run_dir, "run dir")
+    if ckpt is None:
+        raise FileNotFoundError(f"{run_dir / 'checkpoints'}: no best*.ckpt or last.ckpt; bundle a finished "
+                                "run of python -m mcd.run that trained")
     state = checkpoint.safe_load(ckpt, "run dir")
     cfg = OmegaConf.create(state["hyper_parameters"]["cfg"])
     check_schema(cfg, f"{ckpt}: its training config")
+    trained = str(cfg.get("experiment", cfg.method.name))
+    if metrics.get("experiment") not in (None, trained):
+        raise ValueError(f"{ckpt}: a checkpoint of experiment {trained!r}, but {metrics_path} records "
+                         f"{metrics.get('experiment')!r}; its metrics are not this checkpoint's: bundle the "
+                         "run's own checkpoint")
     weights = {k: v.detach().float().contiguous() for k, v in checkpoint.model_weights(state).items()}
     checkpoint.check_fits(build(cfg), weights, "run dir", ckpt)
     overrides_file = run_dir / ".hydra" / "overrides.yaml"
-    overrides = yaml.safe_load(overrides_file.read_text()) if overrides_file.is_file() else None
+    overrides = (read_record(overrides_file, yaml.safe_load, list, "a YAML list")
+                 if overrides_file.is_file() else None)
     provenance = {
         "command": None if overrides is None else " ".join(["python -m mcd.run", *overrides]),
         "checkpoint": f"{ckpt.relative_to(run_dir)} (global step {state.get('global_step')})",
@@ -82,6 +92,21 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
         **({"source_commit": source_commit} if source_commit else {}),
     }
     return write_bundle(weights, cfg, name, provenance, out_dir)
+
+
+def read_record(path: Path, parse: Callable[[str], Any], kind: type, what: str) -> Any:
+    """``parse`` of the text of the run record ``path``, which must be a ``kind``; ValueError naming the file
+    otherwise (a ``metrics.json`` that is a JSON list ended in an AttributeError traceback, an
+    ``overrides.yaml`` of random bytes in a message without the file's name)."""
+    try:
+        data = parse(path.read_text())
+    except (ValueError, yaml.YAMLError) as err:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        raise ValueError(f"{path}: not readable ({err}); bundle a finished run of python -m mcd.run"
+                         ) from None
+    if not isinstance(data, kind):
+        raise ValueError(f"{path}: a {type(data).__name__}, not {what}; bundle a finished run of python -m "
+                         "mcd.run")
+    return data
 
 
 def write_bundle(weights: dict[str, torch.Tensor], cfg: DictConfig, name: str, provenance: dict[str, Any],

@@ -225,7 +225,7 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
     before anything is written."""
     why = "the report is written to <out>/<name>/"
     if name is not None:
-        return check_folder_name(name, "--name", why)
+        return _not_the_index(check_folder_name(name, "--name", why), "--name")
     if scaling:
         return "scaling"
     profiles = sorted({r.data_profile for r in runs})
@@ -234,8 +234,21 @@ def report_name(runs: list[Run], name: str | None, scaling: bool = False) -> str
     run = runs[0]
     source = (run.path / "metrics.json" if run.metrics is not None and "data_profile" in run.metrics
               else run.path / ".hydra" / "hydra.yaml")
-    return check_folder_name(profiles[0], f"data_profile in {source}",
-                             f"{why} and the default name is the runs' data profile (or give --name)")
+    field = f"data_profile in {source}"
+    return _not_the_index(check_folder_name(profiles[0], field, f"{why} and the default name is the runs' "
+                                            "data profile (or give --name)"), field)
+
+
+def _not_the_index(name: str, field: str) -> str:
+    """``name``, or UnsafeNameError where it is the reports index's file name (any case): a report named
+    ``README.md`` was written as the folder ``<out>/README.md``, and the index of that root then ended in an
+    IsADirectoryError traceback, after this report and every later one."""
+    from mcd.reporting.index import INDEX
+
+    if name.lower() == INDEX.lower():
+        raise UnsafeNameError(f"{field}={name!r}: the name of the reports index (<out>/{INDEX}); give "
+                              "another --name")
+    return name
 
 
 #: The first line of the ``notes.md`` that a scaling report writes (:mod:`mcd.reporting.scaling.notes`); a
@@ -289,6 +302,12 @@ def _written_by_report(path: Path, first_line: str) -> bool:
         return f.readline().startswith(first_line)
 
 
+def _linked(path: Path) -> bool:
+    """Whether ``path`` is a symlink, or a file whose bytes other names share (a hard link): a report writing
+    there (most of its files are written in place, not renamed) changed a user's file outside its folder."""
+    return path.is_symlink() or (path.is_file() and path.stat().st_nlink > 1)
+
+
 def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | None = None,
               scaling: bool = False) -> None:
     """ReportOutError, before anything is written, where ``<out>/README.md`` exists and is not a reports index
@@ -318,14 +337,14 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
     declared = sorted({n for kind in outputs.KINDS for n in outputs.declared(kind)})  # what any report writes
     # and the records and viewer being written before they replace the old ones
     staging = (f"{records.RECORDS_DIR}.new", f".{viewer.VIEWER_DIR}.partial")
-    for name in (*declared, *staging):
-        path = out_dir / name
-        inside = sorted(p for p in path.rglob("*") if p.is_symlink()) if path.is_dir() else []
-        links = [path] if path.is_symlink() else inside
+    for path in (out_root / INDEX, *(out_dir / name for name in (*declared, *staging))):
+        inside = sorted(p for p in path.rglob("*") if _linked(p)) if path.is_dir() else []
+        links = [path] if _linked(path) else inside
         if links:  # written or removed through it, the report would change what lies outside its folder
-            raise ReportOutError(f"{links[0]}: a link where the report writes (to {os.readlink(links[0])}); "
-                                 "a report writes only inside its folder: remove the link, or give another "
-                                 "--name")
+            to = (f"to {os.readlink(links[0])}" if links[0].is_symlink()
+                  else f"a hard link: {links[0].stat().st_nlink} names share its bytes")
+            raise ReportOutError(f"{links[0]}: a link where the report writes ({to}); a report writes only "
+                                 "inside its folder: remove the link, or give another --name")
     if out_dir.is_dir() and not (out_dir / "README.md").exists():  # no report wrote there: a user's folder
         found = [n for n in declared if (out_dir / n).exists() or (out_dir / n).is_symlink()]
         if found:
@@ -565,11 +584,14 @@ def main(argv: list[str] | None = None) -> None:
         index.update_readme(readme, index.results_block(out_dir, readme.parent))
         print(f"results of {current} written to {readme}")
     from mcd.reporting.runs import find_runs
+    from mcd.reporting.strips import UNREADABLE
 
     corrupt = [r.corrupt for r in find_runs(args.dirs) if r.corrupt]
-    if corrupt:  # the report lists these jobs as failed; the exit status says the inputs were damaged
-        for problem in corrupt:
-            print(f"error: {problem}; the job is reported as failed: run it again", file=sys.stderr)
+    for problem in corrupt:  # the report lists these jobs as failed; the exit status says the inputs were bad
+        print(f"error: {problem}; the job is reported as failed: run it again", file=sys.stderr)
+    for problem in UNREADABLE.values():
+        print(f"error: {problem}; left out of the strips and the viewer", file=sys.stderr)
+    if corrupt or UNREADABLE:
         sys.exit(1)
 
 

@@ -167,6 +167,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.repeat < 1 or args.warmup < 0:
         parser.error("--repeat needs at least 1 and --warmup at least 0")
+    if not 0 <= args.tolerance < float("inf"):  # -1 refused every table, nan none (0: any gap refuses it)
+        parser.error(f"--tolerance={args.tolerance}: give a fraction of at least 0 (0.10: 10%)")
     if args.out is not None:
         try:
             writable_file_to_be("--out", args.out)  # a folder or an unwritable place: before the measurement

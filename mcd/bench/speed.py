@@ -62,6 +62,7 @@ from torch import Tensor, nn
 from mcd.config.compose import compose, experiment_names
 from mcd.config.methods import CATALOGUE, display_name
 from mcd.core import allocator
+from mcd.core.config_rules import MAX_SIDE
 from mcd.core.machine import device_name, restart_peak_rss, status_mb
 from mcd.core.paths import writable_file_to_be
 from mcd.core.provenance import short_commit
@@ -190,6 +191,9 @@ def parse_size(size: str) -> tuple[int, int]:
         raise ValueError(f"size {size!r}: use one of {sorted(SIZES)} or <width>x<height>") from None
     if min(w, h) < 1:
         raise ValueError(f"size {size!r}: width and height must be at least 1")
+    if max(w, h) > MAX_SIDE:  # 100000x100000 ended in an allocator's traceback; less might fill the memory
+        raise ValueError(f"size {size!r}: a side above {MAX_SIDE} pixels, the largest frame a data profile "
+                         "may have (mcd.core.config_rules.MAX_SIDE)")
     return h, w
 
 

@@ -12,6 +12,7 @@ them.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -52,6 +53,48 @@ OUTLIER_QUANTILE = 0.999
 OUTLIER_WARN = 0.01
 
 
+@dataclass(frozen=True)
+class FrameExposure:
+    """What :func:`measure_exposure` found in one frame: its winsorised and its plain mean (float64), how
+    many of its ``size`` values lay above ``bound`` (clamped), and the ``target`` the exposure brings the mean
+    to."""
+
+    mean: float
+    plain: float
+    clamped: int
+    size: int
+    bound: float
+    target: float
+
+    @property
+    def exposure(self) -> float:
+        return self.target / self.mean
+
+    def warn_outliers(self, name: str) -> None:
+        """A warning naming ``name`` when the clamp moved the mean by more than :data:`OUTLIER_WARN`."""
+        if self.plain > self.mean * (1 + OUTLIER_WARN):
+            log.warning("%s: %d of %d values above %.4g (%g x its %g quantile) clamped for the exposure: "
+                        "they would have moved it from x%.4g to x%.4g (fireflies? one exposure holds for "
+                        "every frame)", name, self.clamped, self.size, self.bound, OUTLIER_FACTOR,
+                        OUTLIER_QUANTILE, self.target / self.mean, self.target / self.plain)
+
+
+def measure_exposure(frame: np.ndarray, target: float) -> FrameExposure | None:
+    """The robust mean of a user's noisy colour ``frame`` (sanitised first) behind :func:`input_exposure`;
+    None if black."""
+    clean, _ = sanitise(np.asarray(frame, dtype=np.float32), allow_negative=False)
+    clean = clean.astype(np.float64)
+    positive = clean[clean > 0]
+    if not positive.size:
+        return None
+    bound = float(OUTLIER_FACTOR * np.quantile(positive, OUTLIER_QUANTILE))
+    mean = float(np.minimum(clean, bound).mean(dtype=np.float64))
+    if mean <= 0:
+        return None
+    return FrameExposure(mean, float(clean.mean(dtype=np.float64)), int(np.count_nonzero(clean > bound)),
+                         clean.size, bound, target)
+
+
 def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0",
                    warn: bool = True) -> float | None:
     """The scale that brings a robust mean of ``frame0`` (a user's noisy colour, sanitised first) to
@@ -61,33 +104,23 @@ def input_exposure(frame0: np.ndarray, target: float, name: str = "frame 0",
     A noisy frame may hold fireflies: one pixel of 1e6 in a 128x128 frame of mean 0.5 multiplies the plain
     mean by about 120, and so darkens every frame of the sequence the network sees by that factor. The mean
     here is winsorised: values above :data:`OUTLIER_FACTOR` times the :data:`OUTLIER_QUANTILE` of the positive
-    values are clamped to that bound. On a frame without such outliers it is the plain mean of
-    :func:`auto_exposure` (the statistic the training data's exposure comes from). When the clamp moves the
-    mean by more than :data:`OUTLIER_WARN`, a warning names ``name``, the values clamped and both exposures
-    (``warn=False``: none, for a frame whose exposure is only compared with the sequence's).
+    values are clamped to that bound (:func:`measure_exposure`). On a frame without such outliers it is the
+    plain mean of :func:`auto_exposure` (the statistic the training data's exposure comes from). When the
+    clamp moves the mean by more than :data:`OUTLIER_WARN`, a warning names ``name``, the values clamped and
+    both exposures (``warn=False``: none; :meth:`FrameExposure.warn_outliers` gives it for the frame whose
+    exposure is used).
 
     No absolute clamp (:data:`EXPOSURE_CLAMP`) applies here: the mean is taken in float64, which float32's
     largest values cannot overflow, and a sequence whose values are all above such a clamp (physical units
     of mean 1e9, say) must still reach the network at ``target``: clamped, it would reach it too bright, and
     come out wrong (docs/reliability.md, "Campaign fixes").
     """
-    clean, _ = sanitise(np.asarray(frame0, dtype=np.float32), allow_negative=False)
-    clean = clean.astype(np.float64)
-    positive = clean[clean > 0]
-    if not positive.size:
+    measured = measure_exposure(frame0, target)
+    if measured is None:
         return None
-    bound = float(OUTLIER_FACTOR * np.quantile(positive, OUTLIER_QUANTILE))
-    plain = float(clean.mean(dtype=np.float64))
-    mean = float(np.minimum(clean, bound).mean(dtype=np.float64))
-    if mean <= 0:
-        return None
-    if warn and plain > mean * (1 + OUTLIER_WARN):
-        log.warning("%s: %d of %d values above %.4g (%g x its %g quantile) clamped for the exposure: they "
-                    "would have moved it from x%.4g to x%.4g (fireflies? one exposure holds for every frame)",
-                    name,
-                    int(np.count_nonzero(clean > bound)), clean.size, bound, OUTLIER_FACTOR,
-                    OUTLIER_QUANTILE, target / mean, target / plain)
-    return target / mean
+    if warn:
+        measured.warn_outliers(name)
+    return measured.exposure
 
 
 def depth_scale(depth0: np.ndarray) -> float:

@@ -193,9 +193,9 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
     output_folder.check_unrecorded(args.output, SUMMARY, outputs)
     if (args.output / SUMMARY).exists():  # another program's (or a damaged) denoise.json: never replaced
-        from mcd.denoise.resume import read_record
+        from mcd.denoise.resume import check_kind
 
-        read_record(args.output / SUMMARY)
+        check_kind(args.output / SUMMARY, scene=True)   # read_record's checks, then the earlier run's kind
     output_folder.check_writable(args.output)
     folder_lock.enter_context(output_folder.hold(args.output))
     output_folder.claim(args.output, SUMMARY)
@@ -215,8 +215,8 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
         raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
     from mcd.denoise.frame_scores import check_references, find_references, score_text
     from mcd.denoise.frames import check_frames, find_frames, read_header, siblings
-    from mcd.denoise.resume import Record, config_digest, file_stamps, weights_digest
-    from mcd.denoise.sequence import denoise_frames, wanted_layers
+    from mcd.denoise.resume import Record, check_kind, config_digest, file_stamps, weights_digest
+    from mcd.denoise.sequence import denoise_frames, exposure_target, wanted_layers
 
     paths = find_frames(args.inputs)
     refs = find_references(paths, args.reference)
@@ -231,19 +231,20 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     main_files = [n for p in paths for n in frame_files(p.stem)[:2]]  # every method writes these two
     output_folder.check_space(args.output, [n for n in main_files if not (args.output / n).is_file()], h * w)
     folder_lock.enter_context(output_folder.hold(args.output))
-    size = check_frames(paths, wanted_layers(loaded))
+    scan = check_frames(paths, wanted_layers(loaded), exposure_target(loaded))  # the one read before the work
     if refs:
-        check_references(refs, size)
+        check_references(refs, scan.size)
     settings = {"inputs": file_stamps(inputs), "weights_sha256": weights_digest(loaded.model),
                 "config_sha256": config_digest(loaded.cfg),
                 "experiment": loaded.experiment, "budget": loaded.cfg.budget, "precision": args.precision,
                 "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap,
                 "exposure": args.exposure}
+    check_kind(args.output / SUMMARY, scene=False)
     record = Record(args.output, settings)  # reads a previous run's record, before claim writes a first one
     output_folder.claim(args.output, SUMMARY)
     report = denoise_frames(loaded, paths, args.output, device, args.max_memory_mb, args.overlap,
                             progress=not args.no_progress, dtype=dtype, record=record, meta=meta,
-                            references=refs, exposure=args.exposure)
+                            references=refs, exposure=args.exposure, scan=scan)
     for what in ("input", "reference"):  # a reference's counts are keyed <file>:reference
         counts = {k: v for k, v in report["sanitised"].items()
                   if k.endswith(":reference") == (what == "reference")}

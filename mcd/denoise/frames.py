@@ -15,7 +15,7 @@ pattern. Every frame and layer must have one size. Colour and G-buffers go throu
 :mod:`mcd.data.exposure` as the training data: colour scaled so that frame 0's mean (a robust one, fireflies
 clamped: :func:`mcd.data.exposure.input_exposure`; the first frame that is not black where frame 0 is) is the
 checkpoint's ``data.exposure_target`` (the same scale for the whole sequence, undone on output), depth
-divided by frame 0's median, NaN/Inf/negative values replaced by 0 and counted.
+divided by the median of the first frame with a hit, NaN/Inf/negative values replaced by 0 and counted.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import numpy as np
 import OpenEXR
 
 from mcd.data import exr
-from mcd.data.exposure import depth_scale, input_exposure, normalise
+from mcd.data.exposure import FrameExposure, depth_scale, measure_exposure, normalise
 
 log = logging.getLogger(__name__)
 
@@ -139,6 +139,10 @@ def find_frames(inputs: list[str]) -> list[Path]:
         p = Path(item).expanduser()
         if p.is_dir():
             frames += _frames_among(p.glob("*.exr"))
+            other_case = sorted(q.name for q in p.iterdir() if q.suffix.lower() == ".exr" != q.suffix)
+            if other_case:  # f0003.EXR was left out of the sequence without a word
+                log.warning("%s: %s: not '.exr' in lower case, so not frames of the sequence; rename them to "
+                            "denoise them", p, ", ".join(other_case))
         elif p.is_file():
             frames.append(p)
         else:
@@ -216,10 +220,25 @@ def read_frame(path: Path, want: set[str], size: tuple[int, int] | None = None) 
     return out
 
 
-def check_frames(paths: list[Path], want: set[str]) -> tuple[int, int]:
+@dataclass
+class FrameScan:
+    """What :func:`check_frames` found in its one read of every frame: the sequence's ``(H, W)``, each
+    frame's colour measured for the exposure (:func:`mcd.data.exposure.measure_exposure`; None: black), and
+    the depth scale of the first frame whose depth layer holds a hit (``depth_from``; None: no frame does, or
+    no depth layer is read)."""
+
+    size: tuple[int, int]
+    exposures: list[FrameExposure | None]
+    depth_scale: float = 1.0
+    depth_from: int | None = None
+
+
+def check_frames(paths: list[Path], want: set[str], exposure_target: float) -> FrameScan:
     """Check every frame before the first is denoised: its header and its sibling layers' (readable, the
     layers of ``want`` present, one size across frames and layers), then its pixels (they decode: a truncated
-    file is named here); returns the sequence's ``(H, W)``. FrameError naming the first bad file."""
+    file is named here). FrameError naming the first bad file. The one read of the pixels also measures what
+    :class:`FrameSequence` sets the sequence's exposure (towards ``exposure_target``) and depth scale from,
+    so that no frame is read again before the work."""
     size = read_header(paths[0])[0]
     for i, p in enumerate(paths):
         (h, w), _ = read_header(p)
@@ -227,14 +246,19 @@ def check_frames(paths: list[Path], want: set[str]) -> tuple[int, int]:
             raise FrameError(f"{p}: frame {i} is {w}x{h} but frame 0 ({paths[0].name}) is "
                              f"{size[1]}x{size[0]}; a sequence keeps one size (denoise it apart)")
         _layout(p, want, size)
-    for p in paths:
-        read_frame(p, want, size)
+    scan = FrameScan(size, [])
+    for i, p in enumerate(paths):
+        frame = read_frame(p, want, size)
+        scan.exposures.append(measure_exposure(frame["colour"], exposure_target))
+        depth = frame.get("depth")
+        if scan.depth_from is None and depth is not None and np.any(np.isfinite(depth) & (depth > 0)):
+            scan.depth_scale, scan.depth_from = depth_scale(depth), i
     alpha = [p for p in paths if any(n == "A" or n.endswith(".A") for n in read_header(p)[1])]
     if alpha:  # the outputs are RGB: a user compositing with the input's alpha must know it is not carried
         log.warning("%s%s: an alpha channel (A), which is not denoised and not written to the outputs (they "
                     "hold R, G, B); copy it over from the input where you composite", alpha[0],
                     f" and {len(alpha) - 1} more frame(s)" if len(alpha) > 1 else "")
-    return size
+    return scan
 
 
 #: How far (a factor) frame 0's exposure may lie from the median of the sequence's frames before the frame
@@ -255,65 +279,63 @@ class FrameSequence:
     exposure_target: float
     #: ``--exposure``: the sequence's exposure as given (None: from frame 0, :func:`input_exposure`)
     given_exposure: float | None = None
+    #: what :func:`check_frames` measured of these frames (None: read them here)
+    scan: FrameScan | None = None
     exposure: float = 1.0
     depth_scale: float = 1.0
     size: tuple[int, int] = (0, 0)
     bad: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        first = read_frame(self.paths[0], self.want)
-        self.size = first["colour"].shape[:2]
+        scan = self.scan or check_frames(self.paths, self.want, self.exposure_target)
+        self.size = scan.size
         if self.given_exposure is not None:
             exposure = self.given_exposure
             log.info("exposure x%.4g for every frame and score (--exposure)", exposure)
         else:
-            exposure = self._first_exposure(first["colour"])
+            exposure = self._first_exposure(scan.exposures)
         self.exposure = exposure or 1.0
-        if "depth" in first:
-            self.depth_scale = self._depth_scale(first["depth"])
+        if "depth" in self.want:
+            self.depth_scale = self._depth_scale(scan)
 
-    def _depth_scale(self, depth0: np.ndarray) -> float:
+    def _depth_scale(self, scan: FrameScan) -> float:
         """The depth scale (:func:`depth_scale`) of the first frame whose depth layer holds a hit (a positive
         finite distance), logged where that is not frame 0: a frame 0 that hits nothing (the sky) gave 1, and
         a sequence in centimetres then reached the network hundreds of times too far."""
-        for i, path in enumerate(self.paths):
-            depth = depth0 if i == 0 else read_frame(path, {"depth"}, self.size)["depth"]
-            if np.any(np.isfinite(depth) & (depth > 0)):
-                if i:
-                    log.info("%s: frames 0-%d hit nothing (depth 0); depth scale %.4g from frame %d",
-                             self.paths[0], i - 1, depth_scale(depth), i)
-                return depth_scale(depth)
-        return 1.0
+        if scan.depth_from:
+            log.info("%s: frames 0-%d hit nothing (depth 0); depth scale %.4g from frame %d", self.paths[0],
+                     scan.depth_from - 1, scan.depth_scale, scan.depth_from)
+        return scan.depth_scale if scan.depth_from is not None else 1.0
 
-    def _first_exposure(self, colour0: np.ndarray) -> float | None:
-        """The exposure of the first frame that is not black (:func:`input_exposure`), logged where that is
-        not frame 0; None (a warning) when every frame is. A sequence that fades in from black must not take
-        1 from its black frame 0: its HDR frames would reach the network at their own scale. Nor may it take
-        the exposure of a frame far darker or brighter than the rest (a fade from near black: frame 0 at a
-        thousandth of the others made them come out 2.7 times too bright): where that frame's exposure is more
-        than :data:`EXPOSURE_SPREAD` times off the median of every lit frame's, the frame nearest the median
-        gives it, with a warning naming both (``--exposure`` chooses another). Every frame's colour is read
-        once more for this."""
-        exposures = [input_exposure(colour0 if i == 0 else read_frame(path, set(), self.size)["colour"],
-                                    self.exposure_target, str(path), warn=i == 0)
-                     for i, path in enumerate(self.paths)]
-        lit = [(i, e) for i, e in enumerate(exposures) if e is not None]
+    def _first_exposure(self, measured: list[FrameExposure | None]) -> float | None:
+        """The exposure of the first frame that is not black (``measured``: each frame's, from
+        :func:`check_frames`), logged where that is not frame 0; None (a warning) when every frame is. A
+        sequence that fades in from black must not take 1 from its black frame 0: its HDR frames would reach
+        the network at their own scale. Nor may it take the exposure of a frame far darker or brighter than
+        the rest (a fade from near black: frame 0 at a thousandth of the others made them come out 2.7 times
+        too bright): where that frame's exposure is more than :data:`EXPOSURE_SPREAD` times off the median of
+        every lit frame's, the frame nearest the median gives it, with a warning naming both (``--exposure``
+        chooses another). The outlier warning of :func:`mcd.data.exposure.input_exposure` (fireflies clamped)
+        is given for the frame whose exposure is taken, whichever it is."""
+        lit = [(i, m) for i, m in enumerate(measured) if m is not None]
         if not lit:
             log.warning("%s: every frame is black; exposure left at 1", self.paths[0])
             return None
-        first, exposure = lit[0]
+        first, exposure = lit[0][0], lit[0][1].exposure
         if first:
             log.info("%s: frames 0-%d are black; exposure x%.4g from frame %d", self.paths[0], first - 1,
                      exposure, first)
-        typical = float(np.median([e for _, e in lit]))
+        typical = float(np.median([m.exposure for _, m in lit]))
         if EXPOSURE_SPREAD ** -1 <= exposure / typical <= EXPOSURE_SPREAD:
+            lit[0][1].warn_outliers(str(self.paths[first]))
             return exposure
-        near, chosen = min(lit, key=lambda item: abs(np.log(item[1] / typical)))
+        near, chosen = min(lit, key=lambda item: abs(np.log(item[1].exposure / typical)))
         log.warning("%s: its exposure x%.4g is %.3g times the median of the sequence's frames; one exposure "
                     "holds for every frame, so it is x%.4g, from frame %d (%s), nearest the median (give "
                     "--exposure to choose another, or denoise the frames apart)", self.paths[first], exposure,
-                    exposure / typical, chosen, near, self.paths[near].name)
-        return chosen
+                    exposure / typical, chosen.exposure, near, self.paths[near].name)
+        chosen.warn_outliers(str(self.paths[near]))
+        return chosen.exposure
 
     def __len__(self) -> int:
         return len(self.paths)

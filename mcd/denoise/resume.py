@@ -97,6 +97,22 @@ def read_record(path: Path) -> dict[str, Any]:
                       "or give another -o")
 
 
+def check_kind(path: Path, scene: bool) -> None:
+    """RecordError where the earlier ``denoise.json`` at ``path`` is the record of the other input: a
+    ``--scene`` run's (``variant``, no ``settings``: its samples, exposures and scores) for a frames run, or
+    a frames run's (``settings``) for a ``--scene`` run. Either replaced it, and its outputs stayed beside
+    the new ones without a record (the scene run's scores were lost without a word)."""
+    if not path.is_file():
+        return
+    old = read_record(path)
+    earlier_scene = "settings" not in old and "variant" in old
+    if earlier_scene == scene or "settings" not in old and not earlier_scene:
+        return
+    kind = "an mcd-denoise --scene run" if earlier_scene else "an mcd-denoise run on frames"
+    raise RecordError(f"{path}: the record of {kind}, whose outputs are beside it; this run would replace "
+                      "the record and leave them unrecorded: give another -o (or delete the folder's files)")
+
+
 class Record:
     """The finished frames of this run in ``<out>/denoise.json``, and those a previous run left (module
     docstring)."""

@@ -145,7 +145,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     sim_model = copy.deepcopy(model) if plan is not None and adaptive else None
     exposure_source = "--exposure" if exposure is not None else None
     score_exposure, score_source = exposure, exposure_source  # the scores' exposure (one for every method)
-    scale = 1.0
+    scale, scale_from = 1.0, None  # the depth scale, and the frame it came from (the first with a hit)
     rows: list[dict[str, Any]] = []
     model.reset()
     if sim_model is not None:
@@ -177,12 +177,19 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             key = "extra" if adaptive and read_uniform else "uniform" if read_uniform else "scores"
             spent[key] += n * budget
         gb = r.gbuffer(gbuffer_spp, derive_seed(seed, "gbuffer", f))
-        if f == 0:
-            if exposure is None:  # what the user has: the method's own input, never the reference
-                exposure = input_exposure(raw.get("c1_in", raw.get(uniform)), target,
-                                          f"{path}: frame 0's input") or 1.0
-                exposure_source = "frame 0's input"
-            scale = depth_scale(gb["depth"])
+        if f == 0 and exposure is None:  # what the user has: the method's own input, never the reference
+            exposure = input_exposure(raw.get("c1_in", raw.get(uniform)), target,
+                                      f"{path}: frame 0's input") or 1.0
+            exposure_source = "frame 0's input"
+        depth = gb["depth"]
+        if scale_from is None and np.any(np.isfinite(depth) & (depth > 0)):
+            # the first frame with a hit, as for frames (mcd.denoise.frames.FrameSequence._depth_scale): a
+            # frame 0 that hits nothing (the sky) gave 1, and a scene in centimetres reached the network far
+            # off; the frames before hit nothing, so their depth (0) is the same at any scale
+            scale, scale_from = depth_scale(depth), f
+            if f:
+                log.info("%s: frames 0-%d hit nothing (depth 0); depth scale %.4g from frame %d", path, f - 1,
+                         scale, f)
         x: dict[str, torch.Tensor | None] = {}
         for name, img in {**raw, **{b: gb[b] for b in GBUFFERS if b in reads}}.items():
             x[name] = layout(_tensor(normalise(img, name, exposure, scale, colour=name not in GBUFFERS)[0],

@@ -25,7 +25,7 @@ from tqdm import tqdm
 from mcd.data.exposure import scale
 from mcd.data.exr import read_exr
 from mcd.denoise.frame_scores import Scorer
-from mcd.denoise.frames import LAYERS, FrameError, FrameSequence
+from mcd.denoise.frames import LAYERS, FrameError, FrameScan, FrameSequence
 from mcd.denoise.output import hwc, write_frame
 from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.resume import Record
@@ -52,6 +52,11 @@ def wanted_layers(loaded: Loaded) -> set[str]:
     return set(loaded.model.required_buffers()) & set(LAYERS)
 
 
+def exposure_target(loaded: Loaded) -> float:
+    """The mean the checkpoint's inputs were brought to in training (``data.exposure_target``)."""
+    return float(loaded.cfg.data.get("exposure_target", 0.5))
+
+
 def to_tensor(img: np.ndarray, device: torch.device) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(img.transpose(2, 0, 1)))[None].to(device)
 
@@ -60,17 +65,19 @@ def denoise_frames(loaded: Loaded, paths: list[Path], out_dir: Path, device: tor
                    max_memory_mb: float, overlap: int, progress: bool = True,
                    dtype: torch.dtype | None = None, record: Record | None = None,
                    meta: dict[str, Any] | None = None,
-                   references: list[Path] | None = None, exposure: float | None = None) -> dict[str, Any]:
+                   references: list[Path] | None = None, exposure: float | None = None,
+                   scan: FrameScan | None = None) -> dict[str, Any]:
     """Denoise ``paths`` (one sequence, checked by :func:`mcd.denoise.frames.check_frames`) into ``out_dir``
     with autocast to ``dtype`` (None: fp32; mcd/denoise/precision.py); returns a summary (frames, tiles,
     sanitised, s, resumed). ``record``: resume and record finished frames (module docstring), its JSON
     carrying ``meta`` and the summary so far. ``references``: one per frame, scored
     (:mod:`mcd.denoise.frame_scores`; a frame finished before is scored from its written EXR).
-    ``exposure``: ``--exposure``, the one exposure of the network's input and the scores (None: frame 0's)."""
+    ``exposure``: ``--exposure``, the one exposure of the network's input and the scores (None: frame 0's).
+    ``scan``: what :func:`mcd.denoise.frames.check_frames` measured of ``paths`` (None: read them again)."""
     model = prepare(loaded.model.to(device), dtype)
     key = colour_key(loaded)
     want = wanted_layers(loaded)
-    seq = FrameSequence(paths, want, key, float(loaded.cfg.data.get("exposure_target", 0.5)), exposure)
+    seq = FrameSequence(paths, want, key, exposure_target(loaded), exposure, scan)
     past, future = (int(v) for v in model.window)
     cache: dict[int, dict[str, torch.Tensor]] = {}
 

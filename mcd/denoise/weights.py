@@ -136,7 +136,21 @@ def _bundle_json(meta: Path) -> dict[str, Any]:
 
 
 def _from_bundle(pt: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
+    """A bundle's configuration, weights and provenance. The ``.pt`` must be the one its JSON was written
+    for (its ``sha256``, ``mcd.bundle``): another bundle's weights of the same model, copied over it, were
+    denoised with, and ``denoise.json`` stated the JSON's training for them."""
     provenance = _bundle_json(pt.with_suffix(".json"))
+    recorded = provenance.get("sha256")
+    if isinstance(recorded, str):
+        import hashlib
+
+        with pt.open("rb") as f:
+            actual = hashlib.file_digest(f, "sha256").hexdigest()
+        if actual != recorded:
+            raise checkpoint.CheckpointError(
+                f"--checkpoint: {pt}: its SHA-256 is {actual[:12]}..., but {pt.with_suffix('.json').name} "
+                f"was written for {recorded[:12]}... (the weights were replaced, or the JSON is another "
+                "bundle's); bundle the run again: python -m mcd.bundle RUN_DIR --name NAME --replace")
     weights = checkpoint.safe_load(pt, "--checkpoint")
     return OmegaConf.create(provenance["config"]), weights, provenance
 
@@ -152,6 +166,39 @@ def param_count(cfg: DictConfig) -> int:
         return sum(p.numel() for p in build(cfg).parameters())
 
 
+def tested_checkpoint(run_dir: Path, flag: str) -> Path | None:
+    """The checkpoint file of the run directory ``run_dir`` that the run itself tested: the file named by its
+    ``metrics.json`` ``checkpoint``, looked up in its own ``checkpoints/`` (a run moved or copied keeps its
+    name there); for a run without that record (not finished, or tested as built), its only
+    ``checkpoints/best*.ckpt``, else ``last.ckpt`` (as :func:`mcd.lit.transfer.checkpoint_of`); None where
+    it holds neither.
+
+    FileNotFoundError (naming ``flag``) where the tested file is gone, or where several ``best*.ckpt`` leave
+    it open which is the run's own: taking the last by name took a foreign one copied in (another run's
+    best, of another experiment), whose bundle then stated this run's metrics."""
+    folder = run_dir / "checkpoints"
+    try:
+        record = json.loads((run_dir / "metrics.json").read_text())
+    except (OSError, ValueError):
+        record = None
+    tested = record.get("checkpoint") if isinstance(record, dict) else None
+    if isinstance(tested, str) and tested:
+        own = folder / Path(tested).name
+        if not own.is_file():
+            there = "is not a regular file" if own.exists() else "is not there"
+            raise FileNotFoundError(
+                f"{flag}={run_dir}: its metrics.json says it tested {tested}, and {own} {there}; "
+                "give that checkpoint file itself")
+        return own
+    best = sorted(folder.glob("best*.ckpt"))
+    if len(best) > 1:
+        raise FileNotFoundError(
+            f"{flag}={run_dir}: {len(best)} best checkpoints in {folder} ({', '.join(b.name for b in best)}) "
+            "and no metrics.json naming the one the run tested (a run keeps one); give the .ckpt file itself")
+    last = folder / "last.ckpt"
+    return best[0] if best else last if last.is_file() else None
+
+
 def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]:
     """``(config, weights, provenance, source)`` of what ``--checkpoint=spec`` names (module docstring)."""
     if spec in bundled_names():
@@ -162,15 +209,12 @@ def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]
         cfg, weights, prov = _from_bundle(path)
         return cfg, weights, prov, f"bundled checkpoint {path}"
     if path.is_dir() or path.is_file():
-        from mcd.lit.transfer import checkpoint_of
-
-        try:
-            ckpt = checkpoint_of(path)
-        except FileNotFoundError:
+        ckpt = path if path.is_file() else tested_checkpoint(path, "--checkpoint")
+        if ckpt is None:
             raise FileNotFoundError(
                 f"--checkpoint={spec}: a folder without checkpoints/best*.ckpt or checkpoints/last.ckpt; "
                 "give a finished run directory of python -m mcd.run, a .ckpt file, or a bundled name "
-                f"({', '.join(bundled_names()) or 'none installed'})") from None
+                f"({', '.join(bundled_names()) or 'none installed'})")
         cfg, weights, prov = _from_run_ckpt(ckpt)
         return cfg, weights, prov, str(ckpt)
     if path.exists():  # a device (/dev/zero), a FIFO, a socket: read whole, it could never end or block

@@ -22,6 +22,7 @@ import pandas as pd
 import yaml
 from omegaconf import OmegaConf
 
+from mcd.core.config_rules import ConfigError, checked
 from mcd.core.metrics import FRAME_METRICS, MODEL_METRICS, PSNR_CAP_DB
 from mcd.core.paths import SAFE_NAME
 from mcd.lit.run_record import RunRecord
@@ -246,7 +247,40 @@ def metrics_problem(path: Path) -> str | None:
     shape = record_shape_problems(data)
     if shape:
         return f"{path} is corrupt (a field of another type: {', '.join(shape)})"
+    absurd = absurd_numbers(data)
+    if absurd:
+        return f"{path} is corrupt (a number no run records: {', '.join(absurd)})"
     return None
+
+
+#: The largest magnitude of a number a run records: its scores and statistics are float32 tensors' (and
+#: its counts and seeds far smaller). A larger finite one (``"rmse": 1e300``) is damage, and printed in a
+#: table it filled the cell with 301 digits.
+RECORD_NUMBER_MAX = 3.4028234663852886e38
+#: The largest number of seconds a run records (``wall_s``, ``train_s``, a segment's ``seconds``, ...): about
+#: 31 years.
+RECORD_SECONDS_MAX = 1e9
+
+
+def absurd_numbers(data: object, where: str = "") -> list[str]:
+    """The numbers of a run record (``metrics.json``, ``edges.json``; nested objects and lists too) that no
+    run writes: a magnitude above :data:`RECORD_NUMBER_MAX` (an integer: above int64's, which the tables'
+    columns hold), or seconds (a key ending in ``_s`` or named
+    ``seconds``) outside [0, :data:`RECORD_SECONDS_MAX`]; each as ``key=value``, its path dotted."""
+    if isinstance(data, dict):
+        return [bad for k, v in data.items()
+                for bad in absurd_numbers(v, f"{where}.{k}" if where else str(k))]
+    if isinstance(data, list):
+        return [bad for i, v in enumerate(data) for bad in absurd_numbers(v, f"{where}[{i}]")]
+    if isinstance(data, bool) or not isinstance(data, int | float):
+        return []
+    name = where.rsplit(".", 1)[-1]
+    seconds = name.endswith("_s") or name == "seconds"
+    value = f"{data:.4g}" if isinstance(data, float) or abs(data) > 10**12 else str(data)
+    too_large = abs(data) >= 2**63 if isinstance(data, int) else abs(data) > RECORD_NUMBER_MAX
+    if too_large or (seconds and not 0 <= data <= RECORD_SECONDS_MAX):
+        return [f"{where}={value}"]
+    return []
 
 
 #: The type of each ``metrics.json`` field (``mcd.lit.run_record.RunRecord``'s), by which a report reads it.
@@ -312,7 +346,24 @@ def config_problems(config: object) -> list[str]:
     for section, kinds in CONFIG_SECTION_TYPES.items():
         if isinstance(config.get(section), dict):
             bad += _mismatches(config[section], kinds, f"{section}.")
+    for key in RULED_KEYS:  # in range: the rule mcd.run checks them by before any work
+        section, _, name = key.rpartition(".")
+        part = config.get(section) if section else config
+        if isinstance(part, dict) and name in part and not bad:
+            value = part[name]
+            try:
+                checked(key, value)
+            except ConfigError as err:
+                bad.append(str(err))
+            else:
+                bad += absurd_numbers(value, key)
     return bad
+
+
+#: The config keys a report computes with (the scaling report's steps, the frame size of its timings) that
+#: have a rule in :data:`mcd.core.config_rules.RULES`: a record outside it (``train.max_steps: -5`` made a
+#: scale point of -5 steps; ``1e50`` ended the scaling report in a traceback half written) is no run's.
+RULED_KEYS = ("seed", "train.max_steps", "data.width", "data.height", "transfer.finetune_epochs")
 
 
 def read_table(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame | None, str | None]:
@@ -341,6 +392,11 @@ def frames_problem(path: Path) -> str | None:
     for col in ("frame", *SCORE_RANGES):  # read as numbers (the viewer's metrics, the per-frame plots)
         if col in df.columns and (pd.to_numeric(df[col], errors="coerce").isna() & df[col].notna()).any():
             return f"{path} is corrupt (a {col} that is not a number)"
+    for col, (lo, hi) in SCORE_RANGES.items():  # in range, as metrics.json's (an empty cell: no such score)
+        values = pd.to_numeric(df[col], errors="coerce") if col in df.columns else pd.Series([], dtype=float)
+        hi = min(hi, RECORD_NUMBER_MAX)
+        if (values.notna() & ~values.between(lo, hi)).any():
+            return f"{path} is corrupt (a {col} outside [{lo:g}, {hi:g}])"
     unsafe = sorted({str(s) for s in df["scene"] if not SAFE_NAME.fullmatch(str(s))})
     if unsafe:  # a scene names the report's per-frame plot: "../x" wrote outside the report folder
         return (f"{path} is corrupt (a scene that is not a plain name: {unsafe[0]!r}; scenes are letters, "
@@ -399,6 +455,10 @@ def load_run(path: Path) -> Run:
     if metrics is not None and "psnr" not in metrics:
         metrics = None  # an incomplete metrics.json is not a finished run (mcd.run reruns it)
     edges = _load_json(path / EDGES_FILE)  # measured after the run by tools/edge_effect.py
+    absurd = absurd_numbers(edges or {})  # its numbers join the tables
+    if absurd:
+        problem = problem or f"{path / EDGES_FILE} is corrupt (a number no run records: {', '.join(absurd)})"
+        metrics = None
     if metrics is not None and edges is not None and edges.get("checkpoint") == metrics.get("checkpoint"):
         metrics = {**metrics, **{k: edges.get(k) for k in ("edge_effect", *MAP_KEYS)}}
     error = _load_json(path / "error.json")
@@ -424,7 +484,8 @@ def load_run(path: Path) -> Run:
     for what, cfg in ((source, config), (resolved_file, resolved)):
         shape = config_problems(cfg) if cfg is not None else []
         if shape:
-            problem = problem or f"{what} is corrupt (a value of another type: {', '.join(shape)})"
+            problem = problem or (f"{what} is corrupt (a value of another type: "
+                                  f"{', '.join(shape)})")
     # what the failed run's row shows is read from its config: only the parts of their types stay
     config = {k: v for k, v in config.items() if not config_problems({k: v})}
     choices, bad = _read_yaml(path / ".hydra" / "hydra.yaml", _choices)

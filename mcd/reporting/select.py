@@ -77,9 +77,16 @@ def run_label(run: Run | None, root: Path | None = None) -> str:
     return str(run.path)
 
 
+#: From this magnitude on a table cell is written in scientific notation (an HDR rMSE x1e3 of 1e6 as
+#: ``1e+09``), so that no cell grows to hundreds of digits.
+SCIENTIFIC_FROM = 1e9
+
+
 def _cell(value: object, digits: int) -> str:
     if isinstance(value, float):
-        return "—" if math.isnan(value) else f"{value:.{digits}f}"
+        if math.isnan(value):
+            return "—"
+        return f"{value:.{digits}f}" if abs(value) < SCIENTIFIC_FROM else f"{value:.3g}"
     return escape(value)
 
 

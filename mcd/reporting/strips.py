@@ -22,7 +22,7 @@ from mcd.config.methods import (
 )
 from mcd.core.metrics import flip_map, to_display  # noqa: E402
 from mcd.core.paths import SAFE_NAME  # noqa: E402
-from mcd.data.exr import read_exr  # noqa: E402
+from mcd.data.exr import CorruptEXRError, EXRLayoutError, EXRSizeError, read_exr  # noqa: E402
 from mcd.lit.samples import picture  # noqa: E402
 from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
@@ -46,6 +46,21 @@ _NAME = re.compile(r"^(?P<frame>\d+)_(?P<name>[a-z_]+?)(?:_\d+spp)?$")
 
 #: What it writes in a report's folder (mcd.reporting.outputs).
 DIR, = writes("standard", "strips")
+
+
+#: The sample EXRs this process found damaged (:func:`read_sample`), for ``mcd.report`` to name at its end.
+UNREADABLE: dict[Path, str] = {}
+
+
+def read_sample(path: Path) -> np.ndarray | None:
+    """A run's saved sample, or None (logged, and kept in :data:`UNREADABLE`) where it does not decode: one
+    damaged EXR in a run's ``samples/`` ended the report in a traceback after its tables, half written."""
+    try:
+        return read_exr(path)
+    except (CorruptEXRError, EXRLayoutError, EXRSizeError) as err:
+        UNREADABLE[path] = str(err)
+        log.error("%s: a damaged sample, left out of the strips and the viewer", path)
+        return None
 
 
 def samples(run: Run) -> dict[str, dict[int, dict[str, Path]]]:
@@ -137,7 +152,9 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
             continue
         frame = min(complete)
         names = frames[frame]
-        imgs = {name: read_exr(path) for name, path in names.items()}
+        imgs = {name: img for name, path in names.items() if (img := read_sample(path)) is not None}
+        if "output" not in imgs or "reference" not in imgs:
+            continue
         if "kernel_map" in imgs:  # its two channels as two colour maps (paper Sec. 4.1)
             imgs["kernel_index"] = imgs["identity_weight"] = imgs["kernel_map"]
         ref = imgs["reference"]
@@ -175,7 +192,7 @@ def write(runs: list[Run], out_dir: Path, prov: Provenance) -> list[Path]:
         crops = [(display_name("noisy"), imgs["noisy"])] if "noisy" in imgs else []
         for title, smp in others:
             exr = smp.get(scene, {}).get(frame, {}).get("output")
-            image = None if exr is None else read_exr(exr)
+            image = None if exr is None else read_sample(exr)
             if image is not None and image.shape != ref.shape:  # as the viewer: another size is left out
                 log.warning("strips: %s is %s, the reference %s is %s: left out (a run of other data?)", exr,
                             image.shape, names["reference"], ref.shape)

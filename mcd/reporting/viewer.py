@@ -43,12 +43,11 @@ from PIL import Image
 
 from mcd.config.methods import display_name
 from mcd.core.metrics import flip_map, to_display
-from mcd.data.exr import read_exr
 from mcd.lit.samples import picture
 from mcd.reporting.outputs import writes
 from mcd.reporting.records import from_own_records
 from mcd.reporting.runs import Run
-from mcd.reporting.strips import crop_box, samples, strip_run, table1_runs
+from mcd.reporting.strips import crop_box, read_sample, samples, strip_run, table1_runs
 
 log = logging.getLogger(__name__)
 
@@ -184,13 +183,16 @@ def write(runs: list[Run], out_dir: Path, name: str) -> Path | None:
     frames = []
     for scene, frame, names in complete:
         colour: list[tuple[str, str, np.ndarray, dict]] = []
-        if "noisy" in names:
+        ref = read_sample(names["reference"])
+        if ref is None:  # damaged: named by mcd.report at its end
+            continue
+        noisy = read_sample(names["noisy"]) if "noisy" in names else None
+        if noisy is not None:
             colour.append(("noisy", f"{display_name('noisy')} ({main.budget:g} spp)",
-                           read_exr(names["noisy"]), _frame_metrics(main, scene, frame, prefix="input_")))
-        ref = read_exr(names["reference"])
+                           noisy, _frame_metrics(main, scene, frame, prefix="input_")))
         for key, title, run, smp in methods:
             exr = smp.get(scene, {}).get(frame, {}).get("output")
-            image = None if exr is None else read_exr(exr)
+            image = None if exr is None else read_sample(exr)
             if image is not None and image.shape != ref.shape:
                 log.warning("viewer: %s is %s, the reference %s is %s: left out (a run of another "
                             "data profile?)", exr, image.shape, names["reference"], ref.shape)
@@ -198,10 +200,10 @@ def write(runs: list[Run], out_dir: Path, name: str) -> Path | None:
                 colour.append((key, title, image, _frame_metrics(run, scene, frame)))
         colour.append(("reference", "reference", ref, dict.fromkeys(METRICS)))
         maps = {}
-        if "kernel_map" in names:
-            maps["kernel_index"] = maps["identity_weight"] = read_exr(names["kernel_map"])
-        if "sampling_map" in names:
-            maps["sampling_map"] = read_exr(names["sampling_map"])
+        if "kernel_map" in names and (kernel := read_sample(names["kernel_map"])) is not None:
+            maps["kernel_index"] = maps["identity_weight"] = kernel
+        if "sampling_map" in names and (sampling := read_sample(names["sampling_map"])) is not None:
+            maps["sampling_map"] = sampling
         frames.append(_frame(folder, scene, frame, colour, maps))
     for page in sorted(PAGE_DIR.iterdir()):
         if page.is_file():

@@ -3,6 +3,8 @@ pixels are sanitised with a count. Real EXR files, real Mitsuba scenes, real (un
 
 from __future__ import annotations
 
+import hashlib
+import json
 from pathlib import Path
 
 import numpy as np
@@ -116,6 +118,9 @@ def test_weights_that_do_not_fit_their_config(tmp_path, capsys, frames):
     paper = untrained_bundle(tmp_path, "paper", "+experiment=unet", "capacity=paper")
     cpu = untrained_bundle(tmp_path, "cpu", "+experiment=unet", "capacity=cpu")
     cpu.write_bytes(paper.read_bytes())
+    meta = json.loads(cpu.with_suffix(".json").read_text())  # its JSON written for these bytes (a swap of
+    meta["sha256"] = hashlib.sha256(cpu.read_bytes()).hexdigest()  # the .pt alone is refused before)
+    cpu.with_suffix(".json").write_text(json.dumps(meta))
     err = refused(capsys, str(frames), "-o", str(tmp_path / "out"), "--checkpoint", str(cpu))
     assert "does not fit this model" in err and "shape differs" in err
 
