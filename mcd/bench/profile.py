@@ -32,7 +32,6 @@ import argparse
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import torch
 from torch import nn
@@ -41,7 +40,7 @@ from mcd.bench.speed import frame_buffers, load_average, parse_size, store_frame
 from mcd.config.compose import compose
 from mcd.core import allocator
 from mcd.core.machine import device_name
-from mcd.core.paths import writable_file_to_be
+from mcd.core.paths import writable_file_arg
 from mcd.core.provenance import short_commit
 from mcd.core.stages import FlopClock, StageClock
 from mcd.lit.precision import autocast_to, cpu_bf16_supported
@@ -162,18 +161,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
-    parser.add_argument("--out", type=Path, help="also write the table (markdown) here, unless refused")
+    parser.add_argument("--out", type=writable_file_arg("--out"),
+                        help="also write the table (markdown) here, unless refused")
     allocator.add_option(parser)
     args = parser.parse_args(argv)
     if args.repeat < 1 or args.warmup < 0:
         parser.error("--repeat needs at least 1 and --warmup at least 0")
     if not 0 <= args.tolerance < float("inf"):  # -1 refused every table, nan none (0: any gap refuses it)
         parser.error(f"--tolerance={args.tolerance}: give a fraction of at least 0 (0.10: 10%)")
-    if args.out is not None:
-        try:
-            writable_file_to_be("--out", args.out)  # a folder or an unwritable place: before the measurement
-        except ValueError as err:
-            parser.error(str(err))
     device = torch.device(args.device)
     if device.type == "cuda" and not torch.cuda.is_available():
         parser.error("--device cuda: torch sees no CUDA device here")

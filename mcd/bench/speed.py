@@ -64,7 +64,7 @@ from mcd.config.methods import CATALOGUE, display_name
 from mcd.core import allocator
 from mcd.core.config_rules import MAX_SIDE
 from mcd.core.machine import device_name, restart_peak_rss, status_mb
-from mcd.core.paths import writable_file_to_be
+from mcd.core.paths import writable_file_arg
 from mcd.core.provenance import short_commit
 from mcd.data.store import StoreReader
 from mcd.data.synthetic import synthetic_frame
@@ -582,7 +582,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--data", help="data profile whose store holds the input frame (default: config's)")
     parser.add_argument("--scene", help="scene of that profile (default: its first test scene)")
     parser.add_argument("--synthetic", action="store_true", help="seeded synthetic inputs, not a store frame")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT,
+    parser.add_argument("--out", type=writable_file_arg("--out"), default=str(DEFAULT_OUT),
                         help=f"CSV to write, README.md beside it (default: {DEFAULT_OUT}; the report reads "
                              f"reports/bench/bench.csv)")
     allocator.add_option(parser)
@@ -594,10 +594,6 @@ def main(argv: list[str] | None = None) -> None:
         overrides.append("capacity=paper")
     if (why := check_readme(args.out)) is not None:
         parser.error(why)
-    try:
-        writable_file_to_be("--out", args.out)  # a folder or an unwritable place: before the measurement
-    except ValueError as err:
-        parser.error(str(err))
     devices = [d for d in args.devices.split(",") if d]
     if unknown := sorted(set(devices) - {"cpu", "cuda"}):
         parser.error(f"--devices {args.devices}: {', '.join(unknown)} is not a device this bench runs on; "

@@ -45,14 +45,13 @@ import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 import torch
 
 from mcd.config.methods import CATALOGUE
 from mcd.core import allocator
 from mcd.core.machine import device_name
-from mcd.core.paths import REPO_ROOT, writable_file_to_be
+from mcd.core.paths import REPO_ROOT, writable_file_arg
 
 log = logging.getLogger("mcd.bench.train")
 
@@ -206,7 +205,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--warmup", type=int_in(0, 10**6), default=4)
     ap.add_argument("--threads", type=int_in(1, 4096), default=os.cpu_count() or 1)
     ap.add_argument("--pair", action="store_true", help="also two concurrent 1-thread fp32 jobs")
-    ap.add_argument("--out", type=Path, default=Path("outputs/bench/train.csv"),
+    ap.add_argument("--out", type=writable_file_arg("--out"), default="outputs/bench/train.csv",
                     help="CSV to write (default: outputs/bench/train.csv)")
     ap.add_argument("--allocators", default="keep",
                     help="comma-separated: keep (mcd.run's setting, mcd/core/allocator.py) and/or system "
@@ -222,17 +221,16 @@ def main(argv: list[str] | None = None) -> None:
         ap.error(f"--allocators {args.allocators!r}: give one or more of {', '.join(allocator.CHOICES)}")
     if (why := check_names(args)) is not None:  # each job failed on it, and --out became an empty table
         ap.error(why)
-    try:
-        writable_file_to_be("--out", args.out)  # a folder or an unwritable place: before any job
-    except ValueError as err:
-        ap.error(str(err))
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     rows: list[dict[str, object]] = []
     failed: list[str] = []
     per_profile = dict(p.split("=", 1) for p in args.profile_methods)
     for profile in [p for p in args.profiles.split(",") if p]:
         for method in [m for m in per_profile.get(profile, args.methods).split(",") if m]:
-            common = [f"--steps={args.steps}", f"--warmup={args.warmup}", *args.overrides]
+            # --out: the file checked here, not the default under the child's working folder (REPO_ROOT,
+            # site-packages in an installed package), which the child's parser would check
+            common = [f"--steps={args.steps}", f"--warmup={args.warmup}", f"--out={args.out.resolve()}",
+                      *args.overrides]
             for path in [p for p in args.paths.split(",") if p]:
                 why = applicable(method, path)
                 if why:

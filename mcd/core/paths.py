@@ -7,9 +7,11 @@ key.
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 #: A name that becomes one folder under an output root (a store's profile or scene, a report, a bundle):
@@ -81,6 +83,20 @@ def writable_file_to_be(key: str, path: Path) -> Path:
         raise ValueError(f"{key}={path} is a folder, not a file: give a file name (in that folder, say)")
     writable_folder_to_be(key, path.parent)
     return path
+
+
+def writable_file_arg(key: str) -> Callable[[str], Path]:
+    """The argparse ``type`` of option ``key`` (``--out``) that names a file the command writes at its end:
+    :func:`writable_file_to_be` at parse time, so that the parser's error (exit 2, naming ``key``) comes
+    before any measurement. argparse applies it to a default given as a string too."""
+
+    def parse(text: str) -> Path:
+        try:
+            return writable_file_to_be(key, Path(text))
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+
+    return parse
 
 
 def scenes_dir(value: str | Path | None) -> Path | None:

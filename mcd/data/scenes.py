@@ -136,7 +136,7 @@ class SceneSpec:
         so that stores rendered before the key keep their renders."""
         if self.kind == "xml":
             self.check_exists()
-            h = hashlib.sha256(self.file.read_bytes()).hexdigest()
+            h = file_sha256(self.file)
             return {"kind": "xml", "file": str(self.file), "sha256": h, "path": self.path,
                     "reads": reads_digest(self.file)}
         from mcd.data.procedural import GENERATOR_VERSION
@@ -303,12 +303,33 @@ def scene_reads(file: Path) -> list[Path]:
     return list(found)
 
 
+#: :func:`file_sha256`'s digests in this process, by (resolved path, mtime in ns, size in bytes).
+_DIGESTS: dict[tuple[str, int, int], str] = {}
+
+
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of ``path``'s bytes, hashed once per process while the file keeps its modification time
+    and size: a scene's source (:meth:`SceneSpec.source`) is asked for several times per scene and run (the
+    store's reuse check, its manifest, the packer's check), and its XML, meshes and textures can be tens of
+    MB. A file edited or replaced since (a new mtime or size) is hashed again; an edit that keeps both (the
+    same size within one tick of the file system's clock) is not seen until the next process."""
+    st = path.stat()
+    key = (str(path.resolve()), st.st_mtime_ns, st.st_size)
+    if (digest := _DIGESTS.get(key)) is None:
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            while chunk := f.read(1 << 20):
+                h.update(chunk)
+        digest = _DIGESTS[key] = h.hexdigest()
+    return digest
+
+
 def reads_digest(file: Path) -> str:
     """SHA-256 over the files :func:`scene_reads` lists (each its path relative to the scene's folder and its
     bytes' SHA-256; ``missing`` for one not found)."""
     lines = []
     for path in scene_reads(file):
-        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else "missing"
+        digest = file_sha256(path) if path.is_file() else "missing"
         try:
             rel = path.relative_to(file.parent).as_posix()
         except ValueError:
