@@ -36,7 +36,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from mcd.config.compose import hydra_main
 from mcd.config.preflight import check_augment, check_motion, check_run, check_train_store
-from mcd.core import allocator
+from mcd.core import allocator, links
 from mcd.core.machine import device_name
 from mcd.core.provenance import git_commit
 from mcd.lit import run_dir
@@ -404,7 +404,7 @@ def main(cfg: DictConfig) -> None:
     if _skip_finished(out_dir, cfg, choices):
         return
     # a link where the run writes (a sweep's job: a single run was checked before Hydra wrote anything)
-    run_dir.check_links("hydra.runtime.output_dir", out_dir, (*RUN_OUTPUTS, *RUN_RECORDS))
+    links.check_links("hydra.runtime.output_dir", out_dir, (*RUN_OUTPUTS, *RUN_RECORDS))
     # one owner per run directory (mcd/lit/run_dir.py): a second process is refused here, before it touches
     # the directory (no error.json either: the directory is the owner's); DDP's other ranks share rank 0's
     owner = run_dir.hold(out_dir) if rank_zero_only.rank == 0 else contextlib.nullcontext()

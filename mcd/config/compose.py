@@ -86,10 +86,10 @@ def check_unclaimed(cfg: DictConfig, outputs: Iterable[str], records: Iterable[s
 
 def check_run_links(cfg: DictConfig, names: Iterable[str]) -> None:
     """ValueError naming ``hydra.run.dir`` (resolved by :func:`check_run_dir`) where it holds a symbolic link
-    at a name a run writes (``names``) or inside such a folder (:func:`mcd.lit.run_dir.check_links`)."""
+    at a name a run writes (``names``) or inside such a folder (:func:`mcd.core.links.check_links`)."""
     from omegaconf.errors import OmegaConfBaseException
 
-    from mcd.lit.run_dir import check_links
+    from mcd.core.links import check_links
 
     try:
         path = Path(str(OmegaConf.select(cfg, "hydra.run.dir")))

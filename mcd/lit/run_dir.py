@@ -24,7 +24,7 @@ import os
 import secrets
 import socket
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 from mcd.core import file_lock
@@ -69,33 +69,6 @@ def run_log(run_dir: str, job_name: str) -> str:
     """The file of Hydra's job log (``hydra.job_logging.handlers.file.filename``): ``<run dir>/<job>.log``, or
     ``os.devnull`` where ``run_dir`` holds a finished run (its log is one of its records)."""
     return os.devnull if is_finished(run_dir) else str(Path(run_dir) / f"{job_name}.log")
-
-
-def linked_entries(run_dir: Path, names: Iterable[str]) -> list[Path]:
-    """The symbolic links among ``names`` in ``run_dir`` and anywhere inside those of them that are folders
-    (not followed): a run writes there, and wrote through such a link into the file it points at (a
-    ``run.lock`` linked to a user's file had that file replaced by the run's pid line)."""
-    found = []
-    for name in names:
-        path = run_dir / name
-        if path.is_symlink():
-            found.append(path)
-        elif path.is_dir():
-            for folder, dirs, files in os.walk(path):  # links to folders are listed in dirs, not followed
-                found += [Path(folder) / e for e in (*dirs, *files) if (Path(folder) / e).is_symlink()]
-    return sorted(found)
-
-
-def check_links(key: str, run_dir: Path, names: Iterable[str]) -> None:
-    """ValueError naming ``key`` (the setting that chose ``run_dir``) and the links of
-    :func:`linked_entries`, before anything is written there."""
-    links = linked_entries(run_dir, names)
-    if links:
-        shown = ", ".join(f"{p} -> {os.readlink(p)}" for p in links[:5])
-        raise ValueError(f"{key}={run_dir} holds symbolic links where a run writes ({shown}"
-                         f"{f', and {len(links) - 5} more' if len(links) > 5 else ''}): the run would write "
-                         "through them into the files they point at; remove the links, or give the run a "
-                         "new or empty folder")
 
 
 def register_resolvers() -> None:
