@@ -128,6 +128,24 @@ def test_the_answer_follows_the_ordering_from_the_smallest_to_the_largest_scale_
     assert "cannot be answered" in notes.answer([])
 
 
+def test_the_notes_name_the_input_that_carries_ntasads_lead():
+    """notes.lead: at a scale point with F - NTASAD and NTASAD's diagnostics, the costliest resolved removal
+    is named with its share of F's gap, what was given to F follows, and an unresolved cost names nothing."""
+    point = ("tiny", 2, 1000)
+    found = [_gap(("F", "ntasad"), *point, -2.0), _gap(("ntasad_no_warp", "ntasad"), *point, -0.5),
+             _gap(("ntasad_no_previous", "ntasad"), *point, -1.0),
+             _gap(("F_warp_previous", "F"), *point, 0.1, se=0.4),
+             _gap(("F", "ntasad"), "small", 5, 1000, -1.0)]
+    (text,) = notes.lead(found)  # small has no diagnostic: no paragraph
+    assert "At tiny x 1000 steps, Ours (F) - NTASAD = -2.00 ± 0.20 dB" in text
+    assert "The costliest removal, NTASAD, no previous output (diagnostic) (-1.00 dB, 50% of F's gap)" in text
+    assert "NTASAD, no warp (diagnostic): -0.50 ± 0.20 dB" in text
+    assert "Given to F: F + warped previous output (not the paper's) - Ours (F) = +0.10 ± 0.40 dB" in text
+    (shaky,) = notes.lead([found[0], _gap(("ntasad_no_warp", "ntasad"), *point, -0.5, se=0.5)])
+    assert "costliest" not in shaky and "none of the inputs switched off is shown to carry" in shaky
+    assert notes.lead(found[:1]) == []
+
+
 def test_the_plan_is_the_sweeps_grid_less_the_seeds_it_drops():
     plan = coverage.planned()
     assert len(plan) == 5 * (9 + 2 * 2)

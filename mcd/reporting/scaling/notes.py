@@ -19,6 +19,13 @@ steps:
 The verdict goes by the means; where the seeds do not resolve the sign of a difference it rests on (at the
 smallest or the largest scale point: fewer than ``RESOLVED_SE`` standard errors from zero, or no standard
 error), the paragraph says so.
+
+Which of NTASAD's inputs carries its lead (:func:`lead`), at each scale point with F - NTASAD and at least one
+of NTASAD's diagnostics (``mcd.config.methods``: a ``diagnostic`` variant of ``ntasad``, each switching one
+input off): each diagnostic's cost to NTASAD with its standard error; the input whose removal costs most,
+among the resolved costs, carries the most of the lead, stated as a share of F's gap (each diagnostic removes
+one input from the whole NTASAD, so the costs need not add up to the gap); then what the same input does for
+F where it was given to F (:data:`GIVEN_TO_F`).
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from mcd.config.methods import display_name
+from mcd.config.methods import BY_EXPERIMENT, display_name
 from mcd.reporting.finding import RESOLVED_SE, Finding, render, resolved
 from mcd.reporting.markdown_text import escape as esc
 from mcd.reporting.outputs import writes
@@ -38,6 +45,10 @@ from mcd.reporting.scaling.gaps import MAIN
 FILE, = writes("scaling", "notes.md")
 #: The hand-written analysis a person may add beside the generated notes; the report never writes it.
 ANALYSIS = "analysis.md"
+
+
+#: F's variants that give F an input of NTASAD's: whether the input that carries NTASAD's lead helps F too.
+GIVEN_TO_F = ("F_warp_previous",)
 
 
 def _point(f: Finding) -> tuple[int, str, int]:
@@ -78,6 +89,45 @@ def _covered(coverage: Finding) -> str:
             f"not run; {int(v['outside the plan'])} finished run(s) outside the plan. Scale points with "
             "runs: "
             f"{cells}.")
+
+
+def _is_resolved(f: Finding) -> bool:
+    se = f.values["se"]
+    return not math.isnan(se) and se > 0 and abs(f.values["mean"]) >= RESOLVED_SE * se
+
+
+def lead(found: list[Finding]) -> list[str]:
+    """One paragraph per scale point with F - NTASAD and a diagnostic of NTASAD's (module docstring)."""
+    main, rival = MAIN[0]
+    gaps = [f for f in found if f.kind == "scaling_gap"]
+    out = []
+    for point, gap in sorted((_point(f), f) for f in gaps if f.subjects == MAIN[0]):
+        here = [f for f in gaps if _point(f) == point]
+        removed = sorted((f for f in here if f.subjects[1] == rival and f.subjects[0] in BY_EXPERIMENT
+                          and BY_EXPERIMENT[f.subjects[0]].diagnostic), key=lambda f: f.values["mean"])
+        if not removed:
+            continue
+        text = [f"At {_where(point)}, {display_name(main)} - {display_name(rival)} = {_gap(gap)}. Each "
+                f"diagnostic against {display_name(rival)}: " +
+                "; ".join(f"{display_name(f.subjects[0])}: {_gap(f)}" for f in removed) + "."]
+        costly = [f for f in removed if f.values["mean"] < 0 and _is_resolved(f)]
+        if costly:
+            top, lost = costly[0], -gap.values["mean"]
+            share = (f", {-top.values['mean'] / lost:.0%} of F's gap" if lost > 0 else
+                     f", while F is above {display_name(rival)} here")
+            cost = f"{top.values['mean']:+.2f} dB{share}"
+            text.append(f"The costliest removal, {display_name(top.subjects[0])} ({cost}), marks the input "
+                        f"that carries the most of {display_name(rival)}'s lead measured here; each "
+                        "diagnostic removes one input from the whole method, so the costs need not add up to "
+                        "the gap.")
+        else:
+            text.append(f"No diagnostic's cost is resolved by these seeds, so none of the inputs switched "
+                        f"off is shown to carry {display_name(rival)}'s lead here.")
+        given = [f for f in here if f.subjects[1] == main and f.subjects[0] in GIVEN_TO_F]
+        text += [f"Given to F: {display_name(f.subjects[0])} - {display_name(main)} = {_gap(f)}."
+                 for f in given]
+        out.append(" ".join(text))
+    return out
 
 
 def answer(found: list[Finding]) -> str:
@@ -190,6 +240,11 @@ def write(found: list[Finding], out_dir: Path, regenerate: str) -> Path:
         "",
         *(listed("scaling_gap") or ["- none: no scale point has two of the compared methods"]),
         "",
+        f"## Which of {display_name(MAIN[0][1])}'s inputs carries its lead",
+        "",
+        *([esc(p) + "\n" for p in lead(found)] or
+          [f"No scale point has F - {display_name(MAIN[0][1])} beside a diagnostic of "
+           f"{display_name(MAIN[0][1])}'s yet.", ""]),
         "## Fits of PSNR against log10(steps), and crossings",
         "",
         *(listed("scaling_fit") + listed("scaling_crossing") or ["- none: no method ran two budgets"]),
