@@ -199,8 +199,9 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
                                "an interrupted run of other scenes", "its steps so far trained on frames of "
                                "the old scenes, and a resume would train and test on others under one record")
         _refuse_other_settings(recorded.get("values"), value_settings(cfg), run_dir,
-                               "an interrupted run trained on values of another precision", "its steps so far "
-                               "read the frames at the old precision, and its record would name the new one")
+                               "an interrupted run trained on values of another precision",
+                               "its steps so far read the frames at the old precision, and its record would "
+                               "name the new one")
         _refuse_other_settings(recorded.get("optimiser"), optimiser_settings(cfg), run_dir,
                                "an interrupted run trained with other optimiser settings", "its checkpoint "
                                "carries the optimiser's and the schedule's state, so a resume keeps training "

@@ -42,8 +42,8 @@ def test_a_resume_on_other_scenes_or_values_is_refused_and_a_rerun_not_skipped(o
         train_and_test(moved, run, CHOICES, time.perf_counter())
     half = compose_cfg(*overrides, "train.epochs=2", "data.train_store.format=array",
                        "data.train_store.dtype=float16", "ckpt_path=auto")
-    with pytest.raises(FileExistsError, match=r"another precision \(data\.train_store\.dtype: 'float32' there, "
-                                              r"'float16' here\)"):
+    with pytest.raises(FileExistsError, match=r"another precision \(data\.train_store\.dtype: 'float32' "
+                                              r"there, 'float16' here\)"):
         train_and_test(half, run, CHOICES, time.perf_counter())
     assert last.read_bytes() == before and manifest.read_bytes() == frames  # nothing rendered or trained
     assert not (run / "metrics.json").exists()
@@ -53,4 +53,5 @@ def test_a_resume_on_other_scenes_or_values_is_refused_and_a_rerun_not_skipped(o
     check_same_job(run / "metrics.json", same, CHOICES)  # and a rerun of them is skipped
     with pytest.raises(FileExistsError, match=r"holds a finished run of other scenes "
                                               r"\(data\.scenes\.cbox\.exposure: 'auto' there, 2\.0 here\)"):
-        check_same_job(run / "metrics.json", compose_cfg(*overrides, "data.scenes.cbox.exposure=2.0"), CHOICES)
+        check_same_job(run / "metrics.json", compose_cfg(*overrides, "data.scenes.cbox.exposure=2.0"),
+                       CHOICES)
