@@ -35,7 +35,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.config.compose import hydra_main
-from mcd.config.preflight import check_augment, check_motion, check_run, check_train_store
+from mcd.config.preflight import check_augment, check_motion, check_run, check_train_store, samples_left_out
 from mcd.core import allocator, links
 from mcd.core.machine import device_name
 from mcd.core.provenance import git_commit
@@ -154,6 +154,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
     check_run(cfg)  # budget and image size, before anything is rendered
+    if (left_out := samples_left_out(cfg)) is not None:
+        log.warning("%s", left_out)
     train_store = TrainStoreSettings.from_cfg(cfg)  # data.train_store.*, named if unknown
     resume = resume_checkpoint(cfg.get("ckpt_path"), out_dir)
     if resume and not Path(resume).is_file():

@@ -149,6 +149,28 @@ def check_train_store(cfg: DictConfig, buffers: Iterable[str], pack_command: str
     check_meta(read_meta(meta_path, pack_command), settings, cfg.data, buffers, meta_path)
 
 
+def samples_left_out(cfg: DictConfig) -> str | None:
+    """A warning naming ``train.sample_frames`` where some of its positions lie beyond the test sequence
+    (no sample is saved for them; ``train.sample_frames=[99]`` on a 2-frame test sequence saved none without
+    a word), else None. Not an error: a train profile's positions (``[0, 3]``) serve profiles of every
+    length."""
+    positions = sorted({int(p) for p in cfg.train.get("sample_frames") or []})
+    d = cfg.data
+    if not positions or not list(d.get("test_scenes") or []):
+        return None
+    try:
+        n_test = len(split_of(int(d.segments) * int(d.frames_per_segment), d)["test"][0])
+    except ValueError:  # check_split names it
+        return None
+    beyond = [p for p in positions if p >= n_test]
+    if not beyond:
+        return None
+    saved = "none of them is saved" if len(beyond) == len(positions) else \
+        f"samples are saved at {[p for p in positions if p < n_test]} only"
+    return (f"train.sample_frames={positions}: position(s) {beyond} lie beyond the {n_test}-frame test "
+            f"sequence (positions 0 to {n_test - 1}); {saved}")
+
+
 def check_run(cfg: DictConfig) -> None:
     """Every key's own rule (:func:`mcd.core.config_rules.check_config`), then every check of this module, in
     the order a user would fix them."""

@@ -26,9 +26,8 @@ def test_a_linked_lock_is_refused_and_nothing_is_made_or_changed_where_it_points
     (tmp_path / "user.lock").symlink_to(user)
     for link in (dangling, tmp_path / "user.lock"):
         with pytest.raises(LinkedLockError, match=rf"{link}: this lock file is a symbolic link \(to .*\); "
-                                                  r"a lock is taken on a file of its own"):
-            with exclusive(link):
-                pass
+                                                  r"a lock is taken on a file of its own"), exclusive(link):
+            pass
     assert not (tmp_path / "elsewhere" / "made").exists() and user.read_text() == "my thesis\n"
     with exclusive(tmp_path / "own.lock") as f:  # a lock of its own is made and held as before
         assert f is not None
