@@ -2,9 +2,9 @@
 
 Campaign 10 left three: ``trainer.devices=0`` ended in a ZeroDivisionError traceback;
 ``train.sample_frames=[99]`` on a 2-frame test sequence saved no sample without a word;
-``render.buffers=[]`` rendered the references without a word. Now the first is one ``error:`` line naming the key (its rule, ``mcd.core.config_rules``),
-the second a warning naming the positions left out (``mcd.config.preflight.samples_left_out``), the third an
-error naming the key before anything is rendered.
+``render.buffers=[]`` rendered the references without a word. Now the first is one ``error:`` line naming
+the key (its rule, ``mcd.core.config_rules``), the second a warning naming the positions left out
+(``mcd.config.preflight.samples_left_out``), the third an error naming the key before anything is rendered.
 """
 
 from __future__ import annotations
