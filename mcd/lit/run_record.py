@@ -224,32 +224,48 @@ def split_settings(cfg: DictConfig) -> dict[str, float | int]:
 
 def scene_settings(cfg: DictConfig) -> dict[str, Any]:
     """What each scene of the run's lists is made of, beyond :func:`mcd.data.store.store_settings` (which
-    names the scenes only): ``data.scenes.<name>.file_sha256`` (an XML scene's file, ``None`` where it is
+    names the scenes only): ``data.scenes.<name>.file_sha256`` and ``.reads_sha256`` (an XML scene's file and
+    the meshes, textures and XML it reads, :func:`mcd.data.scenes.reads_digest`; ``None`` where the file is
     missing: the store names it), ``.source_sha256`` (a procedural scene's seed, room and generator),
-    ``.path.<key>`` (the camera path) and ``.exposure``. The store renders again when one changes
-    (:meth:`mcd.data.scenes.SceneSpec.source`), so a resume under another camera path trained the rest of its
-    steps, and was tested, on other frames under one record, and a rerun was skipped as finished.
-    Recorded in ``job.json`` beside the job's identity (docs/reliability.md, "Campaign fixes")."""
-    from mcd.data.scenes import SceneSpec, file_sha256
+    ``.path.<key>`` (the camera path) and ``.exposure``; a scene given by its file's path in a list gets the
+    digests under the name it is registered by. The store renders again when one changes
+    (:meth:`mcd.data.scenes.SceneSpec.source`), so a resume under another camera path, or of a scene file
+    edited in place, trained the rest of its steps, and was tested, on other frames under one record, and a
+    rerun was skipped as finished. Recorded in ``job.json`` beside the job's identity (docs/reliability.md,
+    "Campaign fixes")."""
+    from mcd.data.scenes import SceneSpec, path_scene_name
 
-    names = dict.fromkeys(str(n) for k in ("train_scenes", "transfer_scenes", "test_scenes")
-                          for n in cfg.data.get(k) or [])
+    entries = dict.fromkeys(str(n) for k in ("train_scenes", "transfer_scenes", "test_scenes")
+                            for n in cfg.data.get(k) or [])
     scenes_dir = OmegaConf.select(cfg, "paths.scenes_dir", default=None)
+    registered = cfg.data.get("scenes") or {}
     found: dict[str, Any] = {}
-    for name in names:
-        scfg = cfg.data.scenes.get(name) if "scenes" in cfg.data else None
-        if scfg is None:  # a scene given by its file's path: its name holds the file (store_settings)
+    for entry in entries:
+        if entry.endswith(".xml"):  # given by its path (mcd.data.scenes.register_paths)
+            file = Path(entry).expanduser().resolve()
+            spec = SceneSpec(path_scene_name(file), "xml", file=file)
+        elif entry in registered:
+            spec = SceneSpec.from_cfg(entry, registered[entry], scenes_dir)
+        else:  # not registered: the store names it
             continue
-        key = f"data.scenes.{name}"
-        spec = SceneSpec.from_cfg(name, scfg, scenes_dir)
+        key = f"data.scenes.{spec.name}"
         if spec.kind == "xml":
-            ok = spec.file is not None and spec.file.is_file()
-            found[f"{key}.file_sha256"] = file_sha256(spec.file) if ok else None
+            found.update(_file_digests(key, spec.file))
         else:
             found[f"{key}.source_sha256"] = spec.source()["sha256"]
-        found.update({f"{key}.path.{k}": v for k, v in sorted(spec.path.items())})
-        found[f"{key}.exposure"] = spec.exposure
+        if not entry.endswith(".xml"):
+            found.update({f"{key}.path.{k}": v for k, v in sorted(spec.path.items())})
+            found[f"{key}.exposure"] = spec.exposure
     return found
+
+
+def _file_digests(key: str, file: Path | None) -> dict[str, str | None]:
+    """``<key>.file_sha256`` and ``<key>.reads_sha256`` of an XML scene file (both ``None`` where missing)."""
+    from mcd.data.scenes import file_sha256, reads_digest
+
+    if file is None or not file.is_file():
+        return {f"{key}.file_sha256": None, f"{key}.reads_sha256": None}
+    return {f"{key}.file_sha256": file_sha256(file), f"{key}.reads_sha256": reads_digest(file)}
 
 
 def value_settings(cfg: DictConfig) -> dict[str, str]:

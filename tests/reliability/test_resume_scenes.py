@@ -9,15 +9,19 @@ two sets of frames); a rerun into the finished run was skipped as finished. A re
 float16 pack (``data.train_store.format=array data.train_store.dtype=float16``) trained its last steps on
 rounded frames, its record naming float16 only (medium). Now ``job.json`` records the scenes' file digests,
 camera paths and exposures and the training values' precision, and such a resume (or, for the scenes, such a
-rerun) is refused naming the keys, before anything is rendered.
+rerun) is refused naming the keys, before anything is rendered. The same for a scene given by its file's
+path and edited in place (its light made brighter): the store rendered all 12 frames again and the resume
+trained on them, exit 0.
 """
 
 from __future__ import annotations
 
+import shutil
 import time
 
 import pytest
 
+from mcd.data.scenes import VENDORED_DIR
 from mcd.lit.run_record import check_same_job
 from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
@@ -55,3 +59,19 @@ def test_a_resume_on_other_scenes_or_values_is_refused_and_a_rerun_not_skipped(o
                                               r"\(data\.scenes\.cbox\.exposure: 'auto' there, 2\.0 here\)"):
         check_same_job(run / "metrics.json", compose_cfg(*overrides, "data.scenes.cbox.exposure=2.0"),
                        CHOICES)
+
+
+def test_a_resume_of_a_scene_file_edited_in_place_is_refused(tmp_path):
+    shutil.copytree(VENDORED_DIR / "cbox", tmp_path / "mybox")
+    scene = tmp_path / "mybox" / "scene.xml"
+    lists = [f"data.train_scenes=[{scene}]", f"data.test_scenes=[{scene}]"]
+    overrides = [*(o for o in store32_overrides(tmp_path / "data") if "_scenes=" not in o), *lists, *FROZEN]
+    run = tmp_path / "run"
+    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, CHOICES, time.perf_counter())
+    (run / "metrics.json").unlink()
+    scene.write_text(scene.read_text() + "<!-- the light made brighter -->\n")
+    with pytest.raises(FileExistsError, match=r"holds an interrupted run of other scenes "
+                                              r"\(data\.scenes\.mybox\.file_sha256: '[0-9a-f]{64}' there, "
+                                              r"'[0-9a-f]{64}' here\)"):
+        train_and_test(compose_cfg(*overrides, "train.epochs=2", "ckpt_path=auto"), run, CHOICES,
+                       time.perf_counter())
