@@ -145,7 +145,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from mcd.data.pack import pack
     from mcd.data.store import store_settings
     from mcd.data.train_store import TrainStoreSettings, pack_command
-    from mcd.lit import DenoiseModule, budget, checkpoint, precision, progress, transfer
+    from mcd.lit import DenoiseModule, accelerator, budget, checkpoint, precision, progress, transfer
     from mcd.lit.segments import TrainingSegments
     from mcd.lit.test_recorder import TestRecorder
     from mcd.losses import build_loss
@@ -182,6 +182,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     # a packed training store of another config, or without a buffer of this run, before anything is rendered
     check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
     precision.check(str(cfg.trainer.get("precision", "auto")))  # named before anything is rendered
+    accelerator.check(cfg.trainer.get("accelerator", "auto"), cfg.trainer.get("devices", 1))  # the same
     # the budget (train.max_steps, max_minutes, epochs: one at least) and the trainer.* keys, before anything
     # is rendered: a run without a budget rendered its whole store, then failed here
     trainer_kwargs = budget.trainer_kwargs(cfg)
