@@ -178,6 +178,12 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     check_motion(cfg, buffers)  # the motion buffer where the training clips cannot hold it, before rendering
     check_augment(cfg, buffers)  # data.augment.reverse with a motion buffer, before anything is rendered
     announce(cfg, "mcd.run", buffers, train=bool(cfg.method.get("trainable", True)))  # counts, no measuring
+    loss = build_loss(cfg)  # a loss the clips cannot feed (L_t, clips of one frame), before anything renders
+    needed = int(getattr(loss, "frames_needed", None) or 1)
+    if bool(cfg.method.get("trainable", True)) and needed > int(cfg.data.clip_len):
+        raise ValueError(f"data.clip_len={int(cfg.data.clip_len)}: the loss reads the last {needed} outputs "
+                         f"of each clip (L_t, loss.w_t={cfg.loss.get('w_t')}); raise data.clip_len to "
+                         f"{needed} or set loss.w_t=0")
     store = StoreBuilder.from_cfg(cfg)
     # a packed training store of another config, or without a buffer of this run, before anything is rendered
     check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
@@ -193,7 +199,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
         report["train_store"] = {k: packed[k] for k in ("root", "packed", "reused", "clamped_total")}
     data_s = time.perf_counter() - t0
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
-    module = DenoiseModule(cfg, model, build_loss(cfg))
+    module = DenoiseModule(cfg, model, loss)
 
     best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-step{step:06d}",
                            auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1)
