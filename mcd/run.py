@@ -159,8 +159,10 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     train_store = TrainStoreSettings.from_cfg(cfg)  # data.train_store.*, named if unknown
     resume = resume_checkpoint(cfg.get("ckpt_path"), out_dir)
     if resume and not Path(resume).is_file():
-        raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
-                                "(give a run's checkpoints/last.ckpt)")
+        what = "a folder, not a checkpoint file" if Path(resume).is_dir() else "no such checkpoint file"
+        last = Path(resume) / "checkpoints" / "last.ckpt"
+        hint = f"give {last}" if last.is_file() else "give a run's checkpoints/last.ckpt"
+        raise FileNotFoundError(f"ckpt_path={resume}: {what} ({hint})")
     claim_run_dir(out_dir, cfg, choices or {})  # refuses an interrupted run of another job; writes job.json
     data_settings = store_settings(cfg.data)
     L.seed_everything(int(cfg.seed), workers=True)
