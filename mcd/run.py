@@ -35,7 +35,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from mcd.config.compose import hydra_main
-from mcd.config.preflight import check_augment, check_motion, check_run, check_train_store
+from mcd.config.preflight import check_augment, check_motion, check_run, check_train_store, samples_left_out
 from mcd.core import allocator, links
 from mcd.core.machine import device_name
 from mcd.core.provenance import git_commit
@@ -145,7 +145,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from mcd.data.pack import pack
     from mcd.data.store import store_settings
     from mcd.data.train_store import TrainStoreSettings, pack_command
-    from mcd.lit import DenoiseModule, budget, checkpoint, precision, progress, transfer
+    from mcd.lit import DenoiseModule, accelerator, budget, checkpoint, precision, progress, transfer
     from mcd.lit.segments import TrainingSegments
     from mcd.lit.test_recorder import TestRecorder
     from mcd.losses import build_loss
@@ -154,11 +154,15 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     if cfg.method.name in SWITCHED_METHODS:
         check_switches(cfg.method)
     check_run(cfg)  # budget and image size, before anything is rendered
+    if (left_out := samples_left_out(cfg)) is not None:
+        log.warning("%s", left_out)
     train_store = TrainStoreSettings.from_cfg(cfg)  # data.train_store.*, named if unknown
     resume = resume_checkpoint(cfg.get("ckpt_path"), out_dir)
     if resume and not Path(resume).is_file():
-        raise FileNotFoundError(f"ckpt_path={resume}: no such checkpoint file "
-                                "(give a run's checkpoints/last.ckpt)")
+        what = "a folder, not a checkpoint file" if Path(resume).is_dir() else "no such checkpoint file"
+        last = Path(resume) / "checkpoints" / "last.ckpt"
+        hint = f"give {last}" if last.is_file() else "give a run's checkpoints/last.ckpt"
+        raise FileNotFoundError(f"ckpt_path={resume}: {what} ({hint})")
     claim_run_dir(out_dir, cfg, choices or {})  # refuses an interrupted run of another job; writes job.json
     data_settings = store_settings(cfg.data)
     L.seed_everything(int(cfg.seed), workers=True)
@@ -176,10 +180,17 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     check_motion(cfg, buffers)  # the motion buffer where the training clips cannot hold it, before rendering
     check_augment(cfg, buffers)  # data.augment.reverse with a motion buffer, before anything is rendered
     announce(cfg, "mcd.run", buffers, train=bool(cfg.method.get("trainable", True)))  # counts, no measuring
+    loss = build_loss(cfg)  # a loss the clips cannot feed (L_t, clips of one frame), before anything renders
+    needed = int(getattr(loss, "frames_needed", None) or 1)
+    if bool(cfg.method.get("trainable", True)) and needed > int(cfg.data.clip_len):
+        raise ValueError(f"data.clip_len={int(cfg.data.clip_len)}: the loss reads the last {needed} outputs "
+                         f"of each clip (L_t, loss.w_t={cfg.loss.get('w_t')}); raise data.clip_len to "
+                         f"{needed} or set loss.w_t=0")
     store = StoreBuilder.from_cfg(cfg)
     # a packed training store of another config, or without a buffer of this run, before anything is rendered
     check_train_store(cfg, buffers, pack_command(store.overrides, buffers))
     precision.check(str(cfg.trainer.get("precision", "auto")))  # named before anything is rendered
+    accelerator.check(cfg.trainer.get("accelerator", "auto"), cfg.trainer.get("devices", 1))  # the same
     # the budget (train.max_steps, max_minutes, epochs: one at least) and the trainer.* keys, before anything
     # is rendered: a run without a budget rendered its whole store, then failed here
     trainer_kwargs = budget.trainer_kwargs(cfg)
@@ -190,7 +201,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
         report["train_store"] = {k: packed[k] for k in ("root", "packed", "reused", "clamped_total")}
     data_s = time.perf_counter() - t0
     datamodule = MCDDataModule(cfg, store, buffers, model.window)
-    module = DenoiseModule(cfg, model, build_loss(cfg))
+    module = DenoiseModule(cfg, model, loss)
 
     best = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="best-step{step:06d}",
                            auto_insert_metric_name=False, monitor="val/psnr", mode="max", save_top_k=1)

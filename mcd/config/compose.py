@@ -136,7 +136,9 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *, job_errors: b
     :class:`mcd.core.config_rules.ConfigError` in a sweep's job or a direct call ``main(cfg)``, except with
     ``job_errors=True`` (``mcd.run``, whose preflight checks it and writes the job's ``error.json`` so
     that the sweep goes on). ``run_files``: ``(outputs, records)`` of :func:`check_unclaimed`, checked on a
-    single run's directory before Hydra writes there (``mcd.run``).
+    single run's directory before Hydra writes there (``mcd.run``); every other command's are its job log,
+    ``<job>.log``, and Hydra's ``.hydra/`` (:func:`command_files`: a user's ``render.log`` in the folder given
+    as ``hydra.run.dir`` had the render's log appended to it).
     """
     if task is None:
         return functools.partial(hydra_main, job_errors=job_errors, run_files=run_files)
@@ -156,6 +158,8 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *, job_errors: b
         return task(cfg)
 
     main = hydra.main(config_path=str(CONF_DIR), config_name="config", version_base="1.3")(checked_task)
+    if run_files == ((), ()):
+        run_files = command_files(task)
 
     @functools.wraps(main)
     def checked(*args: Any, **kwargs: Any) -> Any:
@@ -186,6 +190,16 @@ def hydra_main(task: Callable[[DictConfig], Any] | None = None, *, job_errors: b
         return main(*args, **kwargs)
 
     return checked
+
+
+def command_files(task: Callable[..., Any]) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """``(outputs, records)`` of a Hydra command other than ``mcd.run`` (:func:`check_unclaimed`): Hydra's
+    job log, named after the command's module as Hydra names its job (``render.log`` for ``mcd.render``,
+    ``conf/config.yaml``'s ``run_log``), and ``.hydra/``, which marks a folder a Hydra command wrote."""
+    module = sys.modules.get(task.__module__)
+    path = getattr(module, "__file__", None)  # ``python -m mcd.render`` runs it as ``__main__``
+    name = Path(path).stem if path else task.__module__.rsplit(".", 1)[-1]
+    return (f"{name}.log",), (".hydra",)
 
 
 #: The flags that print a Hydra command's help (:func:`app_help`); ``--hydra-help`` stays Hydra's own.

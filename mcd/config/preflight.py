@@ -14,6 +14,7 @@ built (row F's adaptive sampling needs ``1 < s``; a method without it reads ``c_
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Iterable
 
 from omegaconf import DictConfig
@@ -149,6 +150,54 @@ def check_train_store(cfg: DictConfig, buffers: Iterable[str], pack_command: str
     check_meta(read_meta(meta_path, pack_command), settings, cfg.data, buffers, meta_path)
 
 
+def check_batches(cfg: DictConfig) -> None:
+    """ValueError naming ``train.limit_train_batches`` where its share of an epoch's batches is no batch:
+    Lightning takes ``int(batches x share)`` and refused 0.5 of one batch ("0.5 * 1 < 1") when training
+    started, after the store was rendered. The batches per epoch are the training clips of the split
+    (:func:`mcd.data.splits.split_of`, per training scene) over ``train.batch_size`` and the ranks
+    (``trainer.devices`` x ``trainer.num_nodes``, where a count). A method that is not trained, or a run
+    without training scenes, is not checked."""
+    limit = cfg.train.get("limit_train_batches", 1.0)
+    d = cfg.data
+    if not isinstance(limit, float) or limit >= 1.0 or not bool(cfg.method.get("trainable", True)) \
+            or not list(d.get("train_scenes") or []):
+        return
+    try:
+        clips = len(split_of(int(d.segments) * int(d.frames_per_segment), d)["train"]) * len(d.train_scenes)
+    except ValueError:  # check_split names it
+        return
+    devices = cfg.trainer.get("devices", 1)
+    ranks = (int(devices) if str(devices).isdigit() else 1) * int(cfg.trainer.get("num_nodes", 1) or 1)
+    batches = math.ceil(clips / max(ranks, 1) / int(cfg.train.batch_size))
+    if int(batches * limit) < 1:
+        raise ValueError(f"train.limit_train_batches={limit}: that share of the {batches} training batch(es) "
+                         f"per epoch ({clips} clip(s), train.batch_size={int(cfg.train.batch_size)}"
+                         f"{f', {ranks} ranks' if ranks > 1 else ''}) is no batch; give a share of at least "
+                         f"{1 / batches:.3g}, or a count of batches (an integer, e.g. 1)")
+
+
+def samples_left_out(cfg: DictConfig) -> str | None:
+    """A warning naming ``train.sample_frames`` where some of its positions lie beyond the test sequence
+    (no sample is saved for them; ``train.sample_frames=[99]`` on a 2-frame test sequence saved none without
+    a word), else None. Not an error: a train profile's positions (``[0, 3]``) serve profiles of every
+    length."""
+    positions = sorted({int(p) for p in cfg.train.get("sample_frames") or []})
+    d = cfg.data
+    if not positions or not list(d.get("test_scenes") or []):
+        return None
+    try:
+        n_test = len(split_of(int(d.segments) * int(d.frames_per_segment), d)["test"][0])
+    except ValueError:  # check_split names it
+        return None
+    beyond = [p for p in positions if p >= n_test]
+    if not beyond:
+        return None
+    saved = "none of them is saved" if len(beyond) == len(positions) else \
+        f"samples are saved at {[p for p in positions if p < n_test]} only"
+    return (f"train.sample_frames={positions}: position(s) {beyond} lie beyond the {n_test}-frame test "
+            f"sequence (positions 0 to {n_test - 1}); {saved}")
+
+
 def check_run(cfg: DictConfig) -> None:
     """Every key's own rule (:func:`mcd.core.config_rules.check_config`), then every check of this module, in
     the order a user would fix them."""
@@ -160,5 +209,6 @@ def check_run(cfg: DictConfig) -> None:
     check_crops(cfg)
     check_clip_stride(cfg)
     check_split(cfg)
+    check_batches(cfg)
     check_augment(cfg)
     check_warmup(cfg)

@@ -101,6 +101,23 @@ def _check_shard(value: Any, cfg: DictConfig) -> None:
     parse_shard(value, OmegaConf.select(cfg, "render.shards", default=None))
 
 
+def _check_devices(value: Any, cfg: DictConfig) -> None:
+    """Lightning's ``devices``: -1 (every GPU), a count from 1, ``auto``, a count or index list as text
+    (``"0,1"``), or a list of device indices. 0 trains on no device (it ended in a ZeroDivisionError)."""
+    items = list(value) if isinstance(value, list | tuple | ListConfig) else None
+    if items is not None:
+        ok = bool(items) and all(isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in items)
+    elif isinstance(value, str):
+        text = value.strip()
+        ok = text == "auto" or (re.fullmatch(r"-1|\d+|\d+(\s*,\s*\d+)+,?|\d+,", text) is not None
+                                and text.strip(",") != "0")
+    else:
+        ok = isinstance(value, int) and not isinstance(value, bool) and (value == -1 or value >= 1)
+    if not ok:
+        raise ConfigError(f"trainer.devices={_show(value)}: give -1 (every GPU), a count of at least 1, "
+                          "'auto', or a list of device indices such as [0, 1]; 0 devices trains on none")
+
+
 _SHARD = re.compile(r"^\s*(\d+)\s*/\s*(\d+)\s*$")
 
 
@@ -206,7 +223,7 @@ RULES: dict[str, Rule] = {
     "train.grad_frames": _whole(1, null=True, about="clip frames that get gradient; null: all"),
     "train.sample_frames": _whole(0, each=True, about="positions in each test sequence saved as samples"),
     # trainer, logger, loss
-    "trainer.devices": _whole(-1, text=True, about="-1: every GPU; or Lightning's forms (auto, a list)"),
+    "trainer.devices": Rule(about="-1: every GPU; or Lightning's forms (auto, a list)", check=_check_devices),
     "trainer.num_nodes": _whole(1, about="machines of a DDP run"),
     "trainer.log_every_n_steps": _whole(1, about="metrics logged every n optimiser steps"),
     "trainer.num_sanity_val_steps": _whole(-1, about="-1: all; 0: none"),

@@ -7,7 +7,9 @@ which adds no file among its outputs.
 
 The kernel drops a ``flock`` when its holder dies, so a killed process never leaves a stale lock behind. The
 lock file is made if missing and never truncated or removed here: a holder may keep notes in it (``run.lock``
-holds its owner's pid and host).
+holds its owner's pid and host). A lock file is never a symbolic link: one is refused
+(:class:`LinkedLockError`) instead of followed, so that a link placed at a lock's name (dangling, or to a
+user's file) makes or touches nothing where it points.
 """
 
 from __future__ import annotations
@@ -20,6 +22,23 @@ from pathlib import Path
 from typing import TextIO
 
 
+class LinkedLockError(RuntimeError):
+    """A lock file that is a symbolic link; the message names it, where it points, and the fix."""
+
+
+def _open_lock(path: Path) -> TextIO:
+    """``path`` opened ``a+``, made if missing, never through a symbolic link (``O_NOFOLLOW``)."""
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+    except OSError as err:
+        if not path.is_symlink():
+            raise
+        raise LinkedLockError(f"{path}: this lock file is a symbolic link (to {os.readlink(path)}); a lock "
+                              "is taken on a file of its own, never through a link: remove the link (`rm "
+                              f"{path}`) and run again") from err
+    return os.fdopen(fd, "a+")
+
+
 @contextlib.contextmanager
 def exclusive(path: Path, *, blocking: bool = True) -> Iterator[TextIO | None]:
     """Hold an exclusive ``flock`` on ``path`` while the block runs, and yield the lock file (opened ``a+``,
@@ -28,10 +47,10 @@ def exclusive(path: Path, *, blocking: bool = True) -> Iterator[TextIO | None]:
     ``blocking=True`` waits for the lock. ``blocking=False`` yields ``None`` at once, holding nothing, when
     another holder has it (another process, or another ``open`` of the file in this one). The parent
     directory is made if missing; callers check that ``path`` is a regular file where they want a refusal
-    that names their own fix (``open`` fails on a directory).
+    that names their own fix (``open`` fails on a directory); a symbolic link is :class:`LinkedLockError`.
     """
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "a+") as f:
+    with _open_lock(path) as f:
         try:
             fcntl.flock(f, fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
         except BlockingIOError:

@@ -86,8 +86,9 @@ class Augment:
         """The augmentations ``data_cfg.augment`` switches on, or None if none is (or the block is absent).
 
         ValueError naming the key for an unknown key, a probability outside [0, 1], negative stops, a
-        ``zero_pad_max`` outside ``1 .. crop`` (``crop``: the training crop, ``data.train_crop``), or, where
-        the run's ``buffers`` are given, an augmentation they cannot take (:meth:`check_buffers`).
+        ``zero_pad_max`` below 1 or, where zero padding is on (``zero_pad > 0``), above the training crop
+        (``crop``: ``data.train_crop``; with padding off a smaller crop was refused blaming this key), or,
+        where the run's ``buffers`` are given, an augmentation they cannot take (:meth:`check_buffers`).
         """
         block = data_cfg.get("augment")
         if block is None:
@@ -105,9 +106,9 @@ class Augment:
         stops = float(checked("data.augment.exposure_stops", v["exposure_stops"]))
         m = v["zero_pad_max"]
         limit = crop if crop is not None else int(data_cfg.train_crop)
-        if not isinstance(m, int) or not 1 <= m <= limit:
+        if not isinstance(m, int) or m < 1 or (p > 0 and m > limit):  # bounded by the crop where it pads
             raise ValueError(f"data.augment.zero_pad_max={m!r}: give an integer in 1 .. data.train_crop "
-                             f"({limit})")
+                             f"({limit}), where data.augment.zero_pad={p:g} pads the crops")
         aug = cls(v["flips"], v["transpose"], v["channels"], p, m, stops, v["reverse"])
         if buffers is not None:
             aug.check_buffers(buffers)

@@ -534,10 +534,10 @@ class StoreBuilder(StoreReader):
             yield
 
     def _check_scene_lock(self, scene: str) -> Path:
-        """``<scene>/.lock``; RuntimeError naming it and its fix when it is not a regular file (checked before
-        any work, also where the scene is reused without taking it)."""
+        """``<scene>/.lock``; RuntimeError naming it and its fix when it is not a regular file or is a
+        symbolic link (checked before any work, also where the scene is reused without taking it)."""
         lock = self.root / scene / ".lock"
-        if lock.exists() and not lock.is_file():
+        if lock.is_symlink() or (lock.exists() and not lock.is_file()):
             raise RuntimeError(f"{lock}: the scene's lock file is not a regular file; remove it (`rm -r "
                                f"{lock}`, after checking it holds nothing you need) and run again")
         return lock
@@ -552,7 +552,7 @@ class StoreBuilder(StoreReader):
                 raise RuntimeError(f"{folder}: frame {f}'s folder is a file, not a folder; move it away (or "
                                    f"`rm {folder}`, after checking it holds nothing you need) and run again")
             lock = folder / ".lock"
-            if (lock.exists() or lock.is_symlink()) and not lock.is_file():
+            if lock.is_symlink() or (lock.exists() and not lock.is_file()):
                 raise RuntimeError(f"{lock}: frame {f}'s lock file is not a regular file; remove it (`rm -r "
                                    f"{lock}`, after checking it holds nothing you need) and run again")
 

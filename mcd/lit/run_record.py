@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from mcd.core.atomic_write import atomic_write_json
 from mcd.core.metrics import FRAME_METRICS, MODEL_METRICS, PAPER_METRICS
@@ -168,6 +168,8 @@ def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None
         _refuse_other_settings(recorded.get("split"), split_settings(cfg), path.parent,
                                "a finished run of another split of the frames",
                                "its scores are of other test frames")
+        _refuse_other_settings(recorded.get("scenes"), scene_settings(cfg), path.parent,
+                               "a finished run of other scenes", "its scores are of frames of the old scenes")
 
 
 #: The job identity (:func:`job_identity`) of the run that trains in a run directory, written before training.
@@ -193,12 +195,20 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
         _refuse_other_settings(recorded.get("split"), split_settings(cfg), run_dir,
                                "an interrupted run of another split of the frames",
                                "its steps so far trained on frames of the old split, which this one may test")
+        _refuse_other_settings(recorded.get("scenes"), scene_settings(cfg), run_dir,
+                               "an interrupted run of other scenes", "its steps so far trained on frames of "
+                               "the old scenes, and a resume would train and test on others under one record")
+        _refuse_other_settings(recorded.get("values"), value_settings(cfg), run_dir,
+                               "an interrupted run trained on values of another precision",
+                               "its steps so far read the frames at the old precision, and its record would "
+                               "name the new one")
         _refuse_other_settings(recorded.get("optimiser"), optimiser_settings(cfg), run_dir,
                                "an interrupted run trained with other optimiser settings", "its checkpoint "
                                "carries the optimiser's and the schedule's state, so a resume keeps training "
                                "at the old rate")
     # the processes of a DDP run all write it
     atomic_write_json(path, {**job_identity(cfg, choices), "split": split_settings(cfg),
+                             "scenes": scene_settings(cfg), "values": value_settings(cfg),
                              "optimiser": optimiser_settings(cfg)}, indent=2)
 
 
@@ -210,6 +220,62 @@ def split_settings(cfg: DictConfig) -> dict[str, float | int]:
     d = cfg.data
     return {"data.test_fraction": float(d.get("test_fraction", 0.2)), "data.val_clips": int(d.val_clips),
             "data.clip_len": int(d.clip_len)}
+
+
+def scene_settings(cfg: DictConfig) -> dict[str, Any]:
+    """What each scene of the run's lists is made of, beyond :func:`mcd.data.store.store_settings` (which
+    names the scenes only): ``data.scenes.<name>.file_sha256`` and ``.reads_sha256`` (an XML scene's file and
+    the meshes, textures and XML it reads, :func:`mcd.data.scenes.reads_digest`; ``None`` where the file is
+    missing: the store names it), ``.source_sha256`` (a procedural scene's seed, room and generator),
+    ``.path.<key>`` (the camera path) and ``.exposure``; a scene given by its file's path in a list gets the
+    digests under the name it is registered by. The store renders again when one changes
+    (:meth:`mcd.data.scenes.SceneSpec.source`), so a resume under another camera path, or of a scene file
+    edited in place, trained the rest of its steps, and was tested, on other frames under one record, and a
+    rerun was skipped as finished. Recorded in ``job.json`` beside the job's identity (docs/reliability.md,
+    "Campaign fixes")."""
+    from mcd.data.scenes import SceneSpec, path_scene_name
+
+    entries = dict.fromkeys(str(n) for k in ("train_scenes", "transfer_scenes", "test_scenes")
+                            for n in cfg.data.get(k) or [])
+    scenes_dir = OmegaConf.select(cfg, "paths.scenes_dir", default=None)
+    registered = cfg.data.get("scenes") or {}
+    found: dict[str, Any] = {}
+    for entry in entries:
+        if entry.endswith(".xml"):  # given by its path (mcd.data.scenes.register_paths)
+            file = Path(entry).expanduser().resolve()
+            spec = SceneSpec(path_scene_name(file), "xml", file=file)
+        elif entry in registered:
+            spec = SceneSpec.from_cfg(entry, registered[entry], scenes_dir)
+        else:  # not registered: the store names it
+            continue
+        key = f"data.scenes.{spec.name}"
+        if spec.kind == "xml":
+            found.update(_file_digests(key, spec.file))
+        else:
+            found[f"{key}.source_sha256"] = spec.source()["sha256"]
+        if not entry.endswith(".xml"):
+            found.update({f"{key}.path.{k}": v for k, v in sorted(spec.path.items())})
+            found[f"{key}.exposure"] = spec.exposure
+    return found
+
+
+def _file_digests(key: str, file: Path | None) -> dict[str, str | None]:
+    """``<key>.file_sha256`` and ``<key>.reads_sha256`` of an XML scene file (both ``None`` where missing)."""
+    from mcd.data.scenes import file_sha256, reads_digest
+
+    if file is None or not file.is_file():
+        return {f"{key}.file_sha256": None, f"{key}.reads_sha256": None}
+    return {f"{key}.file_sha256": file_sha256(file), f"{key}.reads_sha256": reads_digest(file)}
+
+
+def value_settings(cfg: DictConfig) -> dict[str, str]:
+    """The precision of the values training reads: ``data.train_store.dtype`` with the packed store
+    (``data.train_store.format=array``), ``float32`` from the EXR files. A resume that switched to a float16
+    pack trained the rest of its steps on rounded (and clamped) frames while its record named float16 only.
+    Recorded in ``job.json``; a finished run rerun at another precision is skipped as before."""
+    ts = cfg.data.get("train_store") or {}
+    packed = str(ts.get("format", "exr")) == "array"
+    return {"data.train_store.dtype": str(ts.get("dtype", "float32")) if packed else "float32"}
 
 
 def optimiser_settings(cfg: DictConfig) -> dict[str, float]:

@@ -53,6 +53,7 @@ def check_sweep(config: DictConfig, loader: ConfigLoader) -> None:
     of ``config`` that would run in one directory (module docstring). ``loader``: Hydra's config loader, which
     composes each job's config as the launcher does (``load_sweep_config``)."""
     sweep_dir = Path(str(config.hydra.sweep.dir))
+    check_tag(config.get("sweep_tag"), sweep_dir)
     writable_folder_to_be("hydra.sweep.dir", sweep_dir)
     jobs = grid(config, loader)
     seen: dict[str, int] = {}
@@ -61,9 +62,22 @@ def check_sweep(config: DictConfig, loader: ConfigLoader) -> None:
         with open_dict(cfg):
             cfg.hydra.job.num = cfg.hydra.job.id = num
         subdir = str(cfg.hydra.sweep.subdir)
+        if Path(subdir).is_absolute() or ".." in Path(subdir).parts:
+            raise ValueError(f"hydra.sweep.subdir={subdir!r} (job {num}): a job's folder lies below "
+                             f"hydra.sweep.dir ({sweep_dir}); give a relative path without '..'")
         first = seen.setdefault(subdir, num)
         if first != num:
             raise ValueError(_collision(jobs, first, num, sweep_dir / subdir, config))
+
+
+def check_tag(tag: object, sweep_dir: Path) -> None:
+    """ValueError naming ``sweep_tag`` unless it is a suffix of one folder name (no ``/``): the named sweeps
+    append it to ``multirun/<sweep>/<data profile>`` (``sweeps/_sweep_dirs.yaml``), and
+    ``sweep_tag=/../../../x`` put the sweep's jobs outside ``multirun/`` and the working directory."""
+    if tag is not None and ("/" in str(tag) or "\\" in str(tag)):
+        raise ValueError(f"sweep_tag={tag!r}: a suffix of the sweep's folder name, such as sweep_tag=_ep5, "
+                         f"without '/' (it would put the sweep in {sweep_dir}); to sweep elsewhere give "
+                         "hydra.sweep.dir=<dir>")
 
 
 def _collision(jobs: list[list[str]], first: int, second: int, folder: Path, config: DictConfig) -> str:

@@ -19,6 +19,7 @@ three additions, all read from the root config's ``sweep_plan`` block:
 from __future__ import annotations
 
 import logging
+import sys
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
@@ -121,7 +122,7 @@ class PlannedSweeper(BasicSweeper):
     def split_arguments(self, overrides: list[Override],  # type: ignore[override]
                         max_batch_size: int | None) -> list[list[list[str]]]:
         """The basic sweeper's batches less the jobs ``sweep_plan.seeds_only_where`` drops, after printing the
-        plan; ValueError naming ``sweep_plan.allow_large`` when the grid is above its limit."""
+        plan; one ``error:`` line naming ``sweep_plan.allow_large`` and exit 2 above its limit."""
         assert self.config is not None and self.hydra_context is not None
         settings = self.config.get("sweep_plan") or {}
         grid = [list(j) for batch in BasicSweeper.split_arguments(overrides, None) for j in batch]
@@ -143,11 +144,12 @@ class PlannedSweeper(BasicSweeper):
         for line in plan_lines(rows, limit):
             log.info(line)
         total = sum(r["cpu_h"] for r in rows)
-        if total > limit and not settings.get("allow_large", False):
-            raise ValueError(f"the sweep's plan is {total:.1f} CPU-hours of training, above "
-                             f"sweep_plan.cpu_hours_limit={limit:g}: narrow the grid (e.g. fewer data "
-                             "profiles, budgets or seeds on the command line) or add "
-                             "sweep_plan.allow_large=true to run it anyway. Nothing was run.")
+        if total > limit and not settings.get("allow_large", False):  # one line, no traceback
+            print(f"error: the sweep's plan is {total:.1f} CPU-hours of training, above "
+                  f"sweep_plan.cpu_hours_limit={limit:g}: narrow the grid (e.g. fewer data profiles, budgets "
+                  "or seeds on the command line) or add sweep_plan.allow_large=true to run it anyway. "
+                  "Nothing was run.", file=sys.stderr)
+            raise SystemExit(2)
         if settings.get("dry_run", False):
             return []
         chunks = BasicSweeper.split_overrides_to_chunks(jobs, max_batch_size)

@@ -37,6 +37,10 @@ def requested_buffers(cfg: DictConfig) -> set[str]:
     (docs/data.md)."""
     spec = cfg.render.get("buffers", "method")
     if isinstance(spec, ListConfig | list | tuple):
+        if not spec:
+            raise ValueError("render.buffers=[]: an empty list asks for no buffer; give the buffers to "
+                             "render (e.g. render.buffers=[ref,c4]), 'method' (those the configured method "
+                             "reads) or 'all'")
         return set(spec) | {"ref"}
     if spec == "all":
         return set(BUFFERS)

@@ -170,7 +170,7 @@ def test_config_errors_name_the_key():
     assert Augment.from_cfg(_data(**ALL_ON)) == Augment(**ALL_ON)
     for bad, key in [({"flip": True}, "unknown key"), ({"zero_pad": 1.5}, "data.augment.zero_pad="),
                      ({"exposure_stops": -1.0}, "data.augment.exposure_stops"),
-                     ({"zero_pad_max": 40}, "data.augment.zero_pad_max"),
+                     ({"zero_pad": 0.5, "zero_pad_max": 40}, "data.augment.zero_pad_max"),
                      ({"channels": "yes"}, "data.augment.channels"),
                      ({"reverse": 1}, "data.augment.reverse")]:
         with pytest.raises(ValueError, match=key):
