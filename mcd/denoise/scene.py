@@ -111,8 +111,9 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     """Render and denoise ``path`` (module docstring) with autocast to ``dtype`` (None: fp32;
     mcd/denoise/precision.py); returns a summary with per-frame samples and, with ``reference_spp``, scores.
 
-    ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: the network's from frame 0's
-    own input (a robust mean brought to ``data.exposure_target``, :func:`mcd.data.exposure.input_exposure`),
+    ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: the network's from the own
+    input of the first frame that is not black (a robust mean brought to ``data.exposure_target``,
+    :func:`mcd.data.exposure.input_exposure`; the black frames before it see the same input at any exposure),
     with or without a reference, so that scoring never changes the outputs; the scores' from frame 0's
     reference (the same for every method). ``reference_db`` None: every reference
     at ``reference_spp``. ``check_work(width, height)``: called once the film size is known, before anything
@@ -177,10 +178,18 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             key = "extra" if adaptive and read_uniform else "uniform" if read_uniform else "scores"
             spent[key] += n * budget
         gb = r.gbuffer(gbuffer_spp, derive_seed(seed, "gbuffer", f))
-        if f == 0 and exposure is None:  # what the user has: the method's own input, never the reference
+        if exposure is None:  # what the user has: the method's own input, never the reference
+            # the first frame whose input is not black, as for frames (mcd.denoise.frames.FrameSequence): a
+            # black frame 0 gave 1, and the lit frames after it reached the network far too dark; the frames
+            # before are black, so their input is the same at any exposure
             exposure = input_exposure(raw.get("c1_in", raw.get(uniform)), target,
-                                      f"{path}: frame 0's input") or 1.0
-            exposure_source = "frame 0's input"
+                                      f"{path}: frame {f}'s input")
+            if exposure is not None:
+                exposure_source = f"frame {f}'s input"
+                if f:
+                    log.info("%s: the input of frames 0-%d is black; network exposure x%.4g from frame %d",
+                             path, f - 1, exposure, f)
+        net = 1.0 if exposure is None else exposure  # the network's exposure of this frame
         depth = gb["depth"]
         if scale_from is None and np.any(np.isfinite(depth) & (depth > 0)):
             # the first frame with a hit, as for frames (mcd.denoise.frames.FrameSequence._depth_scale): a
@@ -192,7 +201,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                          scale, f)
         x: dict[str, torch.Tensor | None] = {}
         for name, img in {**raw, **{b: gb[b] for b in GBUFFERS if b in reads}}.items():
-            x[name] = layout(_tensor(normalise(img, name, exposure, scale, colour=name not in GBUFFERS)[0],
+            x[name] = layout(_tensor(normalise(img, name, net, scale, colour=name not in GBUFFERS)[0],
                                      device), dtype)
         uniform_input = raw.get(uniform) if ref is not None else None
         if not read_uniform:
@@ -206,7 +215,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         with running(device, dtype):
             if adaptive:
                 placeholders = {k: torch.zeros_like(x["c1_in"]) for k in stack_names(levels)}
-                render = AdaptiveRender(scene.scene, r.sensor, derive_seed(seed, "adaptive", f), exposure)
+                render = AdaptiveRender(scene.scene, r.sensor, derive_seed(seed, "adaptive", f), net)
                 with real_renderer(render):
                     out = model({**placeholders, **x})
                 spent["adaptive"] = render.samples
@@ -220,9 +229,9 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         written = dict(out)
         if ref is not None:
             assert score_exposure is not None and uniform_input is not None
-            to_scores = float(score_exposure / exposure)  # the network's exposure -> the scores'
+            to_scores = float(score_exposure / net)  # the network's exposure -> the scores'
             ref_img = normalise(ref.image, "ref", score_exposure, scale, colour=True)[0]
-            written["reference"] = _tensor(normalise(ref.image, "ref", exposure, scale, colour=True)[0],
+            written["reference"] = _tensor(normalise(ref.image, "ref", net, scale, colour=True)[0],
                                            device)
             row.update(reference_spp=ref.spp, reference_psnr_estimate=ref.psnr_estimate)
             scored_uniform = _tensor(normalise(uniform_input, uniform, score_exposure, scale, colour=True)[0],
@@ -233,7 +242,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                               out["output"].float() * to_scores))
             if sim_model is not None:
                 before = r.samples_rendered
-                stack = {k: layout(_tensor(normalise(r.color(2 ** j, derive_seed(seed, k, f)), k, exposure,
+                stack = {k: layout(_tensor(normalise(r.color(2 ** j, derive_seed(seed, k, f)), k, net,
                                                      scale, colour=True)[0], device), dtype)
                          for j, k in enumerate(stack_names(levels))}
                 spent["scores"] += r.samples_rendered - before
@@ -242,10 +251,14 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                 row["psnr_simulated"] = psnr(hwc(sim["output"].float() * to_scores), ref_img)
                 row["psnr_output_minus_simulated"] = row["psnr_output"] - row["psnr_simulated"]
         row["score_samples"] = spent["scores"]
-        write_frame(out_dir, f"{scene.spec.name}_{f:04d}", written, exposure)
+        write_frame(out_dir, f"{scene.spec.name}_{f:04d}", written, net)
         rows.append(row)
-    return {"frames": rows, "size": [height, width], "budget": budget, "exposure": exposure,
-            "exposure_source": exposure_source, "score_exposure": score_exposure if plan else None,
+    if exposure is None:
+        log.warning("%s: the input of every frame is black: network exposure x1; give --exposure if the "
+                    "scene is lit", path)
+    return {"frames": rows, "size": [height, width], "budget": budget, "exposure": exposure or 1.0,
+            "exposure_source": exposure_source or "none: every frame's input is black",
+            "score_exposure": score_exposure if plan else None,
             "score_exposure_source": score_source if plan else None, "mean": mean_scores(rows),
             "reference": plan.summary() if plan is not None else None,
             "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant()}
