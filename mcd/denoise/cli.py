@@ -61,8 +61,8 @@ def parser() -> argparse.ArgumentParser:
                    help="cap of the reference's spp (input b)")
     p.add_argument("--exposure", type=arguments.float_in(0, 1e12, lo_open=True), default=None,
                    help="one exposure for the network and every score (frames and scene; default: the "
-                   "network's from frame 0's input, the scores' from frame 0's reference in a scene, from "
-                   "frame 0's input on frames, each mean brought to 0.5)")
+                   "network's from the first lit frame's input, the scores' from its reference in a scene, "
+                   "from it on frames, each mean brought to 0.5)")
     p.add_argument("--seed", type=arguments.int_in(0, 2**32 - 1), default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),

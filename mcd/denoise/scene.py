@@ -1,5 +1,5 @@
-"""Input (b) of ``mcd.denoise``: a Mitsuba scene, rendered and sampled for real (docs/denoise.md, "Scenes:
-the real loop"; docs/method.md "Adaptive sampling"; paper Sec. 3.1).
+"""Input (b) of ``mcd.denoise``: a Mitsuba scene, rendered and sampled for real (docs/denoise.md, "Scenes: the
+real loop"; docs/method.md "Adaptive sampling"; paper Sec. 3.1).
 
 Per frame (the scene's own camera; with ``frames > 1`` a path derived from it as for the benchmark's scenes,
 :func:`mcd.data.scenes.derive_nodes`): render ``c_1`` (1 spp, ``N`` samples) and the G-buffers (their own
@@ -11,13 +11,13 @@ renders ``c_s`` (``N * s``) instead. NTASAD's first frame also reads ``c_s`` (it
 output), rendered on top and reported as ``extra_samples``; no other adaptive method renders ``c_s`` for
 itself. The film size defaults to the scene's own (:func:`film_size`).
 
-With ``reference_spp``, every method is scored on the same terms (docs/denoise.md, "Scores of the real
-loop"): one exposure for the scores (given, or from frame 0's reference; the network's own comes from its
+With ``reference_spp``, every method is scored on the same terms (docs/denoise.md, "Scores of the real loop"):
+one exposure for the scores (given, or from the first lit frame's reference; the network's own comes from its
 input, as without a reference), the same uniform input ``c_s`` beside an adaptive method's own input, a
-reference raised to a target quality with its own noise estimated (:mod:`mcd.denoise.reference`) and
-written beside the outputs; for adaptive methods also the stack ``c_1 .. c_{2^levels}`` of the simulated
-render, run through a copy of the model (what the benchmark measures) and compared with the real loop.
-Renders made only for the scores are counted as ``score_samples``.
+reference raised to a target quality with its own noise estimated (:mod:`mcd.denoise.reference`) and written
+beside the outputs; for adaptive methods also the stack ``c_1 .. c_{2^levels}`` of the simulated render, run
+through a copy of the model (what the benchmark measures) and compared with the real loop. Renders made only
+for the scores are counted as ``score_samples``.
 """
 
 from __future__ import annotations
@@ -114,10 +114,10 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: the network's from the own
     input of the first frame that is not black (a robust mean brought to ``data.exposure_target``,
     :func:`mcd.data.exposure.input_exposure`; the black frames before it see the same input at any exposure),
-    with or without a reference, so that scoring never changes the outputs; the scores' from frame 0's
-    reference (the same for every method). ``reference_db`` None: every reference
-    at ``reference_spp``. ``check_work(width, height)``: called once the film size is known, before anything
-    is rendered (mcd-denoise's work limit, mcd/denoise/work.py).
+    with or without a reference, so that scoring never changes the outputs; the scores' from the first lit
+    frame's reference (the same for every method; :class:`mcd.denoise.reference.ReferencePlan`).
+    ``reference_db`` None: every reference at ``reference_spp``. ``check_work(width, height)``: called once
+    the film size is known, before anything is rendered (mcd-denoise's work limit, mcd/denoise/work.py).
     """
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
@@ -162,9 +162,10 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         ref = None
         if plan is not None:
             before = r.samples_rendered
-            if f == 0:
-                ref, score_exposure = plan.first(r, score_exposure, target)
-                score_source = score_source or "frame 0's reference"
+            if not plan.settled:  # frame 0, or the first lit frame after black ones
+                ref, score_exposure = plan.first(r, score_exposure, target, f)
+                if score_source is None and score_exposure is not None:
+                    score_source = f"frame {f}'s reference"
             else:
                 ref = plan.render(r, f, score_exposure)
             spent["scores"] += r.samples_rendered - before
@@ -228,13 +229,14 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                    gbuffer_samples=n * gbuffer_spp)
         written = dict(out)
         if ref is not None:
-            assert score_exposure is not None and uniform_input is not None
-            to_scores = float(score_exposure / net)  # the network's exposure -> the scores'
-            ref_img = normalise(ref.image, "ref", score_exposure, scale, colour=True)[0]
+            assert uniform_input is not None
+            scored = 1.0 if score_exposure is None else score_exposure  # None: black so far, any exposure
+            to_scores = float(scored / net)  # the network's exposure -> the scores'
+            ref_img = normalise(ref.image, "ref", scored, scale, colour=True)[0]
             written["reference"] = _tensor(normalise(ref.image, "ref", net, scale, colour=True)[0],
                                            device)
             row.update(reference_spp=ref.spp, reference_psnr_estimate=ref.psnr_estimate)
-            scored_uniform = _tensor(normalise(uniform_input, uniform, score_exposure, scale, colour=True)[0],
+            scored_uniform = _tensor(normalise(uniform_input, uniform, scored, scale, colour=True)[0],
                                      device)
             adaptive_input = out.get("adaptive")
             row.update(scores(ref_img, scored_uniform,
@@ -258,8 +260,9 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                     "scene is lit", path)
     return {"frames": rows, "size": [height, width], "budget": budget, "exposure": exposure or 1.0,
             "exposure_source": exposure_source or "none: every frame's input is black",
-            "score_exposure": score_exposure if plan else None,
-            "score_exposure_source": score_source if plan else None, "mean": mean_scores(rows),
+            "score_exposure": (score_exposure or 1.0) if plan else None,
+            "score_exposure_source": (score_source or "none: every frame's reference is black") if plan
+            else None, "mean": mean_scores(rows),
             "reference": plan.summary() if plan is not None else None,
             "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant()}
 

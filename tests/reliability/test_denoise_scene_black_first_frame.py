@@ -32,3 +32,24 @@ def test_a_scene_whose_frame_0_is_black_takes_the_exposure_of_its_first_lit_fram
     for f in (1, 2):  # 0.26 and 0.27 with the exposure 1 of the black frame 0
         auto, given = (read_exr(tmp_path / n / f"dark_{f:04d}.exr") for n in ("auto", "given"))
         assert np.abs(auto - given).mean() / given.mean() < 0.03, f
+
+
+def test_the_scores_of_a_scene_whose_frame_0_is_black_take_the_exposure_of_its_first_lit_reference(tmp_path):
+    """With ``--reference-spp`` the scores' exposure and the reference's pilot came from frame 0's reference,
+    black: exposure 1, and frames 1-2 were scored far too dark (output 40.07 dB for frame 1, 33.68 dB at
+    ``--exposure 38``). The first lit frame's pilot sets both now
+    (:class:`mcd.denoise.reference.ReferencePlan`)."""
+    scene = tmp_path / "dark.xml"
+    scene.write_text(WALLS.replace(SKY, LIGHT).format(extra=""))
+    reports = {}
+    for name, extra in (("auto", []), ("given", ["--exposure", "38"])):
+        reports[name] = run(["--scene", str(scene), "-o", str(tmp_path / name), "--checkpoint",
+                             "unet-cpu-small", "--frames", "3", "--reference-spp", "16", "--no-progress",
+                             *extra])
+    auto, given = reports["auto"], reports["given"]
+    assert auto["score_exposure_source"] == "frame 1's reference", auto["score_exposure_source"]
+    assert abs(auto["score_exposure"] / 38 - 1) < 0.1, auto["score_exposure"]
+    for f in (1, 2):  # 6.4 dB and 5.8 dB above the scores at --exposure 38 with the exposure 1 of frame 0
+        a, g = auto["frames"][f], given["frames"][f]
+        assert abs(a["psnr_output"] - g["psnr_output"]) < 0.5, (f, a["psnr_output"], g["psnr_output"])
+        assert abs(a["psnr_uniform"] - g["psnr_uniform"]) < 0.5, (f, a["psnr_uniform"], g["psnr_uniform"])
