@@ -40,7 +40,7 @@ from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import depth_scale, input_exposure, normalise
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
-from mcd.denoise.output import hwc, write_frame
+from mcd.denoise.output import frame_files, hwc, write_frame
 from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.reference import MAX_SPP, TARGET_DB, ReferencePlan
 from mcd.denoise.weights import Loaded
@@ -264,7 +264,10 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             "score_exposure_source": (score_source or "none: every frame's reference is black") if plan
             else None, "mean": mean_scores(rows),
             "reference": plan.summary() if plan is not None else None,
-            "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant()}
+            "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant(),
+            "scene": str(path), "outputs": [n for f in range(len(cams))
+                                            for n in frame_files(f"{scene.spec.name}_{f:04d}")
+                                            if (out_dir / n).is_file()]}
 
 
 #: The score columns: the same uniform render ``c_s`` for every method, an adaptive method's own input, the
