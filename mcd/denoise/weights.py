@@ -172,6 +172,29 @@ def check_finite(weights: dict[str, Any], key: str, source: str | Path) -> None:
             "or train it again (a lower train.lr, train.grad_clip)")
 
 
+#: The parts of a checkpoint's configuration that ``mcd-denoise`` builds and feeds the model with.
+READ_PARTS = ("budget", "data", "method", "capacity")
+
+
+def check_values(cfg: DictConfig, source: str) -> None:
+    """CheckpointError naming ``source`` and the key where a value of :data:`READ_PARTS` breaks its rule
+    (:mod:`mcd.core.config_rules`, which ``mcd.run`` holds every config to before training): a bundle's JSON
+    with ``data.exposure_target`` -1 or NaN denoised every frame to black and scored it 100 dB, and 0 ended
+    in a ZeroDivisionError traceback."""
+    from mcd.core.config_rules import ConfigError, checked, leaves
+
+    for part in READ_PARTS:
+        node = cfg.get(part)
+        tree = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+        for key, value in leaves({part: tree}):
+            try:
+                checked(key, value, cfg)
+            except ConfigError as err:
+                raise checkpoint.CheckpointError(
+                    f"--checkpoint: {source}: {err}; bundle the run again (python -m mcd.bundle RUN_DIR "
+                    "--name NAME --replace), or restore the file") from None
+
+
 def param_count(cfg: DictConfig) -> int:
     """Parameters of the model ``cfg`` builds, counted on PyTorch's ``meta`` device (no memory is allocated
     for them)."""
@@ -253,6 +276,7 @@ def load(spec: str, experiment: str | None = None, capacity: str | None = None) 
     from mcd.models import build
 
     cfg, weights, prov, source = resolve(spec)
+    check_values(cfg, source)
     got = str(cfg.get("experiment", cfg.method.name))
     if experiment is not None and experiment != got:
         raise checkpoint.CheckpointError(

@@ -71,3 +71,20 @@ def test_the_shipped_bundles_are_finite(bundle):
     from mcd.denoise.weights import check_finite
 
     check_finite(torch.load(BUNDLED_DIR / f"{bundle}.pt", weights_only=True), "--checkpoint", bundle)
+
+
+@pytest.mark.parametrize("value", [-1.0, 0.0, float("nan")])
+def test_a_bundle_whose_configuration_breaks_a_rule_is_refused_naming_the_key(tmp_path, capsys, value):
+    """A bundle's JSON with ``data.exposure_target`` -1 or NaN (its ``.pt`` unchanged, so its SHA-256 held)
+    denoised every frame to black and scored it 100 dB, exit 0; 0 ended in a ZeroDivisionError traceback. The
+    parts of the configuration the model is built and fed with are held to ``mcd.run``'s rules
+    (:func:`mcd.denoise.weights.check_values`)."""
+    write_frames(tmp_path / "frames", n=2, size=(32, 32))
+    pt = tmp_path / "edited.pt"
+    shutil.copy(BUNDLED_DIR / "unet-cpu-small.pt", pt)
+    meta = json.loads((BUNDLED_DIR / "unet-cpu-small.json").read_text())
+    meta["config"]["data"]["exposure_target"] = value
+    pt.with_suffix(".json").write_text(json.dumps(meta))
+    err = refused(capsys, str(tmp_path / "frames"), "-o", str(tmp_path / "out"), "--checkpoint", str(pt))
+    assert "data.exposure_target=" in err and str(pt) in err, err
+    assert not (tmp_path / "out").exists()
