@@ -115,3 +115,16 @@ def test_a_bench_csv_with_a_latency_no_bench_measures_is_refused(ab_sweep, tmp_p
     assert proc.returncode == 1, proc.stderr[-3000:]
     assert f"--bench {bench}: an ms_median that is not a positive finite number" in proc.stderr
     assert not (tmp_path / "reports").exists()
+
+
+def test_a_frames_csv_giving_a_frame_twice_fails_that_run(ab_sweep, tmp_path):
+    """A ``frames.csv`` whose last row is given twice was reported, the copy a second point of the per-frame
+    table and plot, exit 0 (a low: no run writes one twice; a resumed run drops what it logged past its
+    checkpoint). The run is failed now, named with the file (``mcd.reporting.runs.frames_problem``)."""
+    sweep = tmp_path / "ablation" / "tiny"
+    shutil.copytree(ab_sweep / "multirun" / "ablation" / "tiny", sweep)
+    frames = sweep / "A_spp4" / "frames.csv"
+    frames.write_text(frames.read_text() + frames.read_text().splitlines()[-1] + "\n")
+    proc = _report(str(sweep), "--out", str(tmp_path / "reports"), "--no-viewer")
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    assert f"{frames} is corrupt (cbox frame" in proc.stderr and "is given twice" in proc.stderr, proc.stderr
