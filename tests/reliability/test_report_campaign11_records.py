@@ -128,3 +128,16 @@ def test_a_frames_csv_giving_a_frame_twice_fails_that_run(ab_sweep, tmp_path):
     proc = _report(str(sweep), "--out", str(tmp_path / "reports"), "--no-viewer")
     assert proc.returncode == 1, proc.stderr[-3000:]
     assert f"{frames} is corrupt (cbox frame" in proc.stderr and "is given twice" in proc.stderr, proc.stderr
+
+
+def test_a_scaling_finding_names_the_runs_that_stopped_before_its_budget(ab_sweep, tmp_path):
+    """``--kind scaling`` of runs stopped by ``train.epochs=1`` after 1 step stated "tiny, 1500 steps: Ours
+    (F) - A = +4.94 dB ...; Ours (F) above A holds" at their ``train.max_steps``, only the cells table saying
+    that they stopped early (a medium: a finding at a budget its runs did not train). The finding names them
+    now (``mcd.reporting.scaling.gaps.stopped_early``)."""
+    proc = _report(str(ab_sweep / "multirun" / "ablation" / "tiny"), "--out", str(tmp_path / "reports"),
+                   "--kind", "scaling", "--no-viewer")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    lines = (tmp_path / "reports" / "scaling" / "README.md").read_text().splitlines()
+    (finding,) = [line for line in lines if line.startswith("- tiny, ") and " - A = " in line]
+    assert "stopped early: Ours (F) seed 0 at step" in finding and "A seed 0 at step" in finding, finding
