@@ -91,6 +91,8 @@ def stopped_early(grid: Grid, data: str, steps: int, experiments: tuple[str, str
     fewer steps than the scale point's budget, or ``""``: a finding at a budget of 1500 steps was stated for
     runs stopped after 1 step (by ``train.epochs``), the cells table alone saying so."""
     p = grid.points
+    if not {"train_steps", "stop_reason"} <= set(p.columns):  # a grid without the runs' budgets
+        return ""
     parts = []
     for exp in experiments:
         df = p[(p["data"] == data) & (p["steps"] == steps) & (p["experiment"] == exp)]
