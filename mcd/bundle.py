@@ -7,8 +7,9 @@ commit and whether the tree was dirty, the data profile, the budget in samples p
 and why it stopped, the device, the test metrics from the run's ``metrics.json``), the SHA-256 of the ``.pt``
 and the configuration the model is built from (``experiment``, ``method``, ``model``, ``budget``, the data
 keys the inputs are normalised with). ``--checkpoint <name>`` of ``mcd-denoise`` then finds it. The weights
-are checked against the model they are built into before anything is written. A bundle of that name
-already in the folder (a shipped one included) is kept: the command refuses it unless ``--replace`` is given.
+are checked against the model they are built into, and for NaN/Inf values, before anything is written. A
+bundle of that name already in the folder (a shipped one included) is kept: the command refuses it unless
+``--replace`` is given.
 Both files are written atomically (:mod:`mcd.core.atomic_write`), so a killed bundle leaves no half file.
 """
 
@@ -28,7 +29,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from mcd.core.atomic_write import atomic_write
 from mcd.core.paths import check_folder_name, writable_folder_to_be
-from mcd.denoise.weights import BUNDLED_DIR, check_schema, tested_checkpoint
+from mcd.denoise.weights import BUNDLED_DIR, check_finite, check_schema, tested_checkpoint
 from mcd.lit import checkpoint
 
 #: Keys of a run's metrics.json copied into the provenance.
@@ -81,6 +82,7 @@ def bundle(run_dir: Path, name: str, out_dir: Path = BUNDLED_DIR,
                          "run's own checkpoint")
     weights = {k: v.detach().float().contiguous() for k, v in checkpoint.model_weights(state).items()}
     checkpoint.check_fits(build(cfg), weights, "run dir", ckpt)
+    check_finite(weights, "run dir", ckpt)
     overrides_file = run_dir / ".hydra" / "overrides.yaml"
     overrides = (read_record(overrides_file, yaml.safe_load, list, "a YAML list")
                  if overrides_file.is_file() else None)

@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mcd.core.file_lock import exclusive_folder
+from mcd.core.file_lock import exclusive_folder, folder_held_elsewhere
 from mcd.core.paths import UnsafeNameError, check_folder_name
 from mcd.reporting.outputs import writes
 
@@ -345,6 +345,9 @@ def check_out(out_root: Path, out_dir: Path | None = None, reads: list[Path] | N
                   else f"a hard link: {links[0].stat().st_nlink} names share its bytes")
             raise ReportOutError(f"{links[0]}: a link where the report writes ({to}); a report writes only "
                                  "inside its folder: remove the link, or give another --name")
+    if folder_held_elsewhere(out_dir):  # a report being written has no README yet: never "delete its folder"
+        raise ReportOutError(f"{out_dir}: another mcd.report is writing this report now; wait for it to "
+                             "finish, or give another --name")
     if out_dir.is_dir() and not (out_dir / "README.md").exists():  # no report wrote there: a user's folder
         found = [n for n in declared if (out_dir / n).exists() or (out_dir / n).is_symlink()]
         if found:
@@ -396,12 +399,16 @@ def make_report(
             f"no run directories (metrics.json / error.json / .hydra) under "
             f"{', '.join(map(str, dirs))}: pass the multirun dirs of `mcd.run -m`"
         )
-    records.keys(runs)  # two runs that would share a record folder: refused before anything is written
     from mcd.reporting.speed import bench_problem
 
     if (problem := bench_problem(bench)) is not None:
         raise ReportOutError(f"{problem}; give a CSV of python -m mcd.bench speed as --bench")
     sweeps = find_sweeps(dirs)
+    try:  # two runs, or two sweeps, that would share a record folder: refused before anything is written
+        records.keys(runs)
+        records.sweep_keys(sweeps)
+    except ValueError as err:
+        raise ReportOutError(str(err)) from err
     scaling = kind == "scaling" or (kind == "auto" and is_scaling(runs))
     name = report_name(runs, name, scaling)
     out_dir = out_root / name

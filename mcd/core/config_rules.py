@@ -318,11 +318,11 @@ def checked(key: str, value: Any, cfg: DictConfig | None = None) -> Any:
     return value
 
 
-def _leaves(node: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
+def leaves(node: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
     """(dotted key, unresolved value) of every leaf of a container; a list is one leaf."""
     if isinstance(node, dict):
         for k, v in node.items():
-            yield from _leaves(v, f"{prefix}.{k}" if prefix else str(k))
+            yield from leaves(v, f"{prefix}.{k}" if prefix else str(k))
     else:
         yield prefix, node
 
@@ -330,7 +330,7 @@ def _leaves(node: Any, prefix: str = "") -> Iterator[tuple[str, Any]]:
 def check_config(cfg: DictConfig) -> None:
     """:class:`ConfigError` for the first key of ``cfg`` (in config order) whose value breaks its rule."""
     tree = OmegaConf.to_container(cfg, resolve=False)
-    for key, raw in _leaves(tree):
+    for key, raw in leaves(tree):
         if key.split(".", 1)[0] == "hydra" or rule_of(key) is None:
             continue
         value = raw

@@ -81,6 +81,25 @@ def held_elsewhere(path: Path) -> bool:
     return False
 
 
+def folder_held_elsewhere(path: Path) -> bool:
+    """Whether another open descriptor holds an exclusive ``flock`` on the folder ``path`` now
+    (:func:`exclusive_folder`'s lock; False where ``path`` is not a folder). Probes with a shared lock, taken
+    and dropped at once."""
+    if not path.is_dir():
+        return False
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)  # drops the probe's lock
+    return False
+
+
 @contextlib.contextmanager
 def exclusive_folder(path: Path) -> Iterator[bool]:
     """Try an exclusive ``flock`` on the folder ``path`` itself (an ``O_DIRECTORY`` descriptor) while the

@@ -78,9 +78,13 @@ def writable_file_to_be(key: str, path: Path) -> Path:
     """``path``, a file that ``key`` names and a command writes at its end: ValueError naming the key when it
     is a folder, or its folder cannot be made or written (:func:`writable_folder_to_be`), before any work
     starts (a measurement of minutes ended in an IsADirectoryError traceback where ``--out`` named a
-    folder)."""
+    folder). An existing path that is not a regular file (a FIFO, a device such as ``/dev/null``, a socket) is
+    refused too: with a FIFO the measurement ran, then waited for ever for a reader."""
     if path.is_dir():
         raise ValueError(f"{key}={path} is a folder, not a file: give a file name (in that folder, say)")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{key}={path} is not a regular file (a FIFO, a device or a socket): give a file "
+                         "name in a folder")
     writable_folder_to_be(key, path.parent)
     return path
 

@@ -61,8 +61,8 @@ def parser() -> argparse.ArgumentParser:
                    help="cap of the reference's spp (input b)")
     p.add_argument("--exposure", type=arguments.float_in(0, 1e12, lo_open=True), default=None,
                    help="one exposure for the network and every score (frames and scene; default: the "
-                   "network's from frame 0's input, the scores' from frame 0's reference in a scene, from "
-                   "frame 0's input on frames, each mean brought to 0.5)")
+                   "network's from the first lit frame's input, the scores' from its reference in a scene, "
+                   "from it on frames, each mean brought to 0.5)")
     p.add_argument("--seed", type=arguments.int_in(0, 2**32 - 1), default=0, help="render seed (input b)")
     p.add_argument("--device", default="cpu", help="torch device: cpu, cuda, cuda:1, or auto")
     p.add_argument("--precision", default="fp32", choices=list(PRECISIONS),
@@ -193,9 +193,10 @@ def _scene(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devic
     output_folder.check_apart(args.output, [args.scene], [SUMMARY, *outputs])
     output_folder.check_unrecorded(args.output, SUMMARY, outputs)
     if (args.output / SUMMARY).exists():  # another program's (or a damaged) denoise.json: never replaced
-        from mcd.denoise.resume import check_kind
+        from mcd.denoise.resume import check_earlier_outputs, check_kind
 
         check_kind(args.output / SUMMARY, scene=True)   # read_record's checks, then the earlier run's kind
+        check_earlier_outputs(args.output / SUMMARY, outputs)
     output_folder.check_writable(args.output)
     folder_lock.enter_context(output_folder.hold(args.output))
     output_folder.claim(args.output, SUMMARY)
@@ -215,7 +216,14 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
         raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
     from mcd.denoise.frame_scores import check_references, find_references, score_text
     from mcd.denoise.frames import check_frames, find_frames, read_header, siblings
-    from mcd.denoise.resume import Record, check_kind, config_digest, file_stamps, weights_digest
+    from mcd.denoise.resume import (
+        Record,
+        check_earlier_outputs,
+        check_kind,
+        config_digest,
+        file_stamps,
+        weights_digest,
+    )
     from mcd.denoise.sequence import denoise_frames, exposure_target, wanted_layers
 
     paths = find_frames(args.inputs)
@@ -240,6 +248,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
                 "device": str(device), "max_memory_mb": args.max_memory_mb, "overlap": args.overlap,
                 "exposure": args.exposure}
     check_kind(args.output / SUMMARY, scene=False)
+    check_earlier_outputs(args.output / SUMMARY, outputs)
     record = Record(args.output, settings)  # reads a previous run's record, before claim writes a first one
     output_folder.claim(args.output, SUMMARY)
     report = denoise_frames(loaded, paths, args.output, device, args.max_memory_mb, args.overlap,

@@ -3,10 +3,13 @@ a target quality as the store renders its test frames' references (docs/data.md,
 :mod:`mcd.data.reference_quality`).
 
 Every reference is two independent halves of ``spp / 2`` samples; their difference estimates the reference's
-own noise (:func:`~mcd.data.reference_quality.estimate_psnr`), which every score line prints. On frame 0 a
-pilot at ``--reference-spp`` sets the exposure (the pilot's mean becomes the exposure target, as the store's
-``exposure: auto``; unless ``--exposure`` is given) and its estimate sets the spp of every frame's reference
+own noise (:func:`~mcd.data.reference_quality.estimate_psnr`), which every score line prints. On the first
+frame whose pilot is not black (frame 0, unless it renders black) a pilot at ``--reference-spp`` sets the
+exposure (the pilot's mean becomes the exposure target, as the store's ``exposure: auto``; unless
+``--exposure`` is given) and its estimate sets the spp of every later frame's reference
 (:func:`~mcd.data.reference_quality.spp_for_target`: ``--reference-db``, capped at ``--reference-max-spp``).
+A black pilot tells neither (a black frame 0 gave the scores an exposure of 1, and the lit frames after it
+were scored far too dark): the frames until a lit one keep their pilot, black, as their reference.
 """
 
 from __future__ import annotations
@@ -55,26 +58,36 @@ def render_halves(renderer: Any, spp: int, seed: int, frame: int) -> tuple[np.nd
 
 
 class ReferencePlan:
-    """Frame 0's pilot decides the exposure and the spp; :meth:`render` renders any frame's reference."""
+    """The first lit frame's pilot decides the exposure and the spp (:attr:`settled` from then on);
+    :meth:`render` renders any later frame's reference."""
 
     def __init__(self, pilot_spp: int, target_db: float | None, max_spp: int, seed: int) -> None:
         check_settings(pilot_spp, target_db, max_spp)
         self.pilot_spp, self.target_db, self.max_spp, self.seed = pilot_spp, target_db, max_spp, seed
         self.spp = pilot_spp
         self.pilot_db: float | None = None
+        #: Whether a pilot that is not black has set the exposure and the spp.
+        self.settled = False
 
-    def first(self, renderer: Any, exposure: float | None, exposure_target: float) -> tuple[Reference, float]:
-        """Frame 0 (the renderer at its camera): the pilot, the exposure (``exposure``, or from the pilot's
-        mean) and the chosen spp; returns frame 0's reference and the exposure."""
-        a, b = render_halves(renderer, self.pilot_spp, self.seed, 0)
+    def first(self, renderer: Any, exposure: float | None, exposure_target: float,
+              frame: int = 0) -> tuple[Reference, float | None]:
+        """Frame ``frame`` (the renderer at its camera), called until :attr:`settled`: the pilot, the exposure
+        (``exposure``, or from the pilot's mean) and the chosen spp; returns the frame's reference and the
+        exposure (None while the pilots are black and no ``exposure`` is given)."""
+        a, b = render_halves(renderer, self.pilot_spp, self.seed, frame)
+        measured = auto_exposure((a + b) / 2, exposure_target)
+        if measured is None:  # black: the pilot is the frame's reference, and the next frame's pilot decides
+            self.pilot_db = estimate_psnr(a, b, exposure or 1.0)
+            return Reference((a + b) / 2, self.pilot_spp, self.pilot_db), exposure
+        self.settled = True
         if exposure is None:
-            exposure = auto_exposure((a + b) / 2, exposure_target) or 1.0
+            exposure = measured
         self.pilot_db = estimate_psnr(a, b, exposure)
         if self.target_db is not None:
             self.spp = spp_for_target(self.pilot_spp, self.pilot_db, self.target_db, self.max_spp)
         if self.spp == self.pilot_spp:
             return Reference((a + b) / 2, self.spp, self.pilot_db), exposure
-        return self.render(renderer, 0, exposure), exposure
+        return self.render(renderer, frame, exposure), exposure
 
     def render(self, renderer: Any, frame: int, exposure: float) -> Reference:
         """Frame ``frame``'s reference at the chosen spp (the renderer at its camera)."""

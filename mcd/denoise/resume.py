@@ -113,6 +113,34 @@ def check_kind(path: Path, scene: bool) -> None:
                       "the record and leave them unrecorded: give another -o (or delete the folder's files)")
 
 
+def recorded_outputs(old: dict[str, Any]) -> set[str]:
+    """The output files an earlier ``denoise.json`` (read by :func:`read_record`) says its run wrote: a
+    frames run's ``checksums`` (every file of each finished frame), a ``--scene`` run's ``outputs``; none for
+    a record from before ``outputs`` or one with no finished frame."""
+    sums = old.get("checksums")
+    names = {n for files in sums.values() if isinstance(files, dict) for n in files} \
+        if isinstance(sums, dict) else set()
+    outputs = old.get("outputs")
+    return names | ({n for n in outputs if isinstance(n, str)} if isinstance(outputs, list) else set())
+
+
+def check_earlier_outputs(path: Path, outputs: list[str]) -> None:
+    """RecordError where the earlier record at ``path`` lists output files that are still in its folder and
+    that this run, whose file names are ``outputs``, does not write: another sequence or scene, or fewer
+    frames, into a finished ``-o`` replaced the record (its scores, its checksums) and left those outputs
+    beside the new ones unrecorded, exit 0. A rerun over the same frames (or more) goes on as before."""
+    if not path.is_file():
+        return
+    mine = set(outputs)
+    left = sorted(n for n in recorded_outputs(read_record(path)) - mine if (path.parent / n).is_file())
+    if left:
+        listed = ", ".join(left[:3]) + (f" and {len(left) - 3} more" if len(left) > 3 else "")
+        raise RecordError(f"{path.parent}: holds {listed}, outputs of an earlier run that {path.name} "
+                          "records and this run does not write (other frames, another scene, or fewer "
+                          "frames); this run would replace the record and leave them unrecorded: give "
+                          "another -o, or delete them (and its denoise.json) first")
+
+
 class Record:
     """The finished frames of this run in ``<out>/denoise.json``, and those a previous run left (module
     docstring)."""

@@ -1,5 +1,5 @@
-"""Input (b) of ``mcd.denoise``: a Mitsuba scene, rendered and sampled for real (docs/denoise.md, "Scenes:
-the real loop"; docs/method.md "Adaptive sampling"; paper Sec. 3.1).
+"""Input (b) of ``mcd.denoise``: a Mitsuba scene, rendered and sampled for real (docs/denoise.md, "Scenes: the
+real loop"; docs/method.md "Adaptive sampling"; paper Sec. 3.1).
 
 Per frame (the scene's own camera; with ``frames > 1`` a path derived from it as for the benchmark's scenes,
 :func:`mcd.data.scenes.derive_nodes`): render ``c_1`` (1 spp, ``N`` samples) and the G-buffers (their own
@@ -11,13 +11,13 @@ renders ``c_s`` (``N * s``) instead. NTASAD's first frame also reads ``c_s`` (it
 output), rendered on top and reported as ``extra_samples``; no other adaptive method renders ``c_s`` for
 itself. The film size defaults to the scene's own (:func:`film_size`).
 
-With ``reference_spp``, every method is scored on the same terms (docs/denoise.md, "Scores of the real
-loop"): one exposure for the scores (given, or from frame 0's reference; the network's own comes from its
+With ``reference_spp``, every method is scored on the same terms (docs/denoise.md, "Scores of the real loop"):
+one exposure for the scores (given, or from the first lit frame's reference; the network's own comes from its
 input, as without a reference), the same uniform input ``c_s`` beside an adaptive method's own input, a
-reference raised to a target quality with its own noise estimated (:mod:`mcd.denoise.reference`) and
-written beside the outputs; for adaptive methods also the stack ``c_1 .. c_{2^levels}`` of the simulated
-render, run through a copy of the model (what the benchmark measures) and compared with the real loop.
-Renders made only for the scores are counted as ``score_samples``.
+reference raised to a target quality with its own noise estimated (:mod:`mcd.denoise.reference`) and written
+beside the outputs; for adaptive methods also the stack ``c_1 .. c_{2^levels}`` of the simulated render, run
+through a copy of the model (what the benchmark measures) and compared with the real loop. Renders made only
+for the scores are counted as ``score_samples``.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from mcd.data.camera import Camera, backward_motion, interpolate_path
 from mcd.data.exposure import depth_scale, input_exposure, normalise
 from mcd.data.renderer import derive_seed
 from mcd.data.scenes import SceneNotFoundError, SceneSpec, path_scene_name
-from mcd.denoise.output import hwc, write_frame
+from mcd.denoise.output import frame_files, hwc, write_frame
 from mcd.denoise.precision import layout, prepare, running
 from mcd.denoise.reference import MAX_SPP, TARGET_DB, ReferencePlan
 from mcd.denoise.weights import Loaded
@@ -111,12 +111,13 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     """Render and denoise ``path`` (module docstring) with autocast to ``dtype`` (None: fp32;
     mcd/denoise/precision.py); returns a summary with per-frame samples and, with ``reference_spp``, scores.
 
-    ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: the network's from frame 0's
-    own input (a robust mean brought to ``data.exposure_target``, :func:`mcd.data.exposure.input_exposure`),
-    with or without a reference, so that scoring never changes the outputs; the scores' from frame 0's
-    reference (the same for every method). ``reference_db`` None: every reference
-    at ``reference_spp``. ``check_work(width, height)``: called once the film size is known, before anything
-    is rendered (mcd-denoise's work limit, mcd/denoise/work.py).
+    ``width`` / ``height`` None: the scene's own film size. ``exposure`` None: the network's from the own
+    input of the first frame that is not black (a robust mean brought to ``data.exposure_target``,
+    :func:`mcd.data.exposure.input_exposure`; the black frames before it see the same input at any exposure),
+    with or without a reference, so that scoring never changes the outputs; the scores' from the first lit
+    frame's reference (the same for every method; :class:`mcd.denoise.reference.ReferencePlan`).
+    ``reference_db`` None: every reference at ``reference_spp``. ``check_work(width, height)``: called once
+    the film size is known, before anything is rendered (mcd-denoise's work limit, mcd/denoise/work.py).
     """
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
@@ -161,9 +162,10 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         ref = None
         if plan is not None:
             before = r.samples_rendered
-            if f == 0:
-                ref, score_exposure = plan.first(r, score_exposure, target)
-                score_source = score_source or "frame 0's reference"
+            if not plan.settled:  # frame 0, or the first lit frame after black ones
+                ref, score_exposure = plan.first(r, score_exposure, target, f)
+                if score_source is None and score_exposure is not None:
+                    score_source = f"frame {f}'s reference"
             else:
                 ref = plan.render(r, f, score_exposure)
             spent["scores"] += r.samples_rendered - before
@@ -177,10 +179,18 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             key = "extra" if adaptive and read_uniform else "uniform" if read_uniform else "scores"
             spent[key] += n * budget
         gb = r.gbuffer(gbuffer_spp, derive_seed(seed, "gbuffer", f))
-        if f == 0 and exposure is None:  # what the user has: the method's own input, never the reference
+        if exposure is None:  # what the user has: the method's own input, never the reference
+            # the first frame whose input is not black, as for frames (mcd.denoise.frames.FrameSequence): a
+            # black frame 0 gave 1, and the lit frames after it reached the network far too dark; the frames
+            # before are black, so their input is the same at any exposure
             exposure = input_exposure(raw.get("c1_in", raw.get(uniform)), target,
-                                      f"{path}: frame 0's input") or 1.0
-            exposure_source = "frame 0's input"
+                                      f"{path}: frame {f}'s input")
+            if exposure is not None:
+                exposure_source = f"frame {f}'s input"
+                if f:
+                    log.info("%s: the input of frames 0-%d is black; network exposure x%.4g from frame %d",
+                             path, f - 1, exposure, f)
+        net = 1.0 if exposure is None else exposure  # the network's exposure of this frame
         depth = gb["depth"]
         if scale_from is None and np.any(np.isfinite(depth) & (depth > 0)):
             # the first frame with a hit, as for frames (mcd.denoise.frames.FrameSequence._depth_scale): a
@@ -192,7 +202,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                          scale, f)
         x: dict[str, torch.Tensor | None] = {}
         for name, img in {**raw, **{b: gb[b] for b in GBUFFERS if b in reads}}.items():
-            x[name] = layout(_tensor(normalise(img, name, exposure, scale, colour=name not in GBUFFERS)[0],
+            x[name] = layout(_tensor(normalise(img, name, net, scale, colour=name not in GBUFFERS)[0],
                                      device), dtype)
         uniform_input = raw.get(uniform) if ref is not None else None
         if not read_uniform:
@@ -206,7 +216,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
         with running(device, dtype):
             if adaptive:
                 placeholders = {k: torch.zeros_like(x["c1_in"]) for k in stack_names(levels)}
-                render = AdaptiveRender(scene.scene, r.sensor, derive_seed(seed, "adaptive", f), exposure)
+                render = AdaptiveRender(scene.scene, r.sensor, derive_seed(seed, "adaptive", f), net)
                 with real_renderer(render):
                     out = model({**placeholders, **x})
                 spent["adaptive"] = render.samples
@@ -219,13 +229,14 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                    gbuffer_samples=n * gbuffer_spp)
         written = dict(out)
         if ref is not None:
-            assert score_exposure is not None and uniform_input is not None
-            to_scores = float(score_exposure / exposure)  # the network's exposure -> the scores'
-            ref_img = normalise(ref.image, "ref", score_exposure, scale, colour=True)[0]
-            written["reference"] = _tensor(normalise(ref.image, "ref", exposure, scale, colour=True)[0],
+            assert uniform_input is not None
+            scored = 1.0 if score_exposure is None else score_exposure  # None: black so far, any exposure
+            to_scores = float(scored / net)  # the network's exposure -> the scores'
+            ref_img = normalise(ref.image, "ref", scored, scale, colour=True)[0]
+            written["reference"] = _tensor(normalise(ref.image, "ref", net, scale, colour=True)[0],
                                            device)
             row.update(reference_spp=ref.spp, reference_psnr_estimate=ref.psnr_estimate)
-            scored_uniform = _tensor(normalise(uniform_input, uniform, score_exposure, scale, colour=True)[0],
+            scored_uniform = _tensor(normalise(uniform_input, uniform, scored, scale, colour=True)[0],
                                      device)
             adaptive_input = out.get("adaptive")
             row.update(scores(ref_img, scored_uniform,
@@ -233,7 +244,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                               out["output"].float() * to_scores))
             if sim_model is not None:
                 before = r.samples_rendered
-                stack = {k: layout(_tensor(normalise(r.color(2 ** j, derive_seed(seed, k, f)), k, exposure,
+                stack = {k: layout(_tensor(normalise(r.color(2 ** j, derive_seed(seed, k, f)), k, net,
                                                      scale, colour=True)[0], device), dtype)
                          for j, k in enumerate(stack_names(levels))}
                 spent["scores"] += r.samples_rendered - before
@@ -242,13 +253,21 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                 row["psnr_simulated"] = psnr(hwc(sim["output"].float() * to_scores), ref_img)
                 row["psnr_output_minus_simulated"] = row["psnr_output"] - row["psnr_simulated"]
         row["score_samples"] = spent["scores"]
-        write_frame(out_dir, f"{scene.spec.name}_{f:04d}", written, exposure)
+        write_frame(out_dir, f"{scene.spec.name}_{f:04d}", written, net)
         rows.append(row)
-    return {"frames": rows, "size": [height, width], "budget": budget, "exposure": exposure,
-            "exposure_source": exposure_source, "score_exposure": score_exposure if plan else None,
-            "score_exposure_source": score_source if plan else None, "mean": mean_scores(rows),
+    if exposure is None:
+        log.warning("%s: the input of every frame is black: network exposure x1; give --exposure if the "
+                    "scene is lit", path)
+    return {"frames": rows, "size": [height, width], "budget": budget, "exposure": exposure or 1.0,
+            "exposure_source": exposure_source or "none: every frame's input is black",
+            "score_exposure": (score_exposure or 1.0) if plan else None,
+            "score_exposure_source": (score_source or "none: every frame's reference is black") if plan
+            else None, "mean": mean_scores(rows),
             "reference": plan.summary() if plan is not None else None,
-            "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant()}
+            "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant(),
+            "scene": str(path), "outputs": [n for f in range(len(cams))
+                                            for n in frame_files(f"{scene.spec.name}_{f:04d}")
+                                            if (out_dir / n).is_file()]}
 
 
 #: The score columns: the same uniform render ``c_s`` for every method, an adaptive method's own input, the

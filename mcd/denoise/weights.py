@@ -2,14 +2,14 @@
 
 ``--checkpoint`` is a run directory of ``python -m mcd.run`` (its best checkpoint, else its last: the rule of
 ``transfer.init_from``, :func:`mcd.lit.transfer.checkpoint_of`), a ``.ckpt`` file of such a run, or the name
-of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.json``, made by
-``python -m mcd.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with
-``weights_only=True`` (:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the
-checkpoint was trained with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit
-it exactly (:func:`mcd.lit.checkpoint.check_fits`). A bundle's JSON must parse and hold its ``config``, and a
-configuration whose model would have more than :data:`mcd.denoise.work.MAX_PARAMS` parameters is refused
-before it is built (counted on the ``meta`` device). ``--experiment`` / ``--capacity`` state what the user
-expects: a checkpoint of another method or capacity is refused, naming both.
+of a checkpoint bundled with the package (``mcd/bundled/<name>.pt`` + ``<name>.json``, made by ``python -m
+mcd.bundle``; such a ``.pt`` elsewhere is given by its path). Every file is read with ``weights_only=True``
+(:func:`mcd.lit.checkpoint.safe_load`); the model is built from the configuration the checkpoint was trained
+with (a run's checkpoints carry it; a bundle's JSON holds it), and the weights must fit it exactly
+(:func:`mcd.lit.checkpoint.check_fits`) and be finite (:func:`check_finite`). A bundle's JSON must parse and
+hold its ``config``, and a configuration whose model would have more than :data:`mcd.denoise.work.MAX_PARAMS`
+parameters is refused before it is built (counted on the ``meta`` device). ``--experiment`` / ``--capacity``
+state what the user expects: a checkpoint of another method or capacity is refused, naming both.
 """
 
 from __future__ import annotations
@@ -155,6 +155,46 @@ def _from_bundle(pt: Path) -> tuple[DictConfig, dict[str, Any], dict[str, Any]]:
     return OmegaConf.create(provenance["config"]), weights, provenance
 
 
+def check_finite(weights: dict[str, Any], key: str, source: str | Path) -> None:
+    """CheckpointError naming ``source`` and the first tensors where ``weights`` hold a NaN or an Inf (a run
+    that diverged): such a network's outputs are non-finite, and the output bound (docs/method.md "Output")
+    replaced every one by the render's local mean, so ``mcd-denoise`` wrote and scored a blur as the
+    network's output without a word, and ``mcd.bundle`` shipped those weights with the run's test scores."""
+    import torch
+
+    bad = [k for k, v in weights.items()
+           if isinstance(v, torch.Tensor) and v.is_floating_point() and not bool(torch.isfinite(v).all())]
+    if bad:
+        listed = ", ".join(bad[:3]) + (f" and {len(bad) - 3} more" if len(bad) > 3 else "")
+        raise checkpoint.CheckpointError(
+            f"{key}={source}: its weights hold NaN or Inf values ({listed}): the run that wrote them "
+            "diverged, and a network with them has no output to give; take an earlier checkpoint of the run, "
+            "or train it again (a lower train.lr, train.grad_clip)")
+
+
+#: The parts of a checkpoint's configuration that ``mcd-denoise`` builds and feeds the model with.
+READ_PARTS = ("budget", "data", "method", "capacity")
+
+
+def check_values(cfg: DictConfig, source: str) -> None:
+    """CheckpointError naming ``source`` and the key where a value of :data:`READ_PARTS` breaks its rule
+    (:mod:`mcd.core.config_rules`, which ``mcd.run`` holds every config to before training): a bundle's JSON
+    with ``data.exposure_target`` -1 or NaN denoised every frame to black and scored it 100 dB, and 0 ended
+    in a ZeroDivisionError traceback."""
+    from mcd.core.config_rules import ConfigError, checked, leaves
+
+    for part in READ_PARTS:
+        node = cfg.get(part)
+        tree = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
+        for key, value in leaves({part: tree}):
+            try:
+                checked(key, value, cfg)
+            except ConfigError as err:
+                raise checkpoint.CheckpointError(
+                    f"--checkpoint: {source}: {err}; bundle the run again (python -m mcd.bundle RUN_DIR "
+                    "--name NAME --replace), or restore the file") from None
+
+
 def param_count(cfg: DictConfig) -> int:
     """Parameters of the model ``cfg`` builds, counted on PyTorch's ``meta`` device (no memory is allocated
     for them)."""
@@ -236,6 +276,7 @@ def load(spec: str, experiment: str | None = None, capacity: str | None = None) 
     from mcd.models import build
 
     cfg, weights, prov, source = resolve(spec)
+    check_values(cfg, source)
     got = str(cfg.get("experiment", cfg.method.name))
     if experiment is not None and experiment != got:
         raise checkpoint.CheckpointError(
@@ -260,6 +301,7 @@ def load(spec: str, experiment: str | None = None, capacity: str | None = None) 
             f"limit of {MAX_PARAMS:.3g} (mcd.denoise.work.MAX_PARAMS); check the widths in {source}")
     model = build(cfg)
     checkpoint.check_fits(model, weights, "--checkpoint", source)
+    check_finite(weights, "--checkpoint", spec if spec == source else f"{spec} ({source})")
     model.load_state_dict(weights)
     model.eval()
     return Loaded(model, cfg, source, prov)

@@ -184,10 +184,18 @@ def results_block(report: Path, readme_dir: Path) -> str:
 def markers(readme: Path) -> tuple[str, int, int]:
     """``readme``'s text and where its results block starts and ends; raises, naming the file and the
     markers, when the file or either marker is missing, doubled or out of order."""
+    if readme.exists() and not readme.is_file():  # /dev/zero, a FIFO, a folder: "does not exist" before
+        raise FileNotFoundError(f"{readme} is not a regular file (a folder, a device or a FIFO): give "
+                                f"--readme the README.md whose results go between the lines {BEGIN!r} and "
+                                f"{END!r}")
     if not readme.is_file():
         raise FileNotFoundError(f"{readme} does not exist: README.md's results are written into it between "
                                 f"the lines {BEGIN!r} and {END!r}")
-    text = readme.read_text()
+    try:
+        text = readme.read_text()
+    except UnicodeDecodeError as err:  # the codec's message named no file
+        raise ValueError(f"{readme} is not UTF-8 text ({err.reason} at byte {err.start}): give --readme the "
+                         "README.md whose results block the report writes") from None
     start, stop = text.find(BEGIN), text.find(END)
     if start < 0 or stop < start or text.count(BEGIN) != 1 or text.count(END) != 1:
         raise ValueError(f"{readme} needs exactly one line {BEGIN!r} followed by one line {END!r} where its "

@@ -52,6 +52,24 @@ def keys(runs: list[Run]) -> list[Path]:
     return found
 
 
+def sweep_keys(sweeps: list[Sweep]) -> list[Path]:
+    """Each sweep's folder under ``runs/`` (where its ``multirun.yaml`` goes); ValueError, naming them, when
+    two sweeps from different places would share one: the second ``multirun.yaml`` replaced the first without
+    a word, and the report regenerated from ``runs/`` gave the one sweep command left for the runs of both."""
+    found = [_key(s.path / "multirun.yaml").parent for s in sweeps]
+    places: dict[Path, set[Path]] = {}
+    for key, sweep in zip(found, sweeps, strict=True):
+        places.setdefault(key, set()).add(sweep.path.resolve())
+    clashes = sorted(str(k) for k, where in places.items() if len(where) > 1)
+    if clashes:
+        raise ValueError(
+            f"sweeps from different places would share the record folder(s) {', '.join(clashes)} under "
+            f"{RECORDS_DIR}/ (one multirun.yaml would replace the other): report them separately (--name), "
+            "or rename one sweep's directory"
+        )
+    return found
+
+
 def keep(runs: list[Run], sweeps: list[Sweep], out_dir: Path) -> Path:
     """Copy the records of `runs` and the ``multirun.yaml`` of `sweeps` into ``out_dir/runs/``, replacing what
     an earlier report left there; returns that folder. The copies are made in a folder beside it first, so a
@@ -67,10 +85,10 @@ def keep(runs: list[Run], sweeps: list[Sweep], out_dir: Path) -> Path:
                 target = staging / key / name
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy2(src, target)
-    for sweep in sweeps:
+    for sweep, key in zip(sweeps, sweep_keys(sweeps), strict=True):
         src = sweep.path / "multirun.yaml"
         if src.is_file():
-            target = staging / _key(sweep.path / "multirun.yaml").parent
+            target = staging / key
             target.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, target / "multirun.yaml")
     shutil.rmtree(dest, ignore_errors=True)

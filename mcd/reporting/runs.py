@@ -379,7 +379,8 @@ def read_table(path: Path, columns: tuple[str, ...]) -> tuple[pd.DataFrame | Non
 
 def frames_problem(path: Path) -> str | None:
     """What is wrong with the ``frames.csv`` at ``path`` (None: absent or sound): not a readable CSV, without
-    the columns :data:`FRAMES_COLUMNS`, or with a PSNR that is not a number in its range."""
+    the columns :data:`FRAMES_COLUMNS`, with a PSNR that is not a number in its range, or with a scene's frame
+    given twice (no run writes one twice: the copy was a second point of the per-frame plot and tables)."""
     if not path.exists():
         return None
     df, why = read_table(path, FRAMES_COLUMNS)
@@ -401,6 +402,9 @@ def frames_problem(path: Path) -> str | None:
     if unsafe:  # a scene names the report's per-frame plot: "../x" wrote outside the report folder
         return (f"{path} is corrupt (a scene that is not a plain name: {unsafe[0]!r}; scenes are letters, "
                 "digits, '_', '-', '.', and name the report's files)")
+    twice = df[df.duplicated(["scene", "frame"])]
+    if not twice.empty:
+        return f"{path} is corrupt ({twice['scene'].iloc[0]} frame {twice['frame'].iloc[0]} is given twice)"
     return None
 
 

@@ -59,7 +59,8 @@ def bench_problem(bench_csv: Path | None) -> str | None:
     """What makes ``bench_csv`` (``mcd.report --bench``) unusable, naming it, else None (also when it is not
     a file: the report then has no ``speed_bench.csv``): not a readable CSV, a column of
     :data:`BENCH_COLUMNS` missing, or a height or width that is not a whole number (one ended the report in
-    a traceback after its tables)."""
+    a traceback after its tables), or a latency that is not a positive finite number (``-5`` was the fastest
+    path of ``speed_bench.csv``)."""
     if bench_csv is None or not bench_csv.is_file():
         return None
     bench, why = read_table(bench_csv, BENCH_COLUMNS)
@@ -69,6 +70,9 @@ def bench_problem(bench_csv: Path | None) -> str | None:
         values = pd.to_numeric(bench[col], errors="coerce")
         if values.isna().any() or (values % 1 != 0).any():
             return f"--bench {bench_csv}: a {col} that is not a whole number"
+    ms = pd.to_numeric(bench["ms_median"], errors="coerce").dropna()  # empty: a path that failed to run
+    if not ((ms > 0) & ms.map(math.isfinite)).all():  # a negative latency was the fastest path
+        return f"--bench {bench_csv}: an ms_median that is not a positive finite number of milliseconds"
     return None
 
 

@@ -78,11 +78,28 @@ def table(grid: Grid, scale_points: list[tuple[str, int]]) -> pd.DataFrame:
             rows.append({"data": data, "train scenes": sizes.get(data), "steps": steps,
                          "difference": f"{display_name(a)} - {display_name(b)}", "a": a, "b": b,
                          "a seeds": _seeds(pa), "b seeds": _seeds(pb),
-                         "rule": rule if pa and pb else "no runs of " + " or ".join(
+                         "rule": rule + stopped_early(grid, data, steps, (a, b)) if pa and pb
+                         else "no runs of " + " or ".join(
                              display_name(e) for e, cell in ((a, pa), (b, pb)) if not cell),
                          "PSNR dB": psnr, "PSNR se": psnr_se, "FLIP": flip, "FLIP se": flip_se})
     return pd.DataFrame(rows, columns=["data", "train scenes", "steps", "difference", "a", "b", "a seeds",
                                        "b seeds", "rule", "PSNR dB", "PSNR se", "FLIP", "FLIP se"])
+
+
+def stopped_early(grid: Grid, data: str, steps: int, experiments: tuple[str, str]) -> str:
+    """``; stopped early: <method> seed s at step t (why), ...`` for the runs of the two cells that trained
+    fewer steps than the scale point's budget, or ``""``: a finding at a budget of 1500 steps was stated for
+    runs stopped after 1 step (by ``train.epochs``), the cells table alone saying so."""
+    p = grid.points
+    if not {"train_steps", "stop_reason"} <= set(p.columns):  # a grid without the runs' budgets
+        return ""
+    parts = []
+    for exp in experiments:
+        df = p[(p["data"] == data) & (p["steps"] == steps) & (p["experiment"] == exp)]
+        early = df[df["train_steps"].notna() & (df["train_steps"] < steps)]
+        parts += [f"{display_name(exp)} seed {s} at step {int(t)} ({why})" for s, t, why in
+                  zip(early["seed"], early["train_steps"], early["stop_reason"], strict=True)]
+    return f"; stopped early: {', '.join(parts)}" if parts else ""
 
 
 def findings(gaps: pd.DataFrame) -> list[Finding]:
