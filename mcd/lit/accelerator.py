@@ -1,4 +1,4 @@
-"""``trainer.accelerator`` and ``trainer.devices`` checked against this machine before any work
+"""``trainer.accelerator`` and ``trainer.devices`` checked against the devices the host has, before any work
 (docs/reliability.md, "Campaign fixes").
 
 Lightning checks both when the trainer is built, which ``mcd.run`` does after the store is rendered: on a
@@ -13,7 +13,7 @@ from typing import Any
 
 
 def check(accelerator: Any, devices: Any) -> None:
-    """ValueError naming ``trainer.accelerator`` when Lightning does not know it or this machine has no such
+    """ValueError naming ``trainer.accelerator`` when Lightning does not know it or the host has no such
     device, or ``trainer.devices`` when it asks for more devices of it than there are."""
     from lightning.pytorch.accelerators import AcceleratorRegistry, CUDAAccelerator, MPSAccelerator
 
