@@ -17,6 +17,12 @@
 
 Session fixtures are what keeps the full suite short: each renders or trains once, and every test that reads
 the result shares it (a test that changes files works on its own copy).
+
+With two workers (``pytest -n 2``, ``--dist loadgroup`` in pyproject.toml) each worker has its own session
+and module fixtures. So that the costly ones are made once in the suite, not once per worker, every test that
+reads a shared run (:data:`SHARED_RUNS`) is put in that run's ``xdist_group`` here, and a module whose own
+module fixture trains or renders marks itself (``pytestmark = pytest.mark.xdist_group(<module>)``): a group
+runs on one worker. xdist starts the groups with the most tests first, the single tests after.
 """
 
 from __future__ import annotations
@@ -34,6 +40,11 @@ from mcd.config.compose import compose
 from mcd.core.paths import CONF_DIR as _CONF_DIR
 
 CONF_DIR = str(_CONF_DIR)
+# Under pytest-xdist, a worker and every command a test starts with this environment run one thread unless
+# OMP_NUM_THREADS says otherwise: two workers on two cores, each with a command of two threads, spun past CI's
+# timeout once (module_env() sets one thread whatever the environment says)
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
 REPO = Path(__file__).resolve().parents[1]
 LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
 #: The tiny profile cut to one 32x32 scene of 14 frames and a few training steps (the sweep of ``ab_sweep``).
@@ -116,12 +127,35 @@ def cbox32():
     return scene, renderer
 
 
+#: The session fixtures that run a command (a sweep, a training): each test that reads one runs on the same
+#: worker as every other (docs/architecture.md "Tests").
+SHARED_RUNS = ("ab_sweep", "unet_run")
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Each test that reads a shared run joins that run's ``xdist_group``."""
+    for item in items:
+        runs = [run for run in SHARED_RUNS if run in item.fixturenames]
+        if len(runs) > 1:
+            raise pytest.UsageError(f"{item.nodeid} reads {runs}: a test reads one shared run (one group)")
+        if runs:
+            item.add_marker(pytest.mark.xdist_group(runs[0]))
+
+
 def module_env() -> dict[str, str]:
     """The environment of a ``python -m mcd...`` command run by a test: this checkout first, one thread."""
     env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
     if LLVM.is_file():
         env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
     return env
+
+
+def mcd_run(*args: str) -> subprocess.CompletedProcess:
+    """``python -m mcd.run <args>`` from the checkout, one thread (:func:`module_env`), output captured."""
+    env = {**module_env(), "HYDRA_FULL_ERROR": "1"}
+    return subprocess.run([sys.executable, "-m", "mcd.run", *args], cwd=REPO, env=env, capture_output=True,
+                          text=True, timeout=600)
 
 
 @pytest.fixture(scope="session")
@@ -147,8 +181,6 @@ UNET_RUN = ["train.epochs=1", "train.batch_size=1", "train.sample_frames=[]",
 
 @pytest.fixture(scope="session")
 def unet_run(cbox_store, tmp_path_factory) -> tuple[Path, list[str]]:
-    from tests.test_run import mcd_run
-
     run = tmp_path_factory.mktemp("unet_run") / "run"
     base = [*store32_overrides(cbox_store[1].data_dir), *UNET_RUN]
     proc = mcd_run("+experiment=unet", "capacity=cpu", *base, f"hydra.run.dir={run}")

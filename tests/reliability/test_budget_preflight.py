@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 
 @pytest.mark.parametrize(("overrides", "said"), [

@@ -13,8 +13,8 @@ import sys
 import pytest
 
 from mcd.denoise.weights import BUNDLED_DIR
+from tests.conftest import REPO
 from tests.reliability.denoise_helpers import snapshot
-from tests.test_run import REPO
 
 
 def _bundle(*args: str) -> subprocess.CompletedProcess:

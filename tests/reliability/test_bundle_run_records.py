@@ -15,8 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import module_env
-from tests.test_run import REPO
+from tests.conftest import REPO, module_env
 
 
 def _bundle(*args: str) -> subprocess.CompletedProcess:

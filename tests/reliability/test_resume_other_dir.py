@@ -19,8 +19,7 @@ import hashlib
 import json
 import shutil
 
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 RUN = ["+experiment=unet", "train.sample_frames=[]", "trainer.enable_progress_bar=false"]
 

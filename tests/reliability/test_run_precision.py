@@ -10,8 +10,7 @@ import json
 
 import pytest
 
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 RUN = ["+experiment=unet", "train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
        "trainer.enable_progress_bar=false", "trainer.accelerator=cpu"]

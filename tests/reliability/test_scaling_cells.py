@@ -13,8 +13,7 @@ import pytest
 
 from mcd.reporting.runs import find_runs
 from mcd.reporting.scaling import grid
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 RUN = ["+experiment=unet", "train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
        "trainer.enable_progress_bar=false"]

@@ -9,7 +9,7 @@ import os
 import subprocess
 import sys
 
-from tests.test_run import REPO
+from tests.conftest import REPO
 
 
 def test_a_dry_run_prints_the_plan_and_leaves_the_sweeps_record(tmp_path):

@@ -10,7 +10,7 @@ import os
 import subprocess
 import sys
 
-from tests.test_run import REPO
+from tests.conftest import REPO
 
 
 def test_the_plan_says_how_many_jobs_the_seed_rule_leaves_out(tmp_path):

@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import shutil
 
-from tests.conftest import UNET_RUN, store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import UNET_RUN, mcd_run, store32_overrides
 
 TRANSFER = ["+experiment=unet", "capacity=cpu", "trainer.enable_progress_bar=false",
             "+scene@data.scenes.cornell-box-picture=cornell-box-picture",
