@@ -19,10 +19,8 @@ Session fixtures are what keeps the full suite short: each renders or trains onc
 the result shares it (a test that changes files works on its own copy).
 
 With two workers (``pytest -n 2``, ``--dist loadgroup`` in pyproject.toml) each worker has its own session
-and module fixtures. So that the costly ones are made once in the suite, not once per worker, every test that
-reads a shared run (:data:`SHARED_RUNS`) is put in that run's ``xdist_group`` here, and a module whose own
-module fixture trains or renders marks itself (``pytestmark = pytest.mark.xdist_group(<module>)``): a group
-runs on one worker. xdist starts the groups with the most tests first, the single tests after.
+and module fixtures. So that the costly ones are made once in the suite, not once per worker, the files that
+read a shared run or have a costly module fixture run on one worker each group (:data:`XDIST_GROUPS`).
 """
 
 from __future__ import annotations
@@ -127,20 +125,61 @@ def cbox32():
     return scene, renderer
 
 
-#: The session fixtures that run a command (a sweep, a training): each test that reads one runs on the same
-#: worker as every other (docs/architecture.md "Tests").
+#: The session fixtures that run a command (a sweep, a training): the files that read one are its group.
 SHARED_RUNS = ("ab_sweep", "unet_run")
+#: The test files whose tests run on one worker under ``pytest -n 2`` (group -> files), so that what they
+#: share is made once in the suite rather than once per worker (docs/architecture.md "Tests"): the readers of
+#: each shared run (:func:`pytest_collection_modifyitems` checks that each is listed), and each file whose own
+#: module fixture trains or renders.
+XDIST_GROUPS: dict[str, tuple[str, ...]] = {
+    "ab_sweep": ("tests/reliability/test_bundle_run_records.py",
+                 "tests/reliability/test_report_damaged_samples.py",
+                 "tests/reports/test_sweep_to_report.py", "tests/reports/test_viewer.py"),
+    "unet_run": ("tests/reliability/test_bundle_out.py", "tests/reliability/test_finished_runs.py",
+                 "tests/reliability/test_report_out.py", "tests/reliability/test_report_paths.py",
+                 "tests/reliability/test_report_stale_files.py",
+                 "tests/reliability/test_transfer_identity.py"),
+    "trained_f": ("tests/test_trained_f.py",),
+    "bundled_f": ("tests/models/test_bundled_f.py",),
+    "baselines_end_to_end": ("tests/baselines/test_end_to_end.py",),
+    "run_f": ("tests/test_run.py",),
+    "resume_three_epochs": ("tests/reliability/test_resume.py",),
+    "run_dirs_interrupted": ("tests/reliability/test_run_dirs.py",),
+    "denoise_errors": ("tests/denoise/test_errors.py",),
+    "denoise_inputs": ("tests/reliability/test_denoise_inputs.py",),
+    "denoise_frames": ("tests/denoise/test_frames.py",),
+    "denoise_frame_scores": ("tests/denoise/test_frame_scores.py",),
+    "render_statistics": ("tests/data/test_render_statistics.py",),
+    "packaging_wheel": ("tests/test_packaging.py",),
+}
+_GROUP_OF = {file: group for group, files in XDIST_GROUPS.items() for file in files}
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Each test that reads a shared run joins that run's ``xdist_group``."""
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Each test that reads a shared run (:data:`SHARED_RUNS`) is in a file of that run's group: a UsageError
+    names the file otherwise."""
     for item in items:
-        runs = [run for run in SHARED_RUNS if run in item.fixturenames]
-        if len(runs) > 1:
-            raise pytest.UsageError(f"{item.nodeid} reads {runs}: a test reads one shared run (one group)")
-        if runs:
-            item.add_marker(pytest.mark.xdist_group(runs[0]))
+        file = item.nodeid.split("::", 1)[0]
+        for run in SHARED_RUNS:
+            if run in item.fixturenames and file not in XDIST_GROUPS[run]:
+                raise pytest.UsageError(f"{file} reads the shared run {run}: add it to XDIST_GROUPS[{run!r}] "
+                                        "in tests/conftest.py, so that the run is made once in the suite")
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """``--dist loadgroup`` (pyproject.toml) with the groups of :data:`XDIST_GROUPS`: each group is one unit
+    of work on one worker, handed out first (most tests first), then the single tests. pytest-xdist's own
+    ``xdist_group`` marks are not used: with pytest 9.2 they group nothing (pytest-xdist#1386)."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class Grouped(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return _GROUP_OF.get(nodeid.split("::", 1)[0], nodeid)
+
+    return Grouped(config, log)
 
 
 def module_env() -> dict[str, str]:

@@ -20,9 +20,6 @@ from mcd.config.methods import COMPONENTS
 from mcd.core.paths import CONF_DIR, PACKAGE_DIR, VENDORED_SCENES_DIR
 from mcd.models.switches import SWITCHES
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("packaging_wheel")
-
 REPO = Path(__file__).resolve().parents[1]
 LAB = REPO / "tools"  # the investigation tools: not packaged (tools/README.md)
 

@@ -10,9 +10,6 @@ from mcd.core.metrics import FRAME_METRICS
 from mcd.lit.run_record import REQUIRED_KEYS, job_identity
 from tests.conftest import compose_cfg, mcd_run
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("run_f")
-
 REPO = Path(__file__).resolve().parents[1]
 TINY = ["data.width=32", "data.height=32", "data.frames_per_segment=6", "data.ref_spp=16",
         "data.gbuffer_spp=2", "data.train_crop=32", "data.val_crop=32", "data.train_scenes=[cbox]",

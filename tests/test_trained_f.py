@@ -20,9 +20,6 @@ from mcd.data.exr import read_exr
 from mcd.data.store import StoreReader
 from tests.conftest import compose_cfg, module_env
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("trained_f")
-
 REPO = Path(__file__).resolve().parents[1]
 #: The ``tiny`` profile narrowed to the Cornell box over 16 frames: 3 test frames, 1 validation clip.
 STORE = ["data=tiny", "data.name=test64", "data.frames_per_segment=8", "data.train_scenes=[cbox]",

@@ -19,9 +19,6 @@ from mcd.core.metrics import psnr
 from mcd.data import StoreBuilder
 from tests.conftest import compose_cfg
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("baselines_end_to_end")
-
 REPO = Path(__file__).resolve().parents[2]
 METHODS = ["unet", "rae", "fastdvdnet", "dasr", "ntasad", "noisy", "oidn"]
 HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None

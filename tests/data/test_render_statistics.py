@@ -22,9 +22,6 @@ import torch
 
 from mcd.data.spp_map_render import render_spp_map
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("render_statistics")
-
 R = 48
 
 

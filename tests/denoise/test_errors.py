@@ -15,9 +15,6 @@ from mcd.denoise.cli import run
 from mcd.denoise.frames import write_layers
 from tests.denoise.helpers import REPO, render_sequence, untrained_bundle
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("denoise_errors")
-
 
 @pytest.fixture(scope="module")
 def unet(tmp_path_factory) -> Path:

@@ -16,9 +16,6 @@ from mcd.denoise.cli import run
 from mcd.denoise.frames import read_frame
 from tests.denoise.helpers import render_sequence, untrained_bundle
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("denoise_frame_scores")
-
 
 @pytest.fixture(scope="module")
 def sequence(tmp_path_factory) -> Path:

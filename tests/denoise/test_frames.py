@@ -16,9 +16,6 @@ from mcd.denoise.frames import read_channels
 from mcd.denoise.weights import BUNDLED_DIR, bundled_names
 from tests.denoise.helpers import console_script, render_sequence, untrained_bundle
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("denoise_frames")
-
 BUNDLED = ("F-cpu-small", "unet-cpu-small")
 
 

@@ -30,9 +30,6 @@ from mcd.lit.module import DenoiseModule
 from mcd.models import build
 from tools.edge_effect import measure
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("bundled_f")
-
 SCENES = ("cbox", "cornell-box-picture", "staircase2")
 HAS_PYOIDN = importlib.util.find_spec("pyoidn") is not None
 

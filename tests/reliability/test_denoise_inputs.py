@@ -18,9 +18,6 @@ from mcd.denoise.frames import write_layers
 from tests.denoise.helpers import REPO, untrained_bundle
 from tests.reliability.denoise_helpers import refused, snapshot, write_frames
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("denoise_inputs")
-
 NOISY = ("--experiment", "noisy")
 
 

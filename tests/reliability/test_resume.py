@@ -13,9 +13,6 @@ from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
 from tests.reliability.conftest import FROZEN
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("resume_three_epochs")
-
 
 @pytest.fixture(scope="module")
 def three_epochs(cbox_store, tmp_path_factory):

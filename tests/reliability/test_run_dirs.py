@@ -20,9 +20,6 @@ from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
 from tests.reliability.conftest import FROZEN, interrupted_run
 
-#: Its module fixture is made once in the suite: every test of the module on one worker (tests/conftest.py).
-pytestmark = pytest.mark.xdist_group("run_dirs_interrupted")
-
 REPO = Path(__file__).resolve().parents[2]
 
 #: Runs ``python -m mcd.run`` with Hydra's clock stopped at one second, so that two processes resolve the
