@@ -156,8 +156,10 @@ _GROUP_OF = {file: group for group, files in XDIST_GROUPS.items() for file in fi
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Each test that reads a shared run (:data:`SHARED_RUNS`) is in a file of that run's group: a UsageError
-    names the file otherwise."""
+    """Each file of :data:`XDIST_GROUPS` exists, and each test that reads a shared run (:data:`SHARED_RUNS`)
+    is in a file of that run's group: a UsageError names the file otherwise."""
+    if missing := [file for file in _GROUP_OF if not (REPO / file).is_file()]:
+        raise pytest.UsageError(f"tests/conftest.py's XDIST_GROUPS names {missing}, which do not exist")
     for item in items:
         file = item.nodeid.split("::", 1)[0]
         for run in SHARED_RUNS:
