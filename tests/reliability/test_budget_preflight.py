@@ -15,6 +15,7 @@ from tests.conftest import mcd_run, store32_overrides
     (["train.max_steps=null", "train.epochs=null", "train.max_minutes=null"], "no training budget"),
     (["+trainer.max_steps=5"], "trainer.max_steps is set by train.max_steps"),
 ])
+@pytest.mark.slow
 def test_a_run_without_a_budget_is_refused_before_rendering(tmp_path, overrides, said):
     proc = mcd_run("+experiment=unet", *store32_overrides(tmp_path / "data"), *overrides,
                    f"hydra.run.dir={tmp_path / 'run'}")

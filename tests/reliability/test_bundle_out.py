@@ -29,6 +29,7 @@ def finished(unet_run):
     return unet_run[0]
 
 
+@pytest.mark.slow
 def test_a_shipped_bundles_name_is_refused_and_kept_unless_replace(finished, tmp_path):
     out = tmp_path / "bundled"
     out.mkdir()

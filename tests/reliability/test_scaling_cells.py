@@ -30,6 +30,7 @@ def runs(cbox_store, tmp_path_factory):
     return root
 
 
+@pytest.mark.slow
 def test_a_seed_without_a_psnr_or_of_another_capacity_is_left_out_of_its_cell(runs, tmp_path):
     root = tmp_path / "runs"
     shutil.copytree(runs, root)

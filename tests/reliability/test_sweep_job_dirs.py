@@ -43,6 +43,7 @@ def test_jobs_that_would_share_a_directory_are_refused_before_any_job_runs(tmp_p
     assert not sweep.exists() and not (tmp_path / "data").exists()  # nothing rendered, no sweep folder
 
 
+@pytest.mark.slow
 def test_the_advice_gives_each_job_its_own_directory(tmp_path):
     sweep = tmp_path / "sweep"
     proc = _sweep(tmp_path, "seed=0,1", f"hydra.sweep.dir={sweep}",

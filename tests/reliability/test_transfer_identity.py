@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import shutil
 
+import pytest
+
 from tests.conftest import UNET_RUN, mcd_run, store32_overrides
 
 TRANSFER = ["+experiment=unet", "capacity=cpu", "trainer.enable_progress_bar=false",
@@ -19,6 +21,7 @@ TRANSFER = ["+experiment=unet", "capacity=cpu", "trainer.enable_progress_bar=fal
             "data.transfer_scenes=[cornell-box-picture]"]
 
 
+@pytest.mark.slow
 def test_another_source_or_fine_tuning_is_another_job(unet_run, tmp_path):
     source, _ = unet_run
     data = [*store32_overrides(tmp_path / "data"), *UNET_RUN]
