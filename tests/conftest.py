@@ -17,6 +17,10 @@
 
 Session fixtures are what keeps the full suite short: each renders or trains once, and every test that reads
 the result shares it (a test that changes files works on its own copy).
+
+With two workers (``pytest -n 2``, ``--dist loadgroup`` in pyproject.toml) each worker has its own session
+and module fixtures. So that the costly ones are made once in the suite, not once per worker, the files that
+read a shared run or have a costly module fixture run on one worker each group (:data:`XDIST_GROUPS`).
 """
 
 from __future__ import annotations
@@ -34,6 +38,11 @@ from mcd.config.compose import compose
 from mcd.core.paths import CONF_DIR as _CONF_DIR
 
 CONF_DIR = str(_CONF_DIR)
+# Under pytest-xdist, a worker and every command a test starts with this environment run one thread unless
+# OMP_NUM_THREADS says otherwise: two workers on two cores, each with a command of two threads, spun past CI's
+# timeout once (module_env() sets one thread whatever the environment says)
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
 REPO = Path(__file__).resolve().parents[1]
 LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
 #: The tiny profile cut to one 32x32 scene of 14 frames and a few training steps (the sweep of ``ab_sweep``).
@@ -116,12 +125,78 @@ def cbox32():
     return scene, renderer
 
 
+#: The session fixtures that run a command (a sweep, a training): the files that read one are its group.
+SHARED_RUNS = ("ab_sweep", "unet_run")
+#: The test files whose tests run on one worker under ``pytest -n 2`` (group -> files), so that what they
+#: share is made once in the suite rather than once per worker (docs/architecture.md "Tests"): the readers of
+#: each shared run (:func:`pytest_collection_modifyitems` checks that each is listed), and each file whose own
+#: module fixture trains or renders.
+XDIST_GROUPS: dict[str, tuple[str, ...]] = {
+    "ab_sweep": ("tests/reliability/test_bundle_run_records.py",
+                 "tests/reliability/test_report_damaged_samples.py",
+                 "tests/reports/test_sweep_to_report.py", "tests/reports/test_viewer.py"),
+    "unet_run": ("tests/reliability/test_bundle_out.py", "tests/reliability/test_finished_runs.py",
+                 "tests/reliability/test_report_out.py", "tests/reliability/test_report_paths.py",
+                 "tests/reliability/test_report_stale_files.py",
+                 "tests/reliability/test_transfer_identity.py"),
+    "trained_f": ("tests/test_trained_f.py",),
+    "bundled_f": ("tests/models/test_bundled_f.py",),
+    "baselines_end_to_end": ("tests/baselines/test_end_to_end.py",),
+    "run_f": ("tests/test_run.py",),
+    "resume_three_epochs": ("tests/reliability/test_resume.py",),
+    "run_dirs_interrupted": ("tests/reliability/test_run_dirs.py",),
+    "denoise_errors": ("tests/denoise/test_errors.py",),
+    "denoise_inputs": ("tests/reliability/test_denoise_inputs.py",),
+    "denoise_frames": ("tests/denoise/test_frames.py",),
+    "denoise_frame_scores": ("tests/denoise/test_frame_scores.py",),
+    "render_statistics": ("tests/data/test_render_statistics.py",),
+    "packaging_wheel": ("tests/test_packaging.py",),
+}
+_GROUP_OF = {file: group for group, files in XDIST_GROUPS.items() for file in files}
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Each file of :data:`XDIST_GROUPS` exists, and each test that reads a shared run (:data:`SHARED_RUNS`)
+    is in a file of that run's group: a UsageError names the file otherwise."""
+    if missing := [file for file in _GROUP_OF if not (REPO / file).is_file()]:
+        raise pytest.UsageError(f"tests/conftest.py's XDIST_GROUPS names {missing}, which do not exist")
+    for item in items:
+        file = item.nodeid.split("::", 1)[0]
+        for run in SHARED_RUNS:
+            if run in item.fixturenames and file not in XDIST_GROUPS[run]:
+                raise pytest.UsageError(f"{file} reads the shared run {run}: add it to XDIST_GROUPS[{run!r}] "
+                                        "in tests/conftest.py, so that the run is made once in the suite")
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """``--dist loadgroup`` (pyproject.toml) with the groups of :data:`XDIST_GROUPS`: each group is one unit
+    of work on one worker, handed out first (most tests first), then the single tests. pytest-xdist's own
+    ``xdist_group`` marks are not used: with pytest 9.2 they group nothing (pytest-xdist#1386)."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class Grouped(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return _GROUP_OF.get(nodeid.split("::", 1)[0], nodeid)
+
+    return Grouped(config, log)
+
+
 def module_env() -> dict[str, str]:
     """The environment of a ``python -m mcd...`` command run by a test: this checkout first, one thread."""
     env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
     if LLVM.is_file():
         env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
     return env
+
+
+def mcd_run(*args: str) -> subprocess.CompletedProcess:
+    """``python -m mcd.run <args>`` from the checkout, one thread (:func:`module_env`), output captured."""
+    env = {**module_env(), "HYDRA_FULL_ERROR": "1"}
+    return subprocess.run([sys.executable, "-m", "mcd.run", *args], cwd=REPO, env=env, capture_output=True,
+                          text=True, timeout=600)
 
 
 @pytest.fixture(scope="session")
@@ -147,8 +222,6 @@ UNET_RUN = ["train.epochs=1", "train.batch_size=1", "train.sample_frames=[]",
 
 @pytest.fixture(scope="session")
 def unet_run(cbox_store, tmp_path_factory) -> tuple[Path, list[str]]:
-    from tests.test_run import mcd_run
-
     run = tmp_path_factory.mktemp("unet_run") / "run"
     base = [*store32_overrides(cbox_store[1].data_dir), *UNET_RUN]
     proc = mcd_run("+experiment=unet", "capacity=cpu", *base, f"hydra.run.dir={run}")

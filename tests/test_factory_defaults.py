@@ -49,4 +49,4 @@ def test_each_methods_knobs_are_its_files_keys_and_it_is_catalogued(name, capaci
     if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
         assert set(params) == set(factory_kwargs(cfg)), f"conf/method/{name}.yaml and its factory's knobs"
     assert (capacity_entry(name) in cfg.capacity) == bool(cfg.method.get("trainable", True))
-    assert [m.experiment for m in CATALOGUE if m.method == name], f"add {name} to mcd/config/methods.py"
+    assert [m.experiment for m in CATALOGUE if m.method == name], f"add {name} to its factory's ENTRIES"

@@ -1,7 +1,8 @@
-"""Each method's display name has one definition, its entry in :mod:`mcd.config.methods` (docs/architecture.md
-"Methods"): no other string in ``mcd/`` spells it, so that a table, legend, label or
-printed comparison cannot drift from the catalogue. Docstrings that cite a name and error messages (inside
-``raise``) are prose about the method, not its label, and are not counted."""
+"""Each method's display name has one definition, its catalogue entry beside its factory (``ENTRIES``,
+:data:`mcd.config.methods.FACTORY_MODULES`; docs/architecture.md "Methods"): no other string in ``mcd/``
+spells it, so that a table, legend, label or printed comparison cannot drift from the catalogue. Docstrings
+that cite a name and error messages (inside ``raise``) are prose about the method, not its label, and are not
+counted."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import ast
 import re
 from pathlib import Path
 
-from mcd.config.methods import CATALOGUE
+from mcd.config.methods import CATALOGUE, FACTORY_MODULES, MODELS_DIR, entries_assignment
 
 MCD = Path(__file__).resolve().parents[1] / "mcd"
 #: The names tables and legends show (the component rows' one-letter names are their experiments).
@@ -34,11 +35,22 @@ def spelled_names(source: str, names: list[str] = NAMES) -> list[tuple[int, str]
             and (m := pattern.search(node.value))]
 
 
+def _entries_lines(path: Path) -> range:
+    """The lines of a factory module's ``ENTRIES`` assignment."""
+    node = entries_assignment(path)
+    return range(node.lineno, node.end_lineno + 1)
+
+
 def test_the_catalogue_is_the_one_place_a_display_name_is_spelled():
-    found = {f"{p.relative_to(MCD.parent)}:{line}": name for p in sorted(MCD.rglob("*.py"))
-             if p != MCD / "config" / "methods.py" for line, name in spelled_names(p.read_text())}
+    entries = {MODELS_DIR / m: _entries_lines(MODELS_DIR / m) for m in FACTORY_MODULES}
+    found, in_catalogue = {}, []
+    for p in sorted(MCD.rglob("*.py")):
+        for line, name in spelled_names(p.read_text()):
+            if line in entries.get(p, ()):
+                in_catalogue.append(name)
+            else:
+                found[f"{p.relative_to(MCD.parent)}:{line}"] = name
     assert not found, f"use mcd.config.methods.display_name(<experiment>) instead of spelling it: {found}"
-    in_catalogue = [name for _, name in spelled_names((MCD / "config" / "methods.py").read_text())]
     assert sorted(in_catalogue) == sorted(NAMES), "each name once, in its entry"
 
 

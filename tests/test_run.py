@@ -1,9 +1,6 @@
 """``python -m mcd.run`` end to end on a 32x32 Cornell-box store: run directory, skip, resume, failures."""
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -11,19 +8,13 @@ import pytest
 
 from mcd.core.metrics import FRAME_METRICS
 from mcd.lit.run_record import REQUIRED_KEYS, job_identity
-from tests.conftest import compose_cfg
+from tests.conftest import compose_cfg, mcd_run
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = ["data.width=32", "data.height=32", "data.frames_per_segment=6", "data.ref_spp=16",
         "data.gbuffer_spp=2", "data.train_crop=32", "data.val_crop=32", "data.train_scenes=[cbox]",
         "data.test_scenes=[cbox]", "train.batch_size=1", "train.epochs=1", "train.sample_frames=[1]",
         "trainer.enable_progress_bar=false"]
-
-
-def mcd_run(*args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "2"), "HYDRA_FULL_ERROR": "1"}
-    return subprocess.run([sys.executable, "-m", "mcd.run", *args], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=600)
 
 
 @pytest.fixture(scope="module")

@@ -1,7 +1,8 @@
 """Every method of the benchmark, one entry each (docs/architecture.md, "Methods"): its experiment, the name
 tables and legends show, its config, whether it trains, the paper's numbers for it, its place in Table 1 and
-in the benchmarks. Tables, reports, the bench and ``python -m mcd.complexity`` derive from
-:data:`CATALOGUE`; nothing else lists methods.
+in the benchmarks. Each entry is written beside its method's factory (``ENTRIES`` in the factory's module,
+:data:`FACTORY_MODULES`) and read from there without importing torch. Tables, reports, the bench and
+``python -m mcd.complexity`` derive from :data:`CATALOGUE`; nothing else lists methods.
 
 The paper's numbers (docs/benchmark.md "The paper's numbers") are data here: Table 1 in each entry's
 ``paper``, the component study A-M in :data:`COMPONENTS` (whose switches are read from the rows' config
@@ -12,14 +13,18 @@ What a method reads (its buffers) is declared by its model (``required_buffers()
 
 from __future__ import annotations
 
+import ast
 import functools
 from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
 
-from mcd.core.paths import CONF_DIR
+from mcd.core.paths import CONF_DIR, PACKAGE_DIR
 from mcd.models.switches import SWITCHES
+
+#: The models' folder: the factories and, beside each, its catalogue entries.
+MODELS_DIR = PACKAGE_DIR / "models"
 
 
 def _yaml(path: Path) -> dict:
@@ -82,36 +87,39 @@ class Method:
         return method_trainable(self.method)
 
 
-#: Every method, Table 1's rows in the paper's order first. Rows A-M of the component study are the
-#: ``two_stage`` method with switches (:data:`COMPONENTS`); F, the full method, is also Table 1's "Ours".
-CATALOGUE: tuple[Method, ...] = (
-    Method("unet", "U-Net", table1=True, stand_in="A", bench=True,
-           paper={"psnr": 31.91, "ssim": 86.00, "gmacs": 316.52, "params_m": 0.972}),
-    Method("fastdvdnet", "FastDVDnet", table1=True, bench=True, train_bench=True,
-           paper={"psnr": 32.07, "ssim": 86.02, "gmacs": 1083.5, "params_m": 1.867}),
-    Method("rae", "RAE", table1=True, bench=True, train_bench=True,
-           paper={"psnr": 31.96, "ssim": 86.07, "gmacs": 432.61, "params_m": 1.864}),
-    Method("dasr", "DASR", table1=True, bench=True, train_bench=True,
-           paper={"psnr": 31.97, "ssim": 86.08, "gmacs": 558.00, "params_m": 1.577}),
-    Method("dasr_paper_loss", "DASR (paper's loss)", variant_of="dasr"),
-    Method("ntasad", "NTASAD", table1=True, bench=True, train_bench=True,
-           paper={"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578}),
-    Method("ntasad_no_warp", "NTASAD, no warp (diagnostic)", variant_of="ntasad",
-           diagnostic=True),
-    Method("ntasad_no_previous", "NTASAD, no previous output (diagnostic)",
-           variant_of="ntasad", diagnostic=True),
-    Method("F", "Ours (F)", table1=True, bench=True, train_bench=True,
-           paper={"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}),
-    Method("F_paper", "Ours (F, paper's text)", variant_of="F"),
-    Method("F_pixel_switch", "F, per-pixel identity channel", variant_of="F"),
-    Method("F_warp_previous", "F + warped previous output (not the paper's)",
-           variant_of="F", diagnostic=True),
-    Method("F_he", "F, He's initialisation (diagnostic)", variant_of="F", diagnostic=True),
-    Method("oidn", "OIDN", table1=True, bench=True),
-    Method("noisy", "Noisy input", table1=True, bench=True),
-    Method("A", "A", train_bench=True),
-    Method("C", "C", train_bench=True),
-)
+#: The factories' modules under ``mcd/models/``, in Table 1's order: each declares its method's entries
+#: (``ENTRIES``) beside its factory, the one place each is written (docs/architecture.md "Methods").
+FACTORY_MODULES: tuple[str, ...] = ("baselines/unet.py", "baselines/fastdvdnet.py", "baselines/rae.py",
+                                    "baselines/dasr.py", "baselines/ntasad.py", "two_stage.py",
+                                    "baselines/oidn.py", "baselines/noisy.py")
+
+
+def entries_assignment(path: Path) -> ast.Assign | None:
+    """The module-level ``ENTRIES = ...`` of the Python file ``path``, read from its source, or None."""
+    return next((node for node in ast.parse(path.read_text(), str(path)).body if isinstance(node, ast.Assign)
+                 and [getattr(t, "id", None) for t in node.targets] == ["ENTRIES"]), None)
+
+
+def module_entries(path: Path) -> tuple[Method, ...]:
+    """The entries a factory's module declares (its ``ENTRIES``: a tuple of literal dicts of
+    :class:`Method`'s fields), read from its source without importing it, so that the catalogue needs no
+    torch (docs/architecture.md "Start-up"). ValueError naming the file where ``ENTRIES`` is missing, not
+    literal, or has a field :class:`Method` does not know."""
+    node = entries_assignment(path)
+    try:
+        if node is None:
+            raise ValueError("no module-level ENTRIES")
+        return tuple(Method(**entry) for entry in ast.literal_eval(node.value))
+    except (ValueError, TypeError) as err:
+        raise ValueError(f"{path}: its ENTRIES are a tuple of literal dicts of mcd.config.methods.Method's "
+                         f"fields ({err})") from None
+
+
+#: Every method, Table 1's rows in the paper's order first (:data:`FACTORY_MODULES`). Rows A-M of the
+#: component study are the ``two_stage`` method with switches (:data:`COMPONENTS`); F, the full method, is
+#: also Table 1's "Ours".
+CATALOGUE: tuple[Method, ...] = tuple(entry for module in FACTORY_MODULES
+                                      for entry in module_entries(MODELS_DIR / module))
 #: Experiment -> its entry.
 BY_EXPERIMENT: dict[str, Method] = {m.experiment: m for m in CATALOGUE}
 #: Table 1's rows, in the paper's order, then the two references it does not print (OIDN, the noisy input).

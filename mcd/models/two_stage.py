@@ -198,6 +198,23 @@ class TwoStage(nn.Module):
         return out
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods"): F, the full method (Table 1's "Ours"), its variants, and the component
+#: rows the training bench measures (rows A-M: conf/experiment/<row>.yaml, mcd.config.methods.COMPONENTS).
+ENTRIES = (
+    {"experiment": "F", "display": "Ours (F)", "table1": True, "bench": True, "train_bench": True,
+     "paper": {"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}},
+    {"experiment": "F_paper", "display": "Ours (F, paper's text)", "variant_of": "F"},
+    {"experiment": "F_pixel_switch", "display": "F, per-pixel identity channel", "variant_of": "F"},
+    {"experiment": "F_warp_previous", "display": "F + warped previous output (not the paper's)",
+     "variant_of": "F", "diagnostic": True},
+    {"experiment": "F_he", "display": "F, He's initialisation (diagnostic)", "variant_of": "F",
+     "diagnostic": True},
+    {"experiment": "A", "display": "A", "train_bench": True},
+    {"experiment": "C", "display": "C", "train_bench": True},
+)
+
+
 @register("two_stage")
 def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG: bool, SA: bool,
                     denoiser: dict, sampler: dict, kernel_pool: dict, ghost: dict, pooling: dict,

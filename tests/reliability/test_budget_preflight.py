@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import pytest
 
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 
 @pytest.mark.parametrize(("overrides", "said"), [
     (["train.max_steps=null", "train.epochs=null", "train.max_minutes=null"], "no training budget"),
     (["+trainer.max_steps=5"], "trainer.max_steps is set by train.max_steps"),
 ])
+@pytest.mark.slow
 def test_a_run_without_a_budget_is_refused_before_rendering(tmp_path, overrides, said):
     proc = mcd_run("+experiment=unet", *store32_overrides(tmp_path / "data"), *overrides,
                    f"hydra.run.dir={tmp_path / 'run'}")

@@ -13,8 +13,8 @@ import sys
 import pytest
 
 from mcd.denoise.weights import BUNDLED_DIR
+from tests.conftest import REPO
 from tests.reliability.denoise_helpers import snapshot
-from tests.test_run import REPO
 
 
 def _bundle(*args: str) -> subprocess.CompletedProcess:
@@ -29,6 +29,7 @@ def finished(unet_run):
     return unet_run[0]
 
 
+@pytest.mark.slow
 def test_a_shipped_bundles_name_is_refused_and_kept_unless_replace(finished, tmp_path):
     out = tmp_path / "bundled"
     out.mkdir()

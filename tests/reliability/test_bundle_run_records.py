@@ -15,8 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import module_env
-from tests.test_run import REPO
+from tests.conftest import REPO, module_env
 
 
 def _bundle(*args: str) -> subprocess.CompletedProcess:
@@ -32,6 +31,7 @@ def _runs(ab_sweep: Path, tmp_path: Path) -> tuple[Path, Path]:
     return run, jobs / "F_spp4"
 
 
+@pytest.mark.slow
 def test_a_foreign_best_checkpoint_in_the_run_is_not_bundled(ab_sweep, tmp_path):
     run, f_run = _runs(ab_sweep, tmp_path)
     (f_best,) = (f_run / "checkpoints").glob("best*.ckpt")

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from tests.test_run import REPO
+from tests.conftest import REPO
 
 
 @pytest.mark.parametrize(("args", "named"), [

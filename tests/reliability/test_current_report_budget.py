@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import subprocess
 
+import pytest
+
 from tests.reports.test_current_report import REPO, _job, _script
 
 
@@ -32,6 +34,7 @@ def test_a_session_with_another_budget_is_refused_before_any_job(tmp_path):
     assert mark.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_the_report_stage_refuses_another_budget_and_states_the_recorded_one(tmp_path):
     root = tmp_path / "multirun"
     _job(root / "ablation" / "tiny_current", "F", 21.0)

@@ -9,8 +9,8 @@ import shutil
 
 import pytest
 
+from tests.conftest import mcd_run
 from tests.reliability.denoise_helpers import snapshot
-from tests.test_run import mcd_run
 
 
 @pytest.fixture

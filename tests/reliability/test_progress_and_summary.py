@@ -18,7 +18,7 @@ from omegaconf import OmegaConf
 
 from mcd.lit.progress import ProgressLine
 from tests.conftest import store32_overrides
-from tests.reliability.test_resume import FROZEN
+from tests.reliability.conftest import FROZEN
 
 REPO = Path(__file__).resolve().parents[2]
 

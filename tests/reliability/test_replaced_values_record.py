@@ -12,8 +12,7 @@ import json
 import numpy as np
 
 from mcd.data.exr import read_exr, sha256, write_exr
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 
 def _damage(store, frame: int, buffer: str, values: list[float]) -> None:

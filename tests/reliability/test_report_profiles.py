@@ -11,8 +11,7 @@ import shutil
 import pytest
 
 from mcd.report import main
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 RUN = ["train.epochs=1", "train.batch_size=1", "train.sample_frames=[]", "trainer.enable_progress_bar=false"]
 

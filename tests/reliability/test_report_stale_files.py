@@ -86,7 +86,7 @@ def test_a_read_only_out_is_one_error_line(one_run, tmp_path):
     import subprocess
     import sys
 
-    from tests.test_run import REPO
+    from tests.conftest import REPO
 
     if subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode != 0:
         pytest.skip("no unprivileged mount namespace here (unshare -rm) to make a read-only mount")

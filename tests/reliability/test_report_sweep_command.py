@@ -9,8 +9,7 @@ from __future__ import annotations
 import pytest
 
 from mcd.reporting.runs import find_sweeps
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 
 @pytest.mark.slow

@@ -11,13 +11,7 @@ import torch
 
 from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
-
-#: Row A on the session's 32x32 store: one training step and one validation per epoch; lr 0 keeps the
-#: validation scores constant, so no epoch after the first is a new best (where `last.ckpt` stayed behind).
-FROZEN = ["+experiment=A", "data.train_crop=32", "data.val_crop=32", "train.batch_size=1", "train.lr=0",
-          "train.lr_min=0", "train.val_every=1", "++train.val_every_steps=null", "++train.patience=null",
-          "train.sample_frames=[]",
-          "trainer.enable_progress_bar=false"]
+from tests.reliability.conftest import FROZEN
 
 
 @pytest.fixture(scope="module")

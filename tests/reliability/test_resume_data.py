@@ -11,16 +11,11 @@ import time
 import pytest
 
 from mcd.run import train_and_test
-from tests.conftest import compose_cfg, store32_overrides
-from tests.reliability.test_resume import FROZEN
+from tests.conftest import compose_cfg
 
 
-def test_defect12_an_interrupted_run_resumed_on_other_data_is_refused_naming_the_keys(own_store, tmp_path):
-    cfg, store = own_store
-    overrides = [*store32_overrides(store.data_dir), *FROZEN]
-    run = tmp_path / "run"
-    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, {"data": "tiny"}, time.perf_counter())
-    (run / "metrics.json").unlink()  # as a run killed after its checkpoint leaves it
+def test_defect12_an_interrupted_run_resumed_on_other_data_is_refused_naming_the_keys(own_interrupted):
+    run, overrides, store = own_interrupted
     last = run / "checkpoints" / "last.ckpt"
     before = last.stat().st_mtime_ns
 

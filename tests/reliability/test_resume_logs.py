@@ -12,7 +12,7 @@ import pytest
 
 from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
-from tests.reliability.test_resume import FROZEN
+from tests.reliability.conftest import FROZEN
 
 
 @pytest.mark.slow

@@ -19,8 +19,9 @@ import hashlib
 import json
 import shutil
 
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+import pytest
+
+from tests.conftest import mcd_run, store32_overrides
 
 RUN = ["+experiment=unet", "train.sample_frames=[]", "trainer.enable_progress_bar=false"]
 
@@ -30,6 +31,7 @@ def _digests(folder) -> dict[str, str]:
             for p in sorted(folder.rglob("*")) if p.is_file() and p.name != "run.lock"}
 
 
+@pytest.mark.slow
 def test_a_run_resumed_from_another_runs_checkpoint_leaves_that_run_as_it_was(cbox_store, tmp_path):
     data = store32_overrides(cbox_store[1].data_dir)
     first = tmp_path / "first"

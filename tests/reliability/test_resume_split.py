@@ -18,18 +18,12 @@ import pytest
 
 from mcd.lit.run_record import check_same_job
 from mcd.run import train_and_test
-from tests.conftest import compose_cfg, store32_overrides
-from tests.reliability.test_resume import FROZEN
-
-CHOICES = {"data": "tiny"}
+from tests.conftest import compose_cfg
+from tests.reliability.conftest import CHOICES
 
 
-def test_another_split_is_neither_resumed_nor_skipped_as_finished(own_store, tmp_path):
-    cfg, store = own_store
-    overrides = [*store32_overrides(store.data_dir), *FROZEN]
-    run = tmp_path / "run"
-    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, CHOICES, time.perf_counter())
-    (run / "metrics.json").unlink()  # as a run killed after its checkpoint leaves it
+def test_another_split_is_neither_resumed_nor_skipped_as_finished(own_interrupted):
+    run, overrides, _ = own_interrupted
     last = run / "checkpoints" / "last.ckpt"
     before = last.read_bytes()
 

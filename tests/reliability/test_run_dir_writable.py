@@ -6,11 +6,8 @@ exit 2, and nothing is made."""
 
 from __future__ import annotations
 
-import shlex
 import subprocess
 import sys
-
-import pytest
 
 from tests.conftest import module_env, store32_overrides
 
@@ -33,17 +30,8 @@ def test_a_run_dir_below_a_file_is_one_error_line_naming_the_key(tmp_path):
     assert (tmp_path / "a_file").read_text() == "mine\n" and not (tmp_path / "data").exists()
 
 
-def test_a_read_only_run_dir_is_one_error_line_naming_the_key(tmp_path):
-    if subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode != 0:
-        pytest.skip("no unprivileged mount namespace here (unshare -rm) to make a read-only mount")
-    ro = tmp_path / "ro"
-    ro.mkdir()
-    q = shlex.quote(str(ro))
-
-    def read_only(argv: list[str]) -> list[str]:
-        script = f"mount --bind {q} {q} && mount -o remount,ro,bind {q} && exec {shlex.join(argv)}"
-        return ["unshare", "-rm", "sh", "-c", script]
-
+def test_a_read_only_run_dir_is_one_error_line_naming_the_key(tmp_path, read_only_dir):
+    ro, read_only = read_only_dir
     for run_dir, words in ((ro, "is not writable"),
                            (ro / "run", f"would be made in {ro}, which is not writable")):
         proc = _run(*store32_overrides(tmp_path / "data"), f"hydra.run.dir={run_dir}", cwd=tmp_path,

@@ -18,7 +18,7 @@ import pytest
 
 from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
-from tests.reliability.test_resume import FROZEN
+from tests.reliability.conftest import FROZEN, interrupted_run
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -43,13 +43,10 @@ def _env() -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def interrupted(cbox_store, tmp_path_factory):
-    """A run directory of row A as a killed run leaves it (``checkpoints/last.ckpt``, no ``metrics.json``),
-    and its overrides."""
-    overrides = [*store32_overrides(cbox_store[1].data_dir), *FROZEN]
+    """A run directory of row A as a killed run leaves it (``interrupted_run`` on the shared store), and its
+    overrides."""
     run = tmp_path_factory.mktemp("interrupted")
-    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, {"data": "tiny"}, time.perf_counter())
-    (run / "metrics.json").unlink()
-    return run, overrides
+    return run, interrupted_run(cbox_store[1].data_dir, run)
 
 
 @pytest.mark.slow
@@ -76,6 +73,7 @@ OWNER = """
 import sys
 from pathlib import Path
 from mcd.lit import run_dir
+
 with run_dir.hold(Path(sys.argv[1])):
     print("held", flush=True)
     sys.stdin.read()

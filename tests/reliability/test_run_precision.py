@@ -10,8 +10,7 @@ import json
 
 import pytest
 
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 RUN = ["+experiment=unet", "train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
        "trainer.enable_progress_bar=false", "trainer.accelerator=cpu"]
@@ -27,6 +26,7 @@ def test_an_unusable_precision_is_named_before_anything_is_rendered(tmp_path, va
     assert not list(data.rglob("*.exr"))  # nothing rendered
 
 
+@pytest.mark.slow
 def test_fp16_mixed_on_the_cpu_is_recorded_as_the_bf16_it_trains_in(cbox_store, tmp_path):
     run = tmp_path / "run"
     proc = mcd_run(*RUN, *store32_overrides(cbox_store[1].data_dir), "trainer.precision=16-mixed",
@@ -36,6 +36,7 @@ def test_fp16_mixed_on_the_cpu_is_recorded_as_the_bf16_it_trains_in(cbox_store, 
     assert "trainer.precision=16-mixed -> bf16-mixed" in proc.stdout + proc.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["bf16-true", "16-true"])
 def test_half_precision_weights_are_named_before_anything_is_rendered(tmp_path, value):
     """Campaign 10, part 1: ``bf16-true`` and ``16-true`` were accepted, the store was rendered, and the first

@@ -13,8 +13,7 @@ import pytest
 
 from mcd.reporting.runs import find_runs
 from mcd.reporting.scaling import grid
-from tests.conftest import store32_overrides
-from tests.test_run import mcd_run
+from tests.conftest import mcd_run, store32_overrides
 
 RUN = ["+experiment=unet", "train.max_steps=2", "train.batch_size=1", "train.sample_frames=[]",
        "trainer.enable_progress_bar=false"]
@@ -31,6 +30,7 @@ def runs(cbox_store, tmp_path_factory):
     return root
 
 
+@pytest.mark.slow
 def test_a_seed_without_a_psnr_or_of_another_capacity_is_left_out_of_its_cell(runs, tmp_path):
     root = tmp_path / "runs"
     shutil.copytree(runs, root)

@@ -9,9 +9,12 @@ import os
 import subprocess
 import sys
 
-from tests.test_run import REPO
+import pytest
+
+from tests.conftest import REPO
 
 
+@pytest.mark.slow
 def test_a_dry_run_prints_the_plan_and_leaves_the_sweeps_record(tmp_path):
     sweep = tmp_path / "sweep"
     sweep.mkdir()

@@ -9,8 +9,7 @@ from pathlib import Path
 import pytest
 
 from mcd.lit.run_record import JOB_FILE, REQUIRED_KEYS, job_identity
-from tests.conftest import compose_cfg
-from tests.test_run import mcd_run
+from tests.conftest import compose_cfg, mcd_run
 
 CHOICES = {"data": "tiny"}
 

@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import shlex
 import subprocess
 import sys
 
@@ -44,6 +43,7 @@ def test_jobs_that_would_share_a_directory_are_refused_before_any_job_runs(tmp_p
     assert not sweep.exists() and not (tmp_path / "data").exists()  # nothing rendered, no sweep folder
 
 
+@pytest.mark.slow
 def test_the_advice_gives_each_job_its_own_directory(tmp_path):
     sweep = tmp_path / "sweep"
     proc = _sweep(tmp_path, "seed=0,1", f"hydra.sweep.dir={sweep}",
@@ -52,17 +52,8 @@ def test_the_advice_gives_each_job_its_own_directory(tmp_path):
     assert all((sweep / f"noisy_spp4_seed{s}" / "metrics.json").is_file() for s in (0, 1))
 
 
-def test_a_read_only_sweep_dir_is_one_error_line_naming_the_key(tmp_path):
-    if subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode != 0:
-        pytest.skip("no unprivileged mount namespace here (unshare -rm) to make a read-only mount")
-    ro = tmp_path / "ro"
-    ro.mkdir()
-    q = shlex.quote(str(ro))
-
-    def read_only(argv: list[str]) -> list[str]:
-        script = f"mount --bind {q} {q} && mount -o remount,ro,bind {q} && exec {shlex.join(argv)}"
-        return ["unshare", "-rm", "sh", "-c", script]
-
+def test_a_read_only_sweep_dir_is_one_error_line_naming_the_key(tmp_path, read_only_dir):
+    ro, read_only = read_only_dir
     for sweep, words in ((ro, "is not writable"),
                          (ro / "sw", f"would be made in {ro}, which is not writable")):
         proc = _sweep(tmp_path, f"hydra.sweep.dir={sweep}", wrap=read_only)

@@ -10,9 +10,12 @@ import os
 import subprocess
 import sys
 
-from tests.test_run import REPO
+import pytest
+
+from tests.conftest import REPO
 
 
+@pytest.mark.slow
 def test_the_plan_says_how_many_jobs_the_seed_rule_leaves_out(tmp_path):
     env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
     cmd = [sys.executable, "-m", "mcd.run", "-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000",

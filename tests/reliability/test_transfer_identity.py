@@ -12,14 +12,16 @@ from __future__ import annotations
 
 import shutil
 
-from tests.conftest import UNET_RUN, store32_overrides
-from tests.test_run import mcd_run
+import pytest
+
+from tests.conftest import UNET_RUN, mcd_run, store32_overrides
 
 TRANSFER = ["+experiment=unet", "capacity=cpu", "trainer.enable_progress_bar=false",
             "+scene@data.scenes.cornell-box-picture=cornell-box-picture",
             "data.transfer_scenes=[cornell-box-picture]"]
 
 
+@pytest.mark.slow
 def test_another_source_or_fine_tuning_is_another_job(unet_run, tmp_path):
     source, _ = unet_run
     data = [*store32_overrides(tmp_path / "data"), *UNET_RUN]

@@ -66,6 +66,15 @@ class DASR(nn.Module):
         return crop(self.denoiser(pad_to_multiple(d_in, self.denoiser.stride)), d_in.shape[-2:])
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods").
+ENTRIES = (
+    {"experiment": "dasr", "display": "DASR", "table1": True, "bench": True, "train_bench": True,
+     "paper": {"psnr": 31.97, "ssim": 86.08, "gmacs": 558.00, "params_m": 1.577}},
+    {"experiment": "dasr_paper_loss", "display": "DASR (paper's loss)", "variant_of": "dasr"},
+)
+
+
 @register("dasr")
 def build_dasr(*, budget: float, encoder: list[int], bottleneck: int, last: list[int],
                sampling: dict) -> DASR:

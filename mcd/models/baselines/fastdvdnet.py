@@ -103,6 +103,14 @@ class FastDVDnet(nn.Module):
         return crop(self.stage2(second, stage1[1]), (h, w))
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods").
+ENTRIES = (
+    {"experiment": "fastdvdnet", "display": "FastDVDnet", "table1": True, "bench": True, "train_bench": True,
+     "paper": {"psnr": 32.07, "ssim": 86.02, "gmacs": 1083.5, "params_m": 1.867}},
+)
+
+
 @register("fastdvdnet")
 def build_fastdvdnet(*, budget: float, widths: list[int], interm: int) -> FastDVDnet:
     """FastDVDnet at ``budget`` with its widths (``capacity.fastdvdnet``): ``widths``, the three block widths

@@ -31,6 +31,13 @@ class Noisy(nn.Module):
         return {"output": need(x, self.key, "noisy").clone()}
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods").
+ENTRIES = (
+    {"experiment": "noisy", "display": "Noisy input", "table1": True, "bench": True},
+)
+
+
 @register("noisy")
 def build_noisy(*, budget: float) -> Noisy:
     """The noisy input at ``budget``."""

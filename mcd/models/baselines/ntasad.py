@@ -181,6 +181,18 @@ class NTASAD(nn.Module):
         return crop(combine(f1, o, torch.sigmoid(heads[1][:, 2 * taps:])), (h, w))
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods").
+ENTRIES = (
+    {"experiment": "ntasad", "display": "NTASAD", "table1": True, "bench": True, "train_bench": True,
+     "paper": {"psnr": 32.13, "ssim": 86.46, "gmacs": 826.11, "params_m": 1.578}},
+    {"experiment": "ntasad_no_warp", "display": "NTASAD, no warp (diagnostic)", "variant_of": "ntasad",
+     "diagnostic": True},
+    {"experiment": "ntasad_no_previous", "display": "NTASAD, no previous output (diagnostic)",
+     "variant_of": "ntasad", "diagnostic": True},
+)
+
+
 @register("ntasad")
 def build_ntasad(*, budget: float, enc: int, dec: int, full: int, sampling: dict,
                  warp: bool = True, previous_output: bool = True) -> NTASAD:

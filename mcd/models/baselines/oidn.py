@@ -80,6 +80,13 @@ class OIDN(nn.Module):
         return {"output": torch.from_numpy(np.stack(out)).permute(0, 3, 1, 2).to(noisy)}
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods").
+ENTRIES = (
+    {"experiment": "oidn", "display": "OIDN", "table1": True, "bench": True},
+)
+
+
 @register("oidn")
 def build_oidn(*, budget: float, quality: str = "high") -> OIDN:
     """OIDN on ``c{budget}``; ``quality``: high / balanced / fast (conf/method/oidn.yaml)."""

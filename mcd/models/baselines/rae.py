@@ -169,6 +169,14 @@ class RAE(nn.Module):
         return crop(self.net(pad_to_multiple(inp, self.net.stride)), inp.shape[-2:])
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods").
+ENTRIES = (
+    {"experiment": "rae", "display": "RAE", "table1": True, "bench": True, "train_bench": True,
+     "paper": {"psnr": 31.96, "ssim": 86.07, "gmacs": 432.61, "params_m": 1.864}},
+)
+
+
 @register("rae")
 def build_rae(*, budget: float, encoder: list[int], bottleneck: int, last: list[int]) -> RAE:
     """RAE at ``budget`` with its widths (``capacity.rae``): ``encoder`` (recurrent levels, full resolution ..

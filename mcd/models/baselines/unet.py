@@ -15,6 +15,14 @@ from mcd.models.two_stage import build_two_stage
 ROW_A = {s: s == "UN" for s in SWITCHES}
 
 
+#: Its catalogue entries (mcd.config.methods.Method's fields; read from this file without importing it,
+#: docs/architecture.md "Methods").
+ENTRIES = (
+    {"experiment": "unet", "display": "U-Net", "table1": True, "stand_in": "A", "bench": True,
+     "paper": {"psnr": 31.91, "ssim": 86.00, "gmacs": 316.52, "params_m": 0.972}},
+)
+
+
 @register("unet", capacity="two_stage")
 def build_unet(*, budget: float, UN: bool = True, AS: bool = False, KP: bool = False, PP: bool = False,
                FG: bool = False, SA: bool = False, **two_stage: Any) -> nn.Module:
