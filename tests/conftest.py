@@ -133,6 +133,8 @@ SHARED_RUNS = ("ab_sweep", "unet_run")
 #: module fixture trains or renders.
 XDIST_GROUPS: dict[str, tuple[str, ...]] = {
     "ab_sweep": ("tests/reliability/test_bundle_run_records.py",
+                 "tests/reliability/test_denoise_nonfinite_weights.py",
+                 "tests/reliability/test_report_campaign11_records.py",
                  "tests/reliability/test_report_damaged_samples.py",
                  "tests/reports/test_sweep_to_report.py", "tests/reports/test_viewer.py"),
     "unet_run": ("tests/reliability/test_bundle_out.py", "tests/reliability/test_finished_runs.py",
