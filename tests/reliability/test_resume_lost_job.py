@@ -1,0 +1,65 @@
+"""Campaign 12, part 1 (docs/reliability.md, "Campaign fixes"): a resume is checked against the job its
+checkpoint was trained as, also where the run directory's ``job.json`` is lost; ``metrics.json``
+``data_settings`` names what each scene is made of.
+
+Campaign 11 left both. An interrupted run (``last.ckpt``, no ``metrics.json``) whose ``job.json`` was
+lost, resumed with ``ckpt_path=auto seed=1`` (or another camera path), trained its last steps and was tested,
+exit 0, its record naming seed 1 (or the new path) for a checkpoint whose first steps trained under seed 0
+(the old one). Now every checkpoint holds the job's record (``mcd.lit.segments.TrainingSegments``: ``job``)
+and such a resume is refused naming the keys, before anything is rendered or written. ``data_settings``
+held the scene lists only, so ``mcd.report`` put runs of other camera paths into one cell; it now holds
+``scenes.<name>.*`` (the camera path, exposure, file digests), and the report names the runs' profiles
+apart.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+
+import pytest
+
+from mcd.report import profiles_of
+from mcd.reporting.runs import load_run
+from mcd.run import train_and_test
+from tests.conftest import compose_cfg, store32_overrides
+from tests.reliability.test_resume import FROZEN
+
+CHOICES = {"data": "tiny"}
+
+
+def test_a_resume_after_job_json_is_lost_is_checked_against_the_checkpoint(own_store, tmp_path):
+    cfg, store = own_store
+    overrides = [*store32_overrides(store.data_dir), *FROZEN]
+    run = tmp_path / "run"
+    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, CHOICES, time.perf_counter())
+    (run / "metrics.json").unlink()  # as a run killed after its checkpoint leaves it
+    (run / "job.json").unlink()  # and its record lost
+    last = run / "checkpoints" / "last.ckpt"
+    manifest = store.manifest_path("cbox")
+    before, frames = last.read_bytes(), manifest.read_bytes()
+
+    for change, message in (("seed=1", r"holds steps of another job \(seed: 0 there, 1 here\)"),
+                            ("data.scenes.cbox.path.dolly=0.9", r"holds steps of other scenes "
+                             r"\(data\.scenes\.cbox\.path\.dolly: 0\.45 there, 0\.9 here\)"),
+                            ("train.lr=0.5", r"holds steps trained with other optimiser settings")):
+        other = compose_cfg(*overrides, "train.epochs=2", change, "ckpt_path=auto")
+        with pytest.raises(FileExistsError, match=rf"{last} {message}"):
+            train_and_test(other, run, CHOICES, time.perf_counter())
+    assert last.read_bytes() == before and manifest.read_bytes() == frames  # nothing rendered or trained
+    assert not (run / "job.json").exists() and not (run / "metrics.json").exists()
+
+    train_and_test(compose_cfg(*overrides, "train.epochs=2", "ckpt_path=auto"), run, CHOICES,
+                   time.perf_counter())  # the same job resumes to its end
+    settings = json.loads((run / "metrics.json").read_text())["data_settings"]
+    assert settings["scenes.cbox.path.dolly"] == 0.45 and settings["scenes.cbox.exposure"] == "auto"
+    assert len(settings["scenes.cbox.file_sha256"]) == 64
+
+    moved = tmp_path / "moved"  # a run of another camera path: its report cell is its own
+    shutil.copytree(run, moved)
+    record = json.loads((moved / "metrics.json").read_text())
+    record["data_settings"]["scenes.cbox.path.dolly"] = 0.9
+    (moved / "metrics.json").write_text(json.dumps(record))
+    labels = profiles_of([load_run(run), load_run(moved)])
+    assert labels == {"`tiny` (scenes.cbox.path.dolly=0.45)": 1, "`tiny` (scenes.cbox.path.dolly=0.9)": 1}
