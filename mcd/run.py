@@ -43,7 +43,6 @@ from mcd.lit import run_dir
 from mcd.lit.run_record import (
     SWITCHED_METHODS,
     RunRecord,
-    check_recorded_job,
     check_same_job,
     claim_run_dir,
     is_complete,
@@ -170,9 +169,9 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
         hint = f"give {last}" if last.is_file() else "give a run's checkpoints/last.ckpt"
         raise FileNotFoundError(f"ckpt_path={resume}: {what} ({hint})")
     resumed = checkpoint.safe_load(resume, "ckpt_path") if resume else None
-    if resumed is not None and (recorded := recorded_job(resumed)) is not None:  # also where job.json is lost
-        check_recorded_job(recorded, cfg, choices or {}, Path(resume), "steps")
-    job_record = claim_run_dir(out_dir, cfg, choices or {})  # refuses an interrupted run of another job
+    # refuses an interrupted run of another job, and a checkpoint trained as another (its own record)
+    held = None if resumed is None else (Path(resume), recorded_job(resumed, Path(resume)))
+    job_record = claim_run_dir(out_dir, cfg, choices or {}, held)
     L.seed_everything(int(cfg.seed), workers=True)
     cfg, transfer_info = transfer.prepare(cfg)  # held-out scenes from trained weights (mcd/lit/transfer.py)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -153,7 +153,8 @@ def job_record(cfg: DictConfig, choices: dict[str, str]) -> dict[str, Any]:
     that trains: its identity (:func:`job_identity`), split, scenes, training values and optimiser
     settings."""
     return {**job_identity(cfg, choices), "split": split_settings(cfg), "scenes": scene_settings(cfg),
-            "values": value_settings(cfg), "optimiser": optimiser_settings(cfg)}
+            "values": value_settings(cfg), "optimiser": optimiser_settings(cfg),
+            "training": training_settings(cfg)}
 
 
 def check_recorded_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], where: Path,
@@ -171,7 +172,9 @@ def check_recorded_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[
         ("values", value_settings(cfg), "trained on values of another precision",
          "its steps so far read the frames at the old precision, and its record would name the new one"),
         ("optimiser", optimiser_settings(cfg), "trained with other optimiser settings", "its checkpoint "
-         "carries the optimiser's and the schedule's state, so a resume keeps training at the old rate"))
+         "carries the optimiser's and the schedule's state, so a resume keeps training at the old rate"),
+        ("training", training_settings(cfg), "trained with other training settings", "its steps so far "
+         "trained under the old ones, and its records (resolved_config.yaml) would name the new ones only"))
     for section, mine, differs, why in checks:
         _refuse_other_settings(recorded.get(section), mine, where, f"{what} {differs}", why)
 
@@ -215,13 +218,16 @@ def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None
 JOB_FILE = "job.json"
 
 
-def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> dict[str, Any]:
+def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str],
+                  checkpoint: tuple[Path, dict[str, Any] | None] | None = None) -> dict[str, Any]:
     """Record this job's identity in ``run_dir/job.json``, after refusing a directory that holds an
     interrupted run (``checkpoints/last.ckpt``, no ``metrics.json``) of another job: resuming it with another
     budget, seed, experiment, switches, data profile or data settings (another store) would test a checkpoint
     trained under the old settings and label it with the new ones (docs/reliability.md). FileExistsError names
-    the keys that differ; a ``job.json`` that is not a JSON object is named too (ValueError). Returns what it
-    wrote (:func:`job_record`)."""
+    the keys that differ; a ``job.json`` that is not a JSON object is named too (ValueError). ``checkpoint``:
+    the checkpoint training resumes from and the job record it holds (``mcd.lit.segments.recorded_job``),
+    checked the same way, also where ``job.json`` is lost or the checkpoint is another directory's. Returns
+    what it wrote (:func:`job_record`)."""
     path = run_dir / JOB_FILE
     if (run_dir / "checkpoints" / "last.ckpt").is_file() and path.is_file():
         try:
@@ -232,6 +238,8 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> di
         if not isinstance(recorded, dict):
             raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
         check_recorded_job(recorded, cfg, choices, run_dir, "an interrupted run")
+    if checkpoint is not None and checkpoint[1] is not None:
+        check_recorded_job(checkpoint[1], cfg, choices, checkpoint[0], "steps")
     # the processes of a DDP run all write it
     record = job_record(cfg, choices)
     atomic_write_json(path, record, indent=2)
@@ -310,6 +318,40 @@ def optimiser_settings(cfg: DictConfig) -> dict[str, float]:
     schedule's state from the checkpoint, so a resume with another ``train.lr`` trained at a mix of the two
     rates while its records named the new one. Recorded in ``job.json`` beside the job's identity."""
     return {f"train.{k}": float(cfg.train[k]) for k in ("lr", "lr_min", "weight_decay")}
+
+
+#: ``train.*`` keys a resume may change: the budget, when to validate and stop, what to save, and speed.
+BUDGET_KEYS = ("epochs", "max_steps", "max_minutes", "patience", "min_delta", "limit_train_batches",
+               "val_every",
+               "val_every_steps", "sample_frames", "channels_last", "compile")
+#: ``method.*`` keys that act outside training only (docs/method.md "Output", "Frame edges").
+TEST_TIME_KEYS = ("output_bound", "denoiser_margin")
+
+
+def training_settings(cfg: DictConfig) -> dict[str, Any]:
+    """What a training step does, beyond the optimiser (:func:`optimiser_settings`): ``train.*`` but the
+    budget and logistics (:data:`BUDGET_KEYS`), ``loss.*``, ``method.*`` but :data:`TEST_TIME_KEYS`, and the
+    training clips' ``data.train_crop``, ``data.train_crop_at_edge`` and ``data.augment.*``, one flat key
+    each. A resume with another crop, batch size or loss weight trained its last steps under the new values
+    while ``resolved_config.yaml`` named them alone. Recorded in ``job.json`` and the checkpoints; a resume
+    may still change the budget."""
+    def flat(prefix: str, node: Any) -> dict[str, Any]:
+        if isinstance(node, dict):
+            return {k: v for key, value in node.items() for k, v in flat(f"{prefix}.{key}", value).items()}
+        return {prefix: node}
+
+    def plain(key: str) -> Any:
+        node = OmegaConf.select(cfg, key, default=None)
+        return OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
+
+    train = {k: v for k, v in (plain("train") or {}).items()
+             if k not in BUDGET_KEYS and f"train.{k}" not in optimiser_settings(cfg)}
+    method = {k: v for k, v in (plain("method") or {}).items() if k not in TEST_TIME_KEYS}
+    found = {**flat("train", train), **flat("loss", plain("loss") or {}), **flat("method", method),
+             **flat("data.augment", plain("data.augment") or {})}
+    for key in ("data.train_crop", "data.train_crop_at_edge"):
+        found[key] = plain(key)
+    return found
 
 
 def _refuse_other_settings(recorded: Any, mine: dict[str, Any], run_dir: Path, what: str, why: str) -> None:

@@ -10,12 +10,16 @@ first segment ``0 .. n`` whose ``commit`` is null (not recorded).
 
 Each checkpoint also holds the record of the job that trained it (``job``:
 :func:`mcd.lit.run_record.job_record`), so that a resume is checked against it even where the run
-directory's ``job.json`` is lost (:func:`recorded_job`; docs/reliability.md, "Campaign fixes").
+directory's ``job.json`` is lost, or the checkpoint is another directory's (:func:`recorded_job`; a
+checkpoint from before the record is checked against its run directory's ``job.json``; docs/reliability.md,
+"Campaign fixes").
 """
 
 from __future__ import annotations
 
+import json
 import time
+from pathlib import Path
 from typing import Any
 
 import lightning as L
@@ -68,8 +72,19 @@ class TrainingSegments(Callback):
         return [*self.earlier, ours]
 
 
-def recorded_job(checkpoint: dict[str, Any]) -> dict[str, Any] | None:
-    """The job record a checkpoint (loaded with ``weights_only=True``) holds, None in one from before it."""
+def recorded_job(checkpoint: dict[str, Any], path: Path) -> dict[str, Any] | None:
+    """The job record a checkpoint (loaded with ``weights_only=True`` from ``path``) holds; for one from
+    before it, the ``job.json`` of the run directory it lies in (``<run>/checkpoints/<name>.ckpt``), else
+    None."""
     state = (checkpoint.get("callbacks") or {}).get("TrainingSegments")
     job = state.get("job") if isinstance(state, dict) else None
+    if isinstance(job, dict):
+        return job
+    beside = path.parent.parent / "job.json"
+    if path.parent.name != "checkpoints" or not beside.is_file():
+        return None
+    try:
+        job = json.loads(beside.read_text())
+    except (OSError, ValueError):
+        return None
     return job if isinstance(job, dict) else None

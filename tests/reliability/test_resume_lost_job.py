@@ -63,3 +63,34 @@ def test_a_resume_after_job_json_is_lost_is_checked_against_the_checkpoint(own_s
     (moved / "metrics.json").write_text(json.dumps(record))
     labels = profiles_of([load_run(run), load_run(moved)])
     assert labels == {"`tiny` (scenes.cbox.path.dolly=0.45)": 1, "`tiny` (scenes.cbox.path.dolly=0.9)": 1}
+
+
+def test_a_checkpoint_of_another_run_is_not_resumed_under_another_seed(own_store, tmp_path):
+    """``mcd.run -m seed=0,1 ckpt_path=<run>/checkpoints/last.ckpt`` (or a single run from another
+    directory's checkpoint with ``data.ref_spp=64``) trained every job on from the one checkpoint, exit 0: the
+    seed-1 job's record named seed 1, its scores equal to seed 0's (high: a seeds study with no spread). Also
+    a checkpoint from before the record is checked, against its run directory's ``job.json``."""
+    import torch
+
+    cfg, store = own_store
+    overrides = [*store32_overrides(store.data_dir), *FROZEN]
+    first = tmp_path / "first"
+    train_and_test(compose_cfg(*overrides, "train.epochs=1"), first, CHOICES, time.perf_counter())
+    last = first / "checkpoints" / "last.ckpt"
+    for change, message in (("seed=1", r"another job \(seed: 0 there, 1 here\)"),
+                            ("data.ref_spp=64", r"another job \(data\.ref_spp: 256 there, 64 here\)")):
+        other = compose_cfg(*overrides, "train.epochs=2", change, f"ckpt_path={last}")
+        with pytest.raises(FileExistsError, match=rf"{last} holds steps of {message}"):
+            train_and_test(other, tmp_path / change, CHOICES, time.perf_counter())
+        assert not (tmp_path / change).exists()  # nothing written
+
+    state = torch.load(last, map_location="cpu", weights_only=True)  # a checkpoint from before the record
+    del state["callbacks"]["TrainingSegments"]["job"]
+    old = first / "checkpoints" / "old.ckpt"
+    torch.save(state, old)
+    with pytest.raises(FileExistsError, match=rf"{old} holds steps of another job \(seed: 0 there, 1 here\)"):
+        train_and_test(compose_cfg(*overrides, "train.epochs=2", "seed=1", f"ckpt_path={old}"),
+                       tmp_path / "old", CHOICES, time.perf_counter())
+    train_and_test(compose_cfg(*overrides, "train.epochs=2", f"ckpt_path={old}"), tmp_path / "same",
+                   CHOICES, time.perf_counter())  # the same job trains on from it in another directory
+    assert (tmp_path / "same" / "metrics.json").is_file()
