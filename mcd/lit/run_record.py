@@ -331,9 +331,10 @@ TEST_TIME_KEYS = ("output_bound", "denoiser_margin")
 def training_settings(cfg: DictConfig) -> dict[str, Any]:
     """What a training step does, beyond the optimiser (:func:`optimiser_settings`): ``train.*`` but the
     budget and logistics (:data:`BUDGET_KEYS`), ``loss.*``, ``method.*`` but :data:`TEST_TIME_KEYS`, and the
-    training clips' ``data.train_crop``, ``data.train_crop_at_edge`` and ``data.augment.*``, one flat key
-    each. A resume with another crop, batch size or loss weight trained its last steps under the new values
-    while ``resolved_config.yaml`` named them alone. Recorded in ``job.json`` and the checkpoints; a resume
+    training clips' ``data.train_crop``, ``data.train_crop_at_edge`` and ``data.augment.*``, and the
+    validation's ``data.val_crop`` (the best checkpoint is picked by PSNRs measured at it), one flat key each.
+    A resume with another crop, batch size or loss weight trained its last steps under the new values while
+    ``resolved_config.yaml`` named them alone. Recorded in ``job.json`` and the checkpoints; a resume
     may still change the budget."""
     def flat(prefix: str, node: Any) -> dict[str, Any]:
         if isinstance(node, dict):
@@ -349,7 +350,7 @@ def training_settings(cfg: DictConfig) -> dict[str, Any]:
     method = {k: v for k, v in (plain("method") or {}).items() if k not in TEST_TIME_KEYS}
     found = {**flat("train", train), **flat("loss", plain("loss") or {}), **flat("method", method),
              **flat("data.augment", plain("data.augment") or {})}
-    for key in ("data.train_crop", "data.train_crop_at_edge"):
+    for key in ("data.train_crop", "data.train_crop_at_edge", "data.val_crop"):
         found[key] = plain(key)
     return found
 
