@@ -20,6 +20,7 @@ import time
 
 import pytest
 
+from mcd.lit.run_record import check_same_job
 from mcd.report import profiles_of
 from mcd.reporting.runs import load_run
 from mcd.run import train_and_test
@@ -55,6 +56,10 @@ def test_a_resume_after_job_json_is_lost_is_checked_against_the_checkpoint(own_s
     settings = json.loads((run / "metrics.json").read_text())["data_settings"]
     assert settings["scenes.cbox.path.dolly"] == 0.45 and settings["scenes.cbox.exposure"] == "auto"
     assert len(settings["scenes.cbox.file_sha256"]) == 64
+    (run / "job.json").unlink()  # a finished run whose job.json is lost is not skipped for another path
+    moved_path = compose_cfg(*overrides, "data.scenes.cbox.path.dolly=0.9")
+    with pytest.raises(FileExistsError, match=r"another job \(data\.scenes\.cbox\.path\.dolly"):
+        check_same_job(run / "metrics.json", moved_path, CHOICES)
 
     moved = tmp_path / "moved"  # a run of another camera path: its report cell is its own
     shutil.copytree(run, moved)
