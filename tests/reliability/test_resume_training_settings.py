@@ -34,7 +34,8 @@ def test_a_resume_under_other_training_settings_is_refused_naming_the_keys(own_s
     for change, message in (("data.train_crop=24", r"data\.train_crop: 32 there, 24 here"),
                             ("loss.w_t=0", r"loss\.w_t: 0\.2 there, 0 here"),
                             ("train.batch_size=2", r"train\.batch_size: 1 there, 2 here"),
-                            ("data.augment.flips=true", r"data\.augment\.flips: False there, True here")):
+                            ("data.augment.flips=true", r"data\.augment\.flips: False there, True here"),
+                            ("data.val_crop=24", r"data\.val_crop: 32 there, 24 here")):
         other = compose_cfg(*overrides, "train.epochs=2", change, "ckpt_path=auto")
         with pytest.raises(FileExistsError, match=rf"{run} holds an interrupted run trained with other "
                                                   rf"training settings \({message}\)"):
