@@ -40,13 +40,7 @@ from mcd.core import allocator, links
 from mcd.core.machine import device_name
 from mcd.core.provenance import git_commit
 from mcd.lit import run_dir
-from mcd.lit.run_record import (
-    SWITCHED_METHODS,
-    RunRecord,
-    check_same_job,
-    claim_run_dir,
-    is_complete,
-)
+from mcd.lit.run_record import SWITCHED_METHODS, RunRecord, check_same_job, claim_run_dir, is_complete
 from mcd.lit.run_summary import summary
 from mcd.lit.workload import announce
 from mcd.models.switches import check_switches, switch_row
