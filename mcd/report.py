@@ -35,7 +35,7 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mcd.core.file_lock import exclusive_folder, folder_held_elsewhere
 from mcd.core.paths import UnsafeNameError, check_folder_name
@@ -153,18 +153,27 @@ def write_readme(
 SCORE_FREE_SETTINGS = ("transfer_scenes",)
 
 
+def _differ(a: dict[str, Any], b: dict[str, Any], key: str) -> bool:
+    """Whether two runs' ``data_settings`` differ at ``key``; a scene's settings (``scenes.<name>.*``, which
+    records from before them lack) are compared only where both record them."""
+    if key.startswith("scenes.") and (key not in a or key not in b):
+        return False
+    return a.get(key) != b.get(key)
+
+
 def profiles_of(runs: list[Run]) -> dict[str, int]:
     """``{data profile: number of runs}`` of the report's runs. A profile's name is followed by its capacity
     profile where the runs have more than one (``tiny`` capacity ``paper``), and by the data settings that
-    differ (``width=48``, ``metrics.json`` ``data_settings``) where runs of one name were made from other
-    data: their scores do not compare either (:data:`SCORE_FREE_SETTINGS` aside). A run without recorded
-    settings (one that failed before its record) joins its profile's first group."""
+    differ (``width=48``, ``metrics.json`` ``data_settings``, a scene's camera path or file digest) where
+    runs of one name were made from other data: their scores do not compare either
+    (:data:`SCORE_FREE_SETTINGS` aside). A run without recorded settings (one that failed before its record)
+    joins its profile's first group."""
     capacities = {r.capacity_profile for r in runs}
     differ: dict[str, list[str]] = {}  # per profile name, the data settings its runs differ in
     for name in {r.data_profile for r in runs}:
         kept = [r.data_settings for r in runs if r.data_profile == name and r.data_settings]
         differ[name] = sorted({k for a in kept for b in kept for k in {*a, *b}
-                               if k not in SCORE_FREE_SETTINGS and a.get(k) != b.get(k)})
+                               if k not in SCORE_FREE_SETTINGS and _differ(a, b, k)})
     first = {name: next((r.data_settings for r in runs if r.data_profile == name and r.data_settings), None)
              for name in differ}
     counts: dict[str, int] = {}

@@ -143,10 +143,9 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     from mcd.data import MCDDataModule, StoreBuilder
     from mcd.data.buffers import run_buffers
     from mcd.data.pack import pack
-    from mcd.data.store import store_settings
     from mcd.data.train_store import TrainStoreSettings, pack_command
     from mcd.lit import DenoiseModule, accelerator, budget, checkpoint, precision, progress, transfer
-    from mcd.lit.segments import TrainingSegments
+    from mcd.lit.segments import TrainingSegments, recorded_job
     from mcd.lit.test_recorder import TestRecorder
     from mcd.losses import build_loss
     from mcd.models import build as build_model
@@ -163,16 +162,18 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
         last = Path(resume) / "checkpoints" / "last.ckpt"
         hint = f"give {last}" if last.is_file() else "give a run's checkpoints/last.ckpt"
         raise FileNotFoundError(f"ckpt_path={resume}: {what} ({hint})")
-    claim_run_dir(out_dir, cfg, choices or {})  # refuses an interrupted run of another job; writes job.json
-    data_settings = store_settings(cfg.data)
+    resumed = checkpoint.safe_load(resume, "ckpt_path") if resume else None
+    # refuses an interrupted run of another job, and a checkpoint trained as another (its own record)
+    held = None if resumed is None else (Path(resume), recorded_job(resumed, Path(resume)))
+    job_record = claim_run_dir(out_dir, cfg, choices or {}, held)
     L.seed_everything(int(cfg.seed), workers=True)
     cfg, transfer_info = transfer.prepare(cfg)  # held-out scenes from trained weights (mcd/lit/transfer.py)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "resolved_config.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
 
     model = build_model(cfg)
-    if resume:  # read safely, and refuse another experiment's checkpoint before anything is rendered
-        weights = checkpoint.model_weights(checkpoint.safe_load(resume, "ckpt_path"))
+    if resumed is not None:  # read safely, and refuse another experiment's checkpoint before anything renders
+        weights = checkpoint.model_weights(resumed)
         checkpoint.check_fits(model, weights, "ckpt_path", resume)
     if transfer_info is not None:
         transfer.load_weights(model, transfer_info)
@@ -211,7 +212,7 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
     last = ModelCheckpoint(dirpath=out_dir / "checkpoints", filename="last", save_top_k=1,
                            enable_version_counter=False)
     curve = budget.LearningCurve(out_dir / "curve.csv")
-    segments = TrainingSegments(git_commit())
+    segments = TrainingSegments(git_commit(), job_record)
     recorder = TestRecorder(out_dir, cfg.train.get("sample_frames", ()))
     trainer = L.Trainer(**trainer_kwargs, default_root_dir=str(out_dir),
                         callbacks=[best, budget.OwnBest(best), last, curve, segments, recorder,
@@ -225,7 +226,8 @@ def build(cfg: DictConfig, out_dir: Path, choices: dict[str, str] | None = None)
                          "method.trainable=false to test it without training")
     return Job(cfg=cfg, out_dir=out_dir, model=model, datamodule=datamodule, module=module, trainer=trainer,
                best=best, curve=curve, segments=segments, recorder=recorder, trainable=trainable,
-               resume=resume or None, transfer=transfer_info, data_report=report, data_settings=data_settings,
+               resume=resume or None, transfer=transfer_info, data_report=report,
+               data_settings=job_record["data_settings"],
                data_s=data_s, precision=str(trainer_kwargs["precision"]))
 
 

@@ -125,8 +125,10 @@ def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
     """What makes two runs the same job: the values a :class:`RunRecord` of ``cfg`` holds under these keys.
 
     ``data_settings`` is what determines the data (:func:`mcd.data.store.store_settings`: ``data.name``, the
-    frames' size and count, the samples, the data seed, the exposure, the scene lists), so that a run is not
-    resumed, or skipped as finished, on other data under the same profile; ``transfer`` the checkpoint a
+    frames' size and count, the samples, the data seed, the exposure, the scene lists; and what each scene is
+    made of, :func:`scene_settings`, as ``scenes.<name>.<key>``, so that a report does not put runs of other
+    camera paths into one cell), so that a run is not resumed, or skipped as finished, on other data under the
+    same profile; ``transfer`` the checkpoint a
     transfer starts from and its fine-tuning (:func:`mcd.lit.transfer.identity`). Settings a rerun may change
     without making it another job (epochs, capacity, ...) are left out (sweeps/_sweep_dirs.yaml: such a rerun
     goes to another ``sweep_tag``).
@@ -134,9 +136,47 @@ def job_identity(cfg: DictConfig, choices: dict[str, str]) -> dict[str, object]:
     from mcd.lit.transfer import identity as transfer_identity
 
     return {"experiment": str(cfg.experiment), "budget": int(cfg.budget), "seed": int(cfg.seed),
-            "data_profile": choices.get("data"), "data_settings": store_settings(cfg.data),
+            "data_profile": choices.get("data"), "data_settings": data_settings(cfg),
             "switches": switch_row(cfg.method) if cfg.method.name in SWITCHED_METHODS else None,
             "transfer": transfer_identity(cfg)}
+
+
+def data_settings(cfg: DictConfig) -> dict[str, Any]:
+    """``metrics.json`` ``data_settings``: :func:`mcd.data.store.store_settings` and each scene's
+    :func:`scene_settings` without their ``data.`` prefix (``scenes.cbox.path.dolly``)."""
+    scenes = {k.removeprefix("data."): v for k, v in scene_settings(cfg).items()}
+    return {**store_settings(cfg.data), **scenes}
+
+
+def job_record(cfg: DictConfig, choices: dict[str, str]) -> dict[str, Any]:
+    """What ``job.json`` and each checkpoint (:class:`mcd.lit.segments.TrainingSegments`) record of the job
+    that trains: its identity (:func:`job_identity`), split, scenes, training values and optimiser
+    settings."""
+    return {**job_identity(cfg, choices), "split": split_settings(cfg), "scenes": scene_settings(cfg),
+            "values": value_settings(cfg), "optimiser": optimiser_settings(cfg),
+            "training": training_settings(cfg)}
+
+
+def check_recorded_job(recorded: dict[str, Any], cfg: DictConfig, choices: dict[str, str], where: Path,
+                       what: str) -> None:
+    """FileExistsError naming each key where ``recorded`` (a :func:`job_record`, from ``job.json`` or a
+    checkpoint) differs from this job: ``where`` holds ``what`` (an interrupted run) of another job, split,
+    scenes, precision or optimiser settings, which a resume would train further under another record."""
+    _refuse_other_settings(recorded.get("scenes"), scene_settings(cfg), where, f"{what} of other scenes",
+                           "its steps so far trained on frames of the old scenes, and a resume would train "
+                           "and test on others under one record")  # first: data_settings holds them too
+    _refuse_another_job(recorded, cfg, choices, where, what)
+    checks = (
+        ("split", split_settings(cfg), "of another split of the frames",
+         "its steps so far trained on frames of the old split, which this one may test"),
+        ("values", value_settings(cfg), "trained on values of another precision",
+         "its steps so far read the frames at the old precision, and its record would name the new one"),
+        ("optimiser", optimiser_settings(cfg), "trained with other optimiser settings", "its checkpoint "
+         "carries the optimiser's and the schedule's state, so a resume keeps training at the old rate"),
+        ("training", training_settings(cfg), "trained with other training settings", "its steps so far "
+         "trained under the old ones, and its records (resolved_config.yaml) would name the new ones only"))
+    for section, mine, differs, why in checks:
+        _refuse_other_settings(recorded.get(section), mine, where, f"{what} {differs}", why)
 
 
 def _flat(identity: dict[str, Any]) -> dict[str, Any]:
@@ -159,29 +199,35 @@ def _flat(identity: dict[str, Any]) -> dict[str, Any]:
 def check_same_job(path: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
     """FileExistsError if the finished ``metrics.json`` at ``path`` is another job's (it is not skipped), or
     its ``job.json`` records another split of the frames (:func:`split_settings`)."""
-    _refuse_another_job(json.loads(path.read_text()), cfg, choices, path.parent, "a finished run")
     try:
         recorded = json.loads((path.parent / JOB_FILE).read_text())
     except (OSError, ValueError):
-        return
-    if isinstance(recorded, dict):
-        _refuse_other_settings(recorded.get("split"), split_settings(cfg), path.parent,
-                               "a finished run of another split of the frames",
-                               "its scores are of other test frames")
-        _refuse_other_settings(recorded.get("scenes"), scene_settings(cfg), path.parent,
-                               "a finished run of other scenes", "its scores are of frames of the old scenes")
+        recorded = None
+    if not isinstance(recorded, dict):
+        recorded = {}
+    # the scenes first: data_settings holds them too (where job.json is lost), named there as another job's
+    _refuse_other_settings(recorded.get("scenes"), scene_settings(cfg), path.parent,
+                           "a finished run of other scenes", "its scores are of frames of the old scenes")
+    _refuse_another_job(json.loads(path.read_text()), cfg, choices, path.parent, "a finished run")
+    _refuse_other_settings(recorded.get("split"), split_settings(cfg), path.parent,
+                           "a finished run of another split of the frames",
+                           "its scores are of other test frames")
 
 
 #: The job identity (:func:`job_identity`) of the run that trains in a run directory, written before training.
 JOB_FILE = "job.json"
 
 
-def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> None:
+def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str],
+                  checkpoint: tuple[Path, dict[str, Any] | None] | None = None) -> dict[str, Any]:
     """Record this job's identity in ``run_dir/job.json``, after refusing a directory that holds an
     interrupted run (``checkpoints/last.ckpt``, no ``metrics.json``) of another job: resuming it with another
     budget, seed, experiment, switches, data profile or data settings (another store) would test a checkpoint
     trained under the old settings and label it with the new ones (docs/reliability.md). FileExistsError names
-    the keys that differ; a ``job.json`` that is not a JSON object is named too (ValueError)."""
+    the keys that differ; a ``job.json`` that is not a JSON object is named too (ValueError). ``checkpoint``:
+    the checkpoint training resumes from and the job record it holds (``mcd.lit.segments.recorded_job``),
+    checked the same way, also where ``job.json`` is lost or the checkpoint is another directory's. Returns
+    what it wrote (:func:`job_record`)."""
     path = run_dir / JOB_FILE
     if (run_dir / "checkpoints" / "last.ckpt").is_file() and path.is_file():
         try:
@@ -191,25 +237,13 @@ def claim_run_dir(run_dir: Path, cfg: DictConfig, choices: dict[str, str]) -> No
                              f"{run_dir}: restore it, or give this run its own directory") from None
         if not isinstance(recorded, dict):
             raise ValueError(f"{path}: expected a JSON object of {sorted(job_identity(cfg, choices))}")
-        _refuse_another_job(recorded, cfg, choices, run_dir, "an interrupted run")
-        _refuse_other_settings(recorded.get("split"), split_settings(cfg), run_dir,
-                               "an interrupted run of another split of the frames",
-                               "its steps so far trained on frames of the old split, which this one may test")
-        _refuse_other_settings(recorded.get("scenes"), scene_settings(cfg), run_dir,
-                               "an interrupted run of other scenes", "its steps so far trained on frames of "
-                               "the old scenes, and a resume would train and test on others under one record")
-        _refuse_other_settings(recorded.get("values"), value_settings(cfg), run_dir,
-                               "an interrupted run trained on values of another precision",
-                               "its steps so far read the frames at the old precision, and its record would "
-                               "name the new one")
-        _refuse_other_settings(recorded.get("optimiser"), optimiser_settings(cfg), run_dir,
-                               "an interrupted run trained with other optimiser settings", "its checkpoint "
-                               "carries the optimiser's and the schedule's state, so a resume keeps training "
-                               "at the old rate")
+        check_recorded_job(recorded, cfg, choices, run_dir, "an interrupted run")
+    if checkpoint is not None and checkpoint[1] is not None:
+        check_recorded_job(checkpoint[1], cfg, choices, checkpoint[0], "steps")
     # the processes of a DDP run all write it
-    atomic_write_json(path, {**job_identity(cfg, choices), "split": split_settings(cfg),
-                             "scenes": scene_settings(cfg), "values": value_settings(cfg),
-                             "optimiser": optimiser_settings(cfg)}, indent=2)
+    record = job_record(cfg, choices)
+    atomic_write_json(path, record, indent=2)
+    return record
 
 
 def split_settings(cfg: DictConfig) -> dict[str, float | int]:
@@ -284,6 +318,41 @@ def optimiser_settings(cfg: DictConfig) -> dict[str, float]:
     schedule's state from the checkpoint, so a resume with another ``train.lr`` trained at a mix of the two
     rates while its records named the new one. Recorded in ``job.json`` beside the job's identity."""
     return {f"train.{k}": float(cfg.train[k]) for k in ("lr", "lr_min", "weight_decay")}
+
+
+#: ``train.*`` keys a resume may change: the budget, when to validate and stop, what to save, and speed.
+BUDGET_KEYS = ("epochs", "max_steps", "max_minutes", "patience", "min_delta", "limit_train_batches",
+               "val_every",
+               "val_every_steps", "sample_frames", "channels_last", "compile")
+#: ``method.*`` keys that act outside training only (docs/method.md "Output", "Frame edges").
+TEST_TIME_KEYS = ("output_bound", "denoiser_margin")
+
+
+def training_settings(cfg: DictConfig) -> dict[str, Any]:
+    """What a training step does, beyond the optimiser (:func:`optimiser_settings`): ``train.*`` but the
+    budget and logistics (:data:`BUDGET_KEYS`), ``loss.*``, ``method.*`` but :data:`TEST_TIME_KEYS`, and the
+    training clips' ``data.train_crop``, ``data.train_crop_at_edge`` and ``data.augment.*``, and the
+    validation's ``data.val_crop`` (the best checkpoint is picked by PSNRs measured at it), one flat key each.
+    A resume with another crop, batch size or loss weight trained its last steps under the new values while
+    ``resolved_config.yaml`` named them alone. Recorded in ``job.json`` and the checkpoints; a resume
+    may still change the budget."""
+    def flat(prefix: str, node: Any) -> dict[str, Any]:
+        if isinstance(node, dict):
+            return {k: v for key, value in node.items() for k, v in flat(f"{prefix}.{key}", value).items()}
+        return {prefix: node}
+
+    def plain(key: str) -> Any:
+        node = OmegaConf.select(cfg, key, default=None)
+        return OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
+
+    train = {k: v for k, v in (plain("train") or {}).items()
+             if k not in BUDGET_KEYS and f"train.{k}" not in optimiser_settings(cfg)}
+    method = {k: v for k, v in (plain("method") or {}).items() if k not in TEST_TIME_KEYS}
+    found = {**flat("train", train), **flat("loss", plain("loss") or {}), **flat("method", method),
+             **flat("data.augment", plain("data.augment") or {})}
+    for key in ("data.train_crop", "data.train_crop_at_edge", "data.val_crop"):
+        found[key] = plain(key)
+    return found
 
 
 def _refuse_other_settings(recorded: Any, mine: dict[str, Any], run_dir: Path, what: str, why: str) -> None:

@@ -7,11 +7,19 @@ process that trained: the commit and dirty flag of its code, its device, the opt
 ended at, and its seconds of training. A resumed run reads them back and appends its own, so ``segments``
 names the code behind every step. A checkpoint from before these records, resumed at step ``n > 0``, gives a
 first segment ``0 .. n`` whose ``commit`` is null (not recorded).
+
+Each checkpoint also holds the record of the job that trained it (``job``:
+:func:`mcd.lit.run_record.job_record`), so that a resume is checked against it even where the run
+directory's ``job.json`` is lost, or the checkpoint is another directory's (:func:`recorded_job`; a
+checkpoint from before the record is checked against its run directory's ``job.json``; docs/reliability.md,
+"Campaign fixes").
 """
 
 from __future__ import annotations
 
+import json
 import time
+from pathlib import Path
 from typing import Any
 
 import lightning as L
@@ -23,7 +31,8 @@ from mcd.core.machine import device_name
 class TrainingSegments(Callback):
     """Records the training segments of a run (see the module docstring); :meth:`records` lists them."""
 
-    def __init__(self, code: dict[str, object]) -> None:
+    def __init__(self, code: dict[str, object], job: dict[str, Any] | None = None) -> None:
+        self.job = job  # the job that trains (mcd.lit.run_record.job_record), saved in every checkpoint
         self.code = {"commit": code.get("commit"), "dirty": code.get("dirty")}
         self.device: str | None = None  # named when training starts, on the device it runs on
         self.earlier: list[dict[str, Any]] = []  # the segments read back from the resumed checkpoint
@@ -39,7 +48,7 @@ class TrainingSegments(Callback):
         self.earlier = [dict(s) for s in state_dict.get("segments", [])]
 
     def state_dict(self) -> dict[str, Any]:
-        return {"segments": self.records()}
+        return {"segments": self.records(), "job": self.job}
 
     def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
         self.start_step = self.end_step = int(trainer.global_step)
@@ -61,3 +70,21 @@ class TrainingSegments(Callback):
         ours = {**self.code, "device": self.device, "start_step": self.start_step, "end_step": self.end_step,
                 "seconds": round(time.perf_counter() - self.started, 3)}
         return [*self.earlier, ours]
+
+
+def recorded_job(checkpoint: dict[str, Any], path: Path) -> dict[str, Any] | None:
+    """The job record a checkpoint (loaded with ``weights_only=True`` from ``path``) holds; for one from
+    before it, the ``job.json`` of the run directory it lies in (``<run>/checkpoints/<name>.ckpt``), else
+    None."""
+    state = (checkpoint.get("callbacks") or {}).get("TrainingSegments")
+    job = state.get("job") if isinstance(state, dict) else None
+    if isinstance(job, dict):
+        return job
+    beside = path.parent.parent / "job.json"
+    if path.parent.name != "checkpoints" or not beside.is_file():
+        return None
+    try:
+        job = json.loads(beside.read_text())
+    except (OSError, ValueError):
+        return None
+    return job if isinstance(job, dict) else None

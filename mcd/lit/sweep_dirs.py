@@ -55,6 +55,7 @@ def check_sweep(config: DictConfig, loader: ConfigLoader) -> None:
     sweep_dir = Path(str(config.hydra.sweep.dir))
     check_tag(config.get("sweep_tag"), sweep_dir)
     writable_folder_to_be("hydra.sweep.dir", sweep_dir)
+    check_sweep_record(sweep_dir)
     jobs = grid(config, loader)
     seen: dict[str, int] = {}
     for num, job in enumerate(jobs):
@@ -68,6 +69,38 @@ def check_sweep(config: DictConfig, loader: ConfigLoader) -> None:
         first = seen.setdefault(subdir, num)
         if first != num:
             raise ValueError(_collision(jobs, first, num, sweep_dir / subdir, config))
+
+
+#: The sweep's record that Hydra writes in ``hydra.sweep.dir`` when the sweep starts.
+SWEEP_RECORD = "multirun.yaml"
+
+
+def check_sweep_record(sweep_dir: Path) -> None:
+    """ValueError naming ``hydra.sweep.dir`` where its ``multirun.yaml``, which Hydra replaces when the sweep
+    starts, is not an earlier sweep's record (a mapping holding ``hydra.mode``): a user's file of that name
+    was replaced without a word, exit 0. A link, or a file whose bytes other names share, is refused too."""
+    path = sweep_dir / SWEEP_RECORD
+    if not path.exists() and not path.is_symlink():
+        return
+    why = None
+    if path.is_symlink():
+        why = f"a symbolic link to {path.resolve()}"
+    elif not path.is_file():
+        why = "not a regular file"
+    elif path.stat().st_nlink > 1:
+        why = "a file whose bytes other names share (a hard link)"
+    else:
+        try:
+            record = OmegaConf.load(path)
+        except Exception:  # noqa: BLE001 - any unreadable file is not Hydra's record
+            record = None
+        if not (isinstance(record, DictConfig) and isinstance(record.get("hydra"), DictConfig)
+                and OmegaConf.select(record, "hydra.mode", default=None) is not None):
+            why = "not a sweep's record"
+    if why is not None:
+        raise ValueError(f"hydra.sweep.dir={sweep_dir} holds {SWEEP_RECORD}, {why}, which the sweep would "
+                         "replace with its own record: give the sweep a new or empty folder "
+                         "(hydra.sweep.dir=<dir>), or move that file")
 
 
 def check_tag(tag: object, sweep_dir: Path) -> None:
