@@ -386,6 +386,8 @@ def frames_problem(path: Path) -> str | None:
     df, why = read_table(path, FRAMES_COLUMNS)
     if df is None:
         return f"{path} is corrupt ({why})"
+    if df.empty:  # every run tests at least one frame: its run was left out of the per-frame plots unnamed
+        return f"{path} is corrupt (its header only, no frame)"
     psnr = pd.to_numeric(df["psnr"], errors="coerce")
     lo, hi = SCORE_RANGES["psnr"]
     if not psnr.between(lo, hi).all():
