@@ -71,7 +71,7 @@ def samples(run: Run) -> dict[str, dict[int, dict[str, Path]]]:
         return found
     for exr in sorted(root.glob("*/*.exr")):
         m = _NAME.match(exr.stem)
-        if m and not exr.is_file():  # a FIFO or a device (a link to /dev/zero) would be waited on or read for ever
+        if m and not exr.is_file():  # a FIFO or a device (a link to /dev/zero): waited on or read for ever
             UNREADABLE[exr] = f"{exr}: not a regular file"
             log.error("%s: not a regular file, left out of the strips and the viewer", exr)
         elif m and not SAFE_NAME.fullmatch(exr.parent.name):  # a scene names the report's files

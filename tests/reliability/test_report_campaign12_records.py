@@ -1,8 +1,8 @@
 """Campaign 12, part 2 (notes/reliability_campaigns.md): run records that ``mcd.report`` left out without a
 word. A ``frames.csv`` holding its header only (every run tests at least one frame) kept its run out of
 ``per_frame.csv`` and the per-frame plots, exit 0; a sample EXR that is a link to ``/dev/zero`` (or a FIFO)
-was not read, rightly, but left out of the strips and the viewer unnamed, where a damaged regular file is named
-and the command exits 1 (``reliability/test_report_damaged_samples.py``)."""
+was not read, rightly, but left out of the strips and the viewer unnamed, where a damaged regular file is
+named and the command exits 1 (``reliability/test_report_damaged_samples.py``)."""
 
 from __future__ import annotations
 
@@ -17,8 +17,7 @@ def test_a_frames_csv_holding_its_header_only_is_named_as_corrupt(tmp_path):
     path.write_text(",".join(FRAMES_COLUMNS) + "\n")
     problem = frames_problem(path)
     assert problem is not None and str(path) in problem and "header only" in problem
-    path.write_text(",".join(FRAMES_COLUMNS) + "\n" + "cbox,0," + ",".join(["0.5"] * (len(FRAMES_COLUMNS) - 2))
-                    + "\n")
+    path.write_text(",".join(FRAMES_COLUMNS) + "\ncbox,0,20.5\n")
     assert frames_problem(path) is None
 
 
