@@ -292,11 +292,25 @@ class FrameSequence:
         if self.given_exposure is not None:
             exposure = self.given_exposure
             log.info("exposure x%.4g for every frame and score (--exposure)", exposure)
+            self._warn_far(exposure, scan.exposures)
         else:
             exposure = self._first_exposure(scan.exposures)
         self.exposure = exposure or 1.0
         if "depth" in self.want:
             self.depth_scale = self._depth_scale(scan)
+
+    def _warn_far(self, given: float, measured: list[FrameExposure | None]) -> None:
+        """A warning where ``--exposure`` lies more than :data:`EXPOSURE_SPREAD` times off the median of the
+        lit frames' own exposures: the network then reads its input far from the mean it was trained at
+        (``data.exposure_target``), and its outputs are not what it was trained for (``--exposure 1e-45``
+        made every input black to it, and the outputs came out 20 times too bright, without a word)."""
+        lit = [m.exposure for m in measured if m is not None]
+        typical = float(np.median(lit)) if lit else None
+        if typical and not EXPOSURE_SPREAD ** -1 <= given / typical <= EXPOSURE_SPREAD:
+            log.warning("--exposure x%.4g is %.3g times the exposure the frames' own means give (x%.4g, the "
+                        "median of the lit frames'): the network reads its input far from the mean it was "
+                        "trained at, and its outputs are not what it was trained for; give an exposure "
+                        "nearer x%.4g, or none", given, given / typical, typical, typical)
 
     def _depth_scale(self, scan: FrameScan) -> float:
         """The depth scale (:func:`depth_scale`) of the first frame whose depth layer holds a hit (a positive
