@@ -559,6 +559,10 @@ def main(argv: list[str] | None = None) -> None:
     from mcd.reporting import index
 
     current = args.current or index.CURRENT_REPORT
+    try:  # a folder of --out: "../../x" read a folder outside it into README.md's results
+        check_folder_name(current, "--current", "the current report is the folder <out>/<name>/")
+    except UnsafeNameError as err:
+        sys.exit(f"error: {err}")
     readme = args.readme or args.out.resolve().parent / "README.md"
     if args.index:  # README.md's markers are checked before any work (a report's: in make_report)
         try:

@@ -2,11 +2,15 @@
 word. A ``frames.csv`` holding its header only (every run tests at least one frame) kept its run out of
 ``per_frame.csv`` and the per-frame plots, exit 0; a sample EXR that is a link to ``/dev/zero`` (or a FIFO)
 was not read, rightly, but left out of the strips and the viewer unnamed, where a damaged regular file is
-named and the command exits 1 (``reliability/test_report_damaged_samples.py``)."""
+named and the command exits 1 (``reliability/test_report_damaged_samples.py``). A ``frames.csv`` frame of -5
+went into ``per_frame.csv``; ``--current ../../x`` was taken as the current report's folder, outside
+``--out``."""
 
 from __future__ import annotations
 
 import os
+
+import pytest
 
 from mcd.reporting.runs import FRAMES_COLUMNS, Run, frames_problem
 from mcd.reporting.strips import UNREADABLE, samples
@@ -34,3 +38,21 @@ def test_a_sample_that_is_no_regular_file_is_named_not_dropped(tmp_path):
         assert all("not a regular file" in why for why in UNREADABLE.values())
     finally:
         UNREADABLE.clear()
+
+
+def test_a_frames_csv_with_a_negative_frame_is_named_as_corrupt(tmp_path):
+    path = tmp_path / "frames.csv"
+    path.write_text("scene,frame,psnr\ncbox,-5,20\ncbox,1,21\n")   # went into per_frame.csv as frame -5
+    problem = frames_problem(path)
+    assert problem is not None and "negative frame" in problem
+
+
+def test_a_current_report_name_leaving_the_output_root_is_refused(tmp_path, capsys):
+    from mcd.report import main
+
+    readme = tmp_path / "README.md"
+    readme.write_text("mine\n")
+    with pytest.raises(SystemExit) as exc:  # read <out>/../../x into README.md's results before
+        main(["--index", "--out", str(tmp_path / "reports"), "--current", "../../x", "--readme", str(readme)])
+    assert "--current='../../x': not a plain folder name" in str(exc.value.code)
+    assert readme.read_text() == "mine\n" and not (tmp_path / "reports").exists()
