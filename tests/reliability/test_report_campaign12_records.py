@@ -56,3 +56,13 @@ def test_a_current_report_name_leaving_the_output_root_is_refused(tmp_path, caps
         main(["--index", "--out", str(tmp_path / "reports"), "--current", "../../x", "--readme", str(readme)])
     assert "--current='../../x': not a plain folder name" in str(exc.value.code)
     assert readme.read_text() == "mine\n" and not (tmp_path / "reports").exists()
+
+
+def test_findings_between_runs_of_two_commits_say_so(tmp_path):
+    from mcd.report import mixed_commits_note
+
+    a = Run(path=tmp_path / "A_spp4", metrics={"commit": "0a34d995d4b1df64", "dirty": False})
+    f = Run(path=tmp_path / "F_spp4", metrics={"commit": "1111111111111111", "dirty": True})
+    assert mixed_commits_note([a, Run(path=tmp_path / "F2", metrics={"commit": "0a34d995d4b1df64"})]) is None
+    note = mixed_commits_note([a, f])   # "F 4.94 dB above U-Net" was stated without it
+    assert note is not None and "0a34d995d4: A_spp4" in note and "1111111111+dirty: F_spp4" in note
