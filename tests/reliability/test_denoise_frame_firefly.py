@@ -4,7 +4,9 @@ match took the render's band means with the firefly in them: one pixel of 1e5 in
 denoised by the bundled U-Net, put its energy into the highlight band's gain, and 33 highlights of that frame
 further than 9 pixels from it came out 20-55% brighter than the clean run's, exit 0, no word. The render's
 values above the exposure's outlier bound (10x the 0.999 quantile of the frame's positive values) are clamped
-for the band means now; a frame without such values is matched exactly as before."""
+for the band means now, and the output within ``FIREFLY_REACH`` of them (the network's response to it) is
+left out of them (clamping alone left far highlights up to 34% darker on 64x64 frames); a frame without such
+values is matched exactly as before."""
 
 from __future__ import annotations
 
@@ -43,9 +45,8 @@ def test_one_firefly_leaves_its_frames_far_pixels_as_a_clean_run_makes_them(tmp_
     far = np.ones(base.shape, bool)
     far[0:14, 0:18] = False  # further than 9 pixels from the firefly
     ratio = hit[far] / np.maximum(base[far], 1e-6)
-    assert abs(hit[far].mean() / base[far].mean() - 1) < 0.03    # was +4.1% (now -2.2%)
-    assert ratio.max() < 1.2, ratio.max()                        # was 1.55 (33 pixels above 1.2)
-    assert (np.abs(ratio - 1) > 0.2).sum() <= 2, np.sort(ratio)[:4]
+    assert abs(hit[far].mean() / base[far].mean() - 1) < 0.015   # was +4.1%
+    assert (np.abs(ratio - 1) > 0.2).sum() == 0, np.sort(ratio)  # was 33 pixels, up to 1.55
     for stem in ("f0000", "f0002"):                              # the other frames as the clean run's
         assert np.array_equal(read_exr(tmp_path / "out_clean" / f"{stem}.exr"),
                               read_exr(tmp_path / "out_fire" / f"{stem}.exr"))
