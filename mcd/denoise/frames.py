@@ -30,7 +30,7 @@ import numpy as np
 import OpenEXR
 
 from mcd.data import exr
-from mcd.data.exposure import FrameExposure, depth_scale, measure_exposure, normalise
+from mcd.data.exposure import EXPOSURE_CLAMP, FrameExposure, depth_scale, measure_exposure, normalise
 
 log = logging.getLogger(__name__)
 
@@ -365,4 +365,10 @@ class FrameSequence:
             if n_bad:
                 self.bad[f"{path.name}:{name}"] = n_bad
                 log.warning("%s: %d NaN/Inf/negative values in %s replaced by 0", path, n_bad, name)
+            over = out[key] > EXPOSURE_CLAMP if name == "colour" else None
+            if over is not None and over.any():  # one pixel of 3e38 moved the network's whole output
+                out[key][over] = EXPOSURE_CLAMP
+                log.warning("%s: %d colour values above %g after the exposure (which brings a frame's mean "
+                            "to %g) clamped to it: a broken render? check the file", path, int(over.sum()),
+                            EXPOSURE_CLAMP, self.exposure_target)
         return out
