@@ -125,6 +125,7 @@ def write_readme(
         "",
         *[f"- {esc(finding.render(f))}" for f in found],
         *([f"- {esc(mixed)}"] if (mixed := mixed_profiles_note(runs)) is not None else []),
+        *([f"- {esc(code)}"] if found and (code := mixed_commits_note(runs)) is not None else []),
         "",
         "## Table 1 (4 spp)",
         "",
@@ -201,6 +202,24 @@ def mixed_profiles_note(runs: list[Run]) -> str | None:
     return (f"None: the runs come from {len(counts)} {what}, {listed}, whose scores do not compare "
             "(other scenes, sizes, sample counts or models), so no finding is made across them and the "
             "tables below mix them. Report each profile's sweeps on their own.")
+
+
+def mixed_commits_note(runs: list[Run]) -> str | None:
+    """None when every finished run was made by one commit (a clean tree); else the sentence the README
+    states under its findings: which commits (``+dirty``: uncommitted changes) made which runs, so that a
+    finding between runs of two commits is not read as the methods' difference alone (the provenance listed
+    the commits, but the findings compared such runs without a word)."""
+    made: dict[str, list[str]] = {}
+    for r in runs:
+        if r.metrics is not None:
+            dirty = "+dirty" if r.metrics.get("dirty") else ""
+            code = f"{str(r.metrics.get('commit') or 'unrecorded')[:10]}{dirty}"
+            made.setdefault(code, []).append(r.path.name)
+    if len(made) < 2:
+        return None
+    listed = "; ".join(f"{code}: {', '.join(sorted(names))}" for code, names in made.items())
+    return (f"The runs come from {len(made)} versions of the code ({listed}): a finding between runs of two "
+            "of them may hold the code's difference as well as the methods'.")
 
 
 def gather_findings(runs: list[Run], results: dict[str, pd.DataFrame]) -> list[Finding]:
@@ -568,6 +587,10 @@ def main(argv: list[str] | None = None) -> None:
     from mcd.reporting import index
 
     current = args.current or index.CURRENT_REPORT
+    try:  # a folder of --out: "../../x" read a folder outside it into README.md's results
+        check_folder_name(current, "--current", "the current report is the folder <out>/<name>/")
+    except UnsafeNameError as err:
+        sys.exit(f"error: {err}")
     readme = args.readme or args.out.resolve().parent / "README.md"
     if args.index:  # README.md's markers are checked before any work (a report's: in make_report)
         try:

@@ -26,7 +26,7 @@ import torch
 
 from mcd.config.compose import compose, experiment_names
 from mcd.core.machine import device_name
-from mcd.core.paths import CONF_DIR
+from mcd.core.paths import CONF_DIR, writable_folder_arg
 from mcd.core.provenance import short_commit
 from mcd.data.buffers import run_buffers
 from mcd.data.loader_rate import measure
@@ -45,7 +45,8 @@ def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(prog="python -m mcd.bench loader", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--dir", type=Path, default=None, help="folder for the synthetic stores (kept)")
+    p.add_argument("--dir", type=writable_folder_arg("--dir"), default=None,
+                   help="folder for the synthetic stores (kept)")
     p.add_argument("--width", type=int_in(1, 16384), default=1920)
     p.add_argument("--height", type=int_in(1, 16384), default=1080)
     p.add_argument("--frames", type=int_in(2, 10**5), default=11,

@@ -103,6 +103,20 @@ def writable_file_arg(key: str) -> Callable[[str], Path]:
     return parse
 
 
+def writable_folder_arg(key: str) -> Callable[[str], Path]:
+    """The argparse ``type`` of option ``key`` (``--dir``) that names a folder the command writes into:
+    :func:`writable_folder_to_be` at parse time, so that a file there is the parser's error (exit 2, naming
+    ``key``), not a traceback naming the key of a config made from it."""
+
+    def parse(text: str) -> Path:
+        try:
+            return writable_folder_to_be(key, Path(text))
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+
+    return parse
+
+
 def scenes_dir(value: str | Path | None) -> Path | None:
     """The folder of the scenes not vendored in ``scenes/`` from ``paths.scenes_dir`` (env ``MCD_SCENES_DIR``;
     docs/scenes.md), or ``None`` when unset (then only those scenes fail, each naming the key).

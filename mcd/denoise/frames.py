@@ -30,7 +30,7 @@ import numpy as np
 import OpenEXR
 
 from mcd.data import exr
-from mcd.data.exposure import FrameExposure, depth_scale, measure_exposure, normalise
+from mcd.data.exposure import EXPOSURE_CLAMP, FrameExposure, depth_scale, measure_exposure, normalise
 
 log = logging.getLogger(__name__)
 
@@ -292,11 +292,25 @@ class FrameSequence:
         if self.given_exposure is not None:
             exposure = self.given_exposure
             log.info("exposure x%.4g for every frame and score (--exposure)", exposure)
+            self._warn_far(exposure, scan.exposures)
         else:
             exposure = self._first_exposure(scan.exposures)
         self.exposure = exposure or 1.0
         if "depth" in self.want:
             self.depth_scale = self._depth_scale(scan)
+
+    def _warn_far(self, given: float, measured: list[FrameExposure | None]) -> None:
+        """A warning where ``--exposure`` lies more than :data:`EXPOSURE_SPREAD` times off the median of the
+        lit frames' own exposures: the network then reads its input far from the mean it was trained at
+        (``data.exposure_target``), and its outputs are not what it was trained for (``--exposure 1e-45``
+        made every input black to it, and the outputs came out 20 times too bright, without a word)."""
+        lit = [m.exposure for m in measured if m is not None]
+        typical = float(np.median(lit)) if lit else None
+        if typical and not EXPOSURE_SPREAD ** -1 <= given / typical <= EXPOSURE_SPREAD:
+            log.warning("--exposure x%.4g is %.3g times the exposure the frames' own means give (x%.4g, the "
+                        "median of the lit frames'): the network reads its input far from the mean it was "
+                        "trained at, and its outputs are not what it was trained for; give an exposure "
+                        "nearer x%.4g, or none", given, given / typical, typical, typical)
 
     def _depth_scale(self, scan: FrameScan) -> float:
         """The depth scale (:func:`depth_scale`) of the first frame whose depth layer holds a hit (a positive
@@ -351,4 +365,10 @@ class FrameSequence:
             if n_bad:
                 self.bad[f"{path.name}:{name}"] = n_bad
                 log.warning("%s: %d NaN/Inf/negative values in %s replaced by 0", path, n_bad, name)
+            over = out[key] > EXPOSURE_CLAMP if name == "colour" else None
+            if over is not None and over.any():  # one pixel of 3e38 moved the network's whole output
+                out[key][over] = EXPOSURE_CLAMP
+                log.warning("%s: %d colour values above %g after the exposure (which brings a frame's mean "
+                            "to %g) clamped to it: a broken render? check the file", path, int(over.sum()),
+                            EXPOSURE_CLAMP, self.exposure_target)
         return out

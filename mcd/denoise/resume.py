@@ -113,15 +113,24 @@ def check_kind(path: Path, scene: bool) -> None:
                       "the record and leave them unrecorded: give another -o (or delete the folder's files)")
 
 
+def _in_folder(name: object) -> bool:
+    """Whether a file name read from a record names a file in the record's own folder: a plain name, no
+    ``/`` and not ``.`` or ``..`` (a crafted record's ``../x`` was named to the user as an output to
+    delete)."""
+    return isinstance(name, str) and name not in ("", ".", "..") and Path(name).name == name
+
+
 def recorded_outputs(old: dict[str, Any]) -> set[str]:
     """The output files an earlier ``denoise.json`` (read by :func:`read_record`) says its run wrote: a
     frames run's ``checksums`` (every file of each finished frame), a ``--scene`` run's ``outputs``; none for
-    a record from before ``outputs`` or one with no finished frame."""
+    a record from before ``outputs`` or one with no finished frame. Names that leave the record's folder are
+    not taken (:func:`_in_folder`)."""
     sums = old.get("checksums")
     names = {n for files in sums.values() if isinstance(files, dict) for n in files} \
         if isinstance(sums, dict) else set()
     outputs = old.get("outputs")
-    return names | ({n for n in outputs if isinstance(n, str)} if isinstance(outputs, list) else set())
+    names |= set(outputs) if isinstance(outputs, list) else set()
+    return {n for n in names if _in_folder(n)}
 
 
 def check_earlier_outputs(path: Path, outputs: list[str]) -> None:
@@ -160,7 +169,8 @@ class Record:
                 sums = old.get("checksums")
                 sums = sums if isinstance(sums, dict) else {}
                 self.previous = {s: sums[s] for s in old.get("finished", [])
-                                 if isinstance(s, str) and isinstance(sums.get(s), dict) and sums[s]}
+                                 if isinstance(s, str) and isinstance(sums.get(s), dict) and sums[s]
+                                 and all(n in frame_files(s) for n in sums[s])}  # its own files only
             else:
                 changed = sorted(k for k in {*self.settings, *(old_settings or {})}
                                  if (old_settings or {}).get(k) != self.settings.get(k))

@@ -152,6 +152,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
     if sim_model is not None:
         sim_model.reset()
     t0 = time.perf_counter()
+    files: list[str] = []  # what this run writes: the record's outputs (not an earlier run's beside them)
     prev_cam: Camera | None = None
     uniform = uniform_buffer(budget)
 
@@ -253,7 +254,13 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
                 row["psnr_simulated"] = psnr(hwc(sim["output"].float() * to_scores), ref_img)
                 row["psnr_output_minus_simulated"] = row["psnr_output"] - row["psnr_simulated"]
         row["score_samples"] = spent["scores"]
-        write_frame(out_dir, f"{scene.spec.name}_{f:04d}", written, net)
+        stem = f"{scene.spec.name}_{f:04d}"
+        exrs = write_frame(out_dir, stem, written, net)
+        files += [n for exr in exrs for n in (exr.name, f"{exr.stem}.png")]
+        stale = [n for n in frame_files(stem) if n not in files and (out_dir / n).is_file()]
+        if stale:
+            log.warning("%s: %s: from an earlier run into this folder, not written by this one (nor listed "
+                        "in its record); delete them, or denoise into an empty -o", out_dir, ", ".join(stale))
         rows.append(row)
     if exposure is None:
         log.warning("%s: the input of every frame is black: network exposure x1; give --exposure if the "
@@ -265,9 +272,7 @@ def denoise_scene(loaded_model: Loaded, path: Path, out_dir: Path, device: torch
             else None, "mean": mean_scores(rows),
             "reference": plan.summary() if plan is not None else None,
             "seconds": time.perf_counter() - t0, "out_dir": str(out_dir), "variant": _variant(),
-            "scene": str(path), "outputs": [n for f in range(len(cams))
-                                            for n in frame_files(f"{scene.spec.name}_{f:04d}")
-                                            if (out_dir / n).is_file()]}
+            "scene": str(path), "outputs": files}
 
 
 #: The score columns: the same uniform render ``c_s`` for every method, an adaptive method's own input, the

@@ -386,6 +386,8 @@ def frames_problem(path: Path) -> str | None:
     df, why = read_table(path, FRAMES_COLUMNS)
     if df is None:
         return f"{path} is corrupt ({why})"
+    if df.empty:  # every run tests at least one frame: its run was left out of the per-frame plots unnamed
+        return f"{path} is corrupt (its header only, no frame)"
     psnr = pd.to_numeric(df["psnr"], errors="coerce")
     lo, hi = SCORE_RANGES["psnr"]
     if not psnr.between(lo, hi).all():
@@ -402,6 +404,8 @@ def frames_problem(path: Path) -> str | None:
     if unsafe:  # a scene names the report's per-frame plot: "../x" wrote outside the report folder
         return (f"{path} is corrupt (a scene that is not a plain name: {unsafe[0]!r}; scenes are letters, "
                 "digits, '_', '-', '.', and name the report's files)")
+    if (pd.to_numeric(df["frame"], errors="coerce") < 0).any():
+        return f"{path} is corrupt (a negative frame: a test frame's index counts from 0)"
     twice = df[df.duplicated(["scene", "frame"])]
     if not twice.empty:
         return f"{path} is corrupt ({twice['scene'].iloc[0]} frame {twice['frame'].iloc[0]} is given twice)"

@@ -70,8 +70,11 @@ def samples(run: Run) -> dict[str, dict[int, dict[str, Path]]]:
     if not root.is_dir():
         return found
     for exr in sorted(root.glob("*/*.exr")):
-        m = _NAME.match(exr.stem) if exr.is_file() else None  # a FIFO would be waited on for ever
-        if m and not SAFE_NAME.fullmatch(exr.parent.name):  # a scene names the report's files
+        m = _NAME.match(exr.stem)
+        if m and not exr.is_file():  # a FIFO or a device (a link to /dev/zero): waited on or read for ever
+            UNREADABLE[exr] = f"{exr}: not a regular file"
+            log.error("%s: not a regular file, left out of the strips and the viewer", exr)
+        elif m and not SAFE_NAME.fullmatch(exr.parent.name):  # a scene names the report's files
             log.warning("%s: the scene folder's name is not a plain name (letters, digits, '_', '-', '.'): "
                         "left out of the strips and the viewer", exr)
         elif m:
