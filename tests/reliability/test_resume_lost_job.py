@@ -30,12 +30,8 @@ from tests.reliability.test_resume import FROZEN
 CHOICES = {"data": "tiny"}
 
 
-def test_a_resume_after_job_json_is_lost_is_checked_against_the_checkpoint(own_store, tmp_path):
-    cfg, store = own_store
-    overrides = [*store32_overrides(store.data_dir), *FROZEN]
-    run = tmp_path / "run"
-    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, CHOICES, time.perf_counter())
-    (run / "metrics.json").unlink()  # as a run killed after its checkpoint leaves it
+def test_a_resume_after_job_json_is_lost_is_checked_against_the_checkpoint(own_interrupted, tmp_path):
+    run, overrides, store = own_interrupted  # row A killed after its checkpoint
     (run / "job.json").unlink()  # and its record lost
     last = run / "checkpoints" / "last.ckpt"
     manifest = store.manifest_path("cbox")

@@ -30,12 +30,8 @@ from tests.reliability.test_resume import FROZEN
 CHOICES = {"data": "tiny"}
 
 
-def test_a_resume_on_other_scenes_or_values_is_refused_and_a_rerun_not_skipped(own_store, tmp_path):
-    cfg, store = own_store
-    overrides = [*store32_overrides(store.data_dir), *FROZEN]
-    run = tmp_path / "run"
-    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, CHOICES, time.perf_counter())
-    (run / "metrics.json").unlink()  # as a run killed after its checkpoint leaves it
+def test_a_resume_on_other_scenes_or_values_is_refused_and_a_rerun_not_skipped(own_interrupted):
+    run, overrides, store = own_interrupted  # row A killed after its checkpoint
     last = run / "checkpoints" / "last.ckpt"
     manifest = store.manifest_path("cbox")
     before, frames = last.read_bytes(), manifest.read_bytes()

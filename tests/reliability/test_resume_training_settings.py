@@ -16,18 +16,13 @@ import time
 import pytest
 
 from mcd.run import train_and_test
-from tests.conftest import compose_cfg, store32_overrides
-from tests.reliability.test_resume import FROZEN
+from tests.conftest import compose_cfg
 
 CHOICES = {"data": "tiny"}
 
 
-def test_a_resume_under_other_training_settings_is_refused_naming_the_keys(own_store, tmp_path):
-    cfg, store = own_store
-    overrides = [*store32_overrides(store.data_dir), *FROZEN]
-    run = tmp_path / "run"
-    train_and_test(compose_cfg(*overrides, "train.epochs=1"), run, CHOICES, time.perf_counter())
-    (run / "metrics.json").unlink()  # as a run killed after its checkpoint leaves it
+def test_a_resume_under_other_training_settings_is_refused_naming_the_keys(own_interrupted):
+    run, overrides, store = own_interrupted  # row A killed after its checkpoint
     last = run / "checkpoints" / "last.ckpt"
     before, config = last.read_bytes(), (run / "resolved_config.yaml").read_bytes()
 
