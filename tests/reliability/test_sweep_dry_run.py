@@ -19,7 +19,8 @@ def test_a_dry_run_prints_the_plan_and_leaves_the_sweeps_record(tmp_path):
     sweep = tmp_path / "sweep"
     sweep.mkdir()
     record = sweep / "multirun.yaml"
-    record.write_text("hydra:\n  overrides:\n    task: [data=tiny, +experiment=A]\n")
+    # an earlier sweep's record, as Hydra writes it (its mode, its overrides)
+    record.write_text("hydra:\n  mode: MULTIRUN\n  overrides:\n    task: [data=tiny, +experiment=A]\n")
     before = record.read_bytes()
     env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
     cmd = [sys.executable, "-m", "mcd.run", "-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000",
