@@ -55,7 +55,7 @@ def check_sweep(config: DictConfig, loader: ConfigLoader) -> None:
     sweep_dir = Path(str(config.hydra.sweep.dir))
     check_tag(config.get("sweep_tag"), sweep_dir)
     writable_folder_to_be("hydra.sweep.dir", sweep_dir)
-    check_sweep_record(sweep_dir, _task(config))
+    check_sweep_record(sweep_dir)
     jobs = grid(config, loader)
     seen: dict[str, int] = {}
     for num, job in enumerate(jobs):
@@ -75,14 +75,10 @@ def check_sweep(config: DictConfig, loader: ConfigLoader) -> None:
 SWEEP_RECORD = "multirun.yaml"
 
 
-def check_sweep_record(sweep_dir: Path, task: list[str] | None = None) -> None:
+def check_sweep_record(sweep_dir: Path) -> None:
     """ValueError naming ``hydra.sweep.dir`` where its ``multirun.yaml``, which Hydra replaces when the sweep
     starts, is not an earlier sweep's record (a mapping holding ``hydra.mode``): a user's file of that name
-    was replaced without a word, exit 0. A link, or a file whose bytes other names share, is refused too.
-    With ``task`` (this sweep's command-line overrides), an earlier sweep's record whose overrides differ is
-    refused as well, naming each: another sweep into the folder replaced the record of the jobs already there
-    (a refused rerun of another seed left the finished sweep's record naming that seed, and ``mcd.report``
-    states the record's command for the sweep). The same sweep run again (to finish it) goes on."""
+    was replaced without a word, exit 0. A link, or a file whose bytes other names share, is refused too."""
     path = sweep_dir / SWEEP_RECORD
     if not path.exists() and not path.is_symlink():
         return
@@ -101,37 +97,10 @@ def check_sweep_record(sweep_dir: Path, task: list[str] | None = None) -> None:
         if not (isinstance(record, DictConfig) and isinstance(record.get("hydra"), DictConfig)
                 and OmegaConf.select(record, "hydra.mode", default=None) is not None):
             why = "not a sweep's record"
-        elif task is not None and (differs := _other_overrides(record, task)):
-            raise ValueError(f"hydra.sweep.dir={sweep_dir} holds {SWEEP_RECORD}, the record of another sweep "
-                             f"({differs}), which this sweep would replace with its own while that sweep's "
-                             "jobs stay there under the old one: give this sweep a new folder "
-                             "(hydra.sweep.dir=<dir>, or sweep_tag=<tag>), or run the earlier sweep's "
-                             "command again to finish it")
     if why is not None:
         raise ValueError(f"hydra.sweep.dir={sweep_dir} holds {SWEEP_RECORD}, {why}, which the sweep would "
                          "replace with its own record: give the sweep a new or empty folder "
                          "(hydra.sweep.dir=<dir>), or move that file")
-
-
-def _task(config: DictConfig) -> list[str]:
-    """The sweep's command-line overrides (``hydra.overrides.task``), as Hydra records them."""
-    return [str(o) for o in OmegaConf.to_container(config.hydra.overrides.task, resolve=False)]  # type: ignore[union-attr]
-
-
-def _other_overrides(record: DictConfig, task: list[str]) -> str:
-    """Each override in which an earlier sweep's ``record`` and ``task`` differ, ``key: old there, new here``
-    (``(unset)`` for one given in one only); empty when they agree, or when the record holds none."""
-    old = OmegaConf.select(record, "hydra.overrides.task", default=None)
-    if old is None:
-        return ""
-
-    def split(overrides: list[str]) -> dict[str, str]:
-        return dict(o.split("=", 1) if "=" in o else (o, "") for o in map(str, overrides))
-
-    there, here = split(list(old)), split(task)
-    keys = list(there) + [k for k in here if k not in there]
-    return "; ".join(f"{k}: {there.get(k, '(unset)')} there, {here.get(k, '(unset)')} here"
-                     for k in keys if there.get(k) != here.get(k))
 
 
 def check_tag(tag: object, sweep_dir: Path) -> None:
