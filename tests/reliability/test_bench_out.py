@@ -34,8 +34,8 @@ def test_the_benchs_own_readme_is_replaced(tmp_path):
 
 
 def test_a_users_file_named_as_out_is_refused_and_kept(tmp_path, capsys):
-    """Campaign 13: ``--out <folder>/mine.csv``, a user's own file (``mine,1``), was replaced by the bench's CSV,
-    exit 0 (``mcd.bench.speed.check_csv``); a bench CSV there is replaced as before."""
+    """Campaign 13: ``--out <folder>/mine.csv``, a user's own file (``mine,1``), was replaced by the bench's
+    CSV, exit 0 (``mcd.bench.speed.check_csv``); a bench CSV there is replaced as before."""
     mine = tmp_path / "mine.csv"
     mine.write_text("mine,1\n")
     with pytest.raises(SystemExit) as stop:
