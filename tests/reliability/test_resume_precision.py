@@ -35,3 +35,7 @@ def test_a_resume_in_another_precision_is_named_per_segment(own_interrupted, cap
     assert [s["precision"] for s in metrics["segments"]] == [before["precision"], other]
     assert metrics["precision"] == other
     assert f"trained in precision {before['precision']}; this process trains in {other}" in caplog.text
+
+    from mcd.reporting.provenance import _segment_text  # the report names each segment's precision
+    assert [_segment_text(s).split(" in ")[-1].split(",")[0] for s in metrics["segments"]] == [
+        before["precision"], other]
