@@ -504,6 +504,8 @@ def check_readme(csv_path: Path) -> str | None:
     """Why the README.md beside ``csv_path`` may not be written (it exists and is not one the bench wrote: a
     user's own README.md in that folder was replaced; or ``--out`` is that README, which the CSV's README
     would replace), or None; asked before anything is measured."""
+    if (why := check_csv(csv_path)) is not None:
+        return why
     path = csv_path.parent / "README.md"
     if csv_path.name == path.name:
         return (f"--out {csv_path}: the bench writes its README.md beside the CSV, which would replace "
@@ -517,6 +519,21 @@ def check_readme(csv_path: Path) -> str | None:
     return (f"--out {csv_path}: {path} is not a README the bench wrote (its first line is not "
             f"{README_TITLE!r}), and the README written beside the CSV would replace it; give --out in "
             "another folder")
+
+
+def check_csv(csv_path: Path) -> str | None:
+    """Why ``--out`` may not be written: it exists and is not a CSV the bench wrote (its header does not start
+    with ``method,device``): a user's own file named as ``--out`` was replaced without a word, exit 0; or
+    None. A bench CSV (the tracked ``reports/bench/bench.csv`` among them) is replaced as before."""
+    if not csv_path.exists() and not csv_path.is_symlink():
+        return None
+    if csv_path.is_file() and not csv_path.is_symlink():
+        with open(csv_path, encoding="utf-8", errors="replace") as f:
+            if f.readline().startswith(f"{COLUMNS[0]},{COLUMNS[1]},"):
+                return None
+    return (f"--out {csv_path}: exists and is not a CSV the bench wrote (its first line is not the bench's "
+            f"header, {COLUMNS[0]},{COLUMNS[1]},...), so the bench would replace it; give --out a new file "
+            "or a bench CSV")
 
 
 def write_readme(rows: list[Row], csv_path: Path, command: str, wall_s: float, commit: str,

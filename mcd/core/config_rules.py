@@ -25,6 +25,12 @@ from omegaconf import DictConfig, ListConfig, OmegaConf
 #: The largest frame side a profile may ask for (8K UHD is 7680): larger ones are typing errors that would
 #: only fail after minutes of allocation.
 MAX_SIDE = 16384
+#: ``data.exposure_target``'s range. The scores compare display images (Reinhard, gamma 1/2.2;
+#: docs/benchmark.md "Metrics"): on the Cornell box's test frames a black output scores 20 dB at a target of
+#: 0.01 (the noisy input 32 dB), 55 dB at 1e-6 and 100 dB (the cap) at 1e-30, where every output and the
+#: input scored 100 dB; at 10 a black output scores 2 dB, and above it the tone curve flattens every
+#: highlight (the input 12.8 dB at 1e3 and at 1e6 alike). The default is 0.5.
+EXPOSURE_TARGET_RANGE = (0.01, 10.0)
 #: The budgets s (average spp) a run may have: the store renders a uniform image ``c{s}`` at each
 #: (:data:`mcd.data.buffers.SPP_BUFFERS`), which every run is scored against.
 UNIFORM_BUDGETS: tuple[int, ...] = (1, 2, 4, 8, 16, 32)
@@ -186,7 +192,10 @@ RULES: dict[str, Rule] = {
     "data.gbuffer_spp": _whole(1, _SPP, "samples per pixel of the G-buffers' box-filtered mean"),
     "data.max_depth": _whole(1, 1024, "path length; null: the scene file's own", null=True),
     "data.seed": _whole(0, 2**31 - 1, "every image's seed derives from it"),
-    "data.exposure_target": _number(0, 1e6, "the mean of frame 0's reference after scaling", above=True),
+    "data.exposure_target": _number(EXPOSURE_TARGET_RANGE[0], EXPOSURE_TARGET_RANGE[1],
+                                    "the mean of frame 0's reference after scaling; outside it the display "
+                                    "transform scores (docs/benchmark.md 'Metrics') lose the frames' errors: "
+                                    "at 1e-30 every output scored 100 dB"),
     # data: the splits and clips (docs/benchmark.md)
     "data.test_fraction": _number(0, 0.9, "the first test_fraction of each sequence is the test part; the "
                                         "rest must hold validation and training clips", above=True),

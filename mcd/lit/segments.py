@@ -3,10 +3,12 @@
 A run killed mid-training resumes from its ``last.ckpt`` (``ckpt_path=auto``, mcd.run), possibly in a later
 process running later code. ``metrics.json``'s ``commit`` names the code of the process that finished the run;
 :class:`TrainingSegments` keeps, in every checkpoint it saves (Lightning's callback state), one record per
-process that trained: the commit and dirty flag of its code, its device, the optimiser steps it started and
-ended at, and its seconds of training. A resumed run reads them back and appends its own, so ``segments``
-names the code behind every step. A checkpoint from before these records, resumed at step ``n > 0``, gives a
-first segment ``0 .. n`` whose ``commit`` is null (not recorded).
+process that trained: the commit and dirty flag of its code, its device, its resolved Lightning precision, the
+optimiser steps it started and ended at, and its seconds of training. A resumed run reads them back and
+appends its own, so ``segments`` names the code behind every step. A checkpoint from before these records,
+resumed at step ``n > 0``, gives a first segment ``0 .. n`` whose ``commit`` is null (not recorded). A resume
+in another precision than the last segment's is allowed (``trainer.precision=auto`` resolves per machine) and
+named in a warning; each segment records its own (``metrics.json``'s ``precision`` names the last process's).
 
 Each checkpoint also holds the record of the job that trained it (``job``:
 :func:`mcd.lit.run_record.job_record`), so that a resume is checked against it even where the run
@@ -18,6 +20,7 @@ checkpoint from before the record is checked against its run directory's ``job.j
 from __future__ import annotations
 
 import json
+import logging
 import time
 from pathlib import Path
 from typing import Any
@@ -27,6 +30,8 @@ from lightning.pytorch.callbacks import Callback
 
 from mcd.core.machine import device_name
 
+log = logging.getLogger(__name__)
+
 
 class TrainingSegments(Callback):
     """Records the training segments of a run (see the module docstring); :meth:`records` lists them."""
@@ -35,6 +40,7 @@ class TrainingSegments(Callback):
         self.job = job  # the job that trains (mcd.lit.run_record.job_record), saved in every checkpoint
         self.code = {"commit": code.get("commit"), "dirty": code.get("dirty")}
         self.device: str | None = None  # named when training starts, on the device it runs on
+        self.precision: str | None = None  # Lightning's resolved precision, named when training starts
         self.earlier: list[dict[str, Any]] = []  # the segments read back from the resumed checkpoint
         self.start_step: int | None = None  # None until this process trains
         self.end_step = 0
@@ -53,11 +59,17 @@ class TrainingSegments(Callback):
     def on_train_start(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
         self.start_step = self.end_step = int(trainer.global_step)
         self.device = device_name(pl_module.device)
+        self.precision = str(trainer.precision)
         self.started = time.perf_counter()
         recorded = self.earlier[-1]["end_step"] if self.earlier else 0
+        before = self.earlier[-1].get("precision") if self.earlier else None
+        if before is not None and before != self.precision:
+            log.warning("this run's steps %s to %s trained in precision %s; this process trains in %s "
+                        "(trainer.precision): metrics.json's segments record each", self.earlier[-1].get(
+                            "start_step"), recorded, before, self.precision)
         if self.start_step > recorded:  # a checkpoint from before these records (or one that lost them)
-            self.earlier.append({"commit": None, "dirty": None, "device": None, "start_step": recorded,
-                                 "end_step": self.start_step, "seconds": None})
+            self.earlier.append({"commit": None, "dirty": None, "device": None, "precision": None,
+                                 "start_step": recorded, "end_step": self.start_step, "seconds": None})
 
     def on_train_batch_end(self, trainer: L.Trainer, pl_module: L.LightningModule, outputs: object,
                            batch: object, batch_idx: int) -> None:
@@ -67,7 +79,8 @@ class TrainingSegments(Callback):
         """The segments so far, oldest first: the resumed checkpoint's, then this process's if it trained."""
         if self.start_step is None:
             return list(self.earlier)
-        ours = {**self.code, "device": self.device, "start_step": self.start_step, "end_step": self.end_step,
+        ours = {**self.code, "device": self.device, "precision": self.precision,
+                "start_step": self.start_step, "end_step": self.end_step,
                 "seconds": round(time.perf_counter() - self.started, 3)}
         return [*self.earlier, ours]
 

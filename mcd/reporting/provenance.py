@@ -22,13 +22,15 @@ def _distinct(values: list[object]) -> str:
 
 
 def _segment_text(seg: dict) -> str:
-    """One training segment (mcd/lit/segments.py) as the report prints it: steps, commit, minutes."""
+    """One training segment (mcd/lit/segments.py) as the report prints it: steps, commit, precision (where
+    recorded), minutes."""
     steps = ("" if seg.get("start_step") is None or seg.get("end_step") is None
              else f"steps {seg['start_step']}-{seg['end_step']} ")
     code = (f"at {str(seg['commit'])[:7]}{'+dirty' if seg.get('dirty') else ''}"
             if seg.get("commit") else "code not recorded")
+    precision = f" in {seg['precision']}" if seg.get("precision") else ""
     minutes = "" if seg.get("seconds") is None else f", {float(seg['seconds']) / 60:.0f} min"
-    return f"{steps}{code}{minutes}"
+    return f"{steps}{code}{precision}{minutes}"
 
 
 @dataclass

@@ -286,8 +286,8 @@ def absurd_numbers(data: object, where: str = "") -> list[str]:
 #: The type of each ``metrics.json`` field (``mcd.lit.run_record.RunRecord``'s), by which a report reads it.
 RECORD_TYPES = typing.get_type_hints(RunRecord)
 #: The fields of one training segment (``metrics.json`` ``segments``, mcd/lit/segments.py) a report reads.
-SEGMENT_TYPES = {"commit": str | None, "dirty": bool | None, "device": str | None, "start_step": int | None,
-                 "end_step": int | None, "seconds": float | None}
+SEGMENT_TYPES = {"commit": str | None, "dirty": bool | None, "device": str | None, "precision": str | None,
+                 "start_step": int | None, "end_step": int | None, "seconds": float | None}
 #: What a report reads from a run's config (``.hydra/config.yaml``, ``resolved_config.yaml``, or an
 #: ``error.json``'s ``config``), with its type; a section that is absent is not checked.
 CONFIG_TYPES = {"experiment": str, "budget": float, "seed": int, "sweep_name": str | None,

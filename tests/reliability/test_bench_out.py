@@ -31,3 +31,18 @@ def test_the_benchs_own_readme_is_replaced(tmp_path):
     assert first.startswith(speed.README_TITLE + "\n")
     _bench(tmp_path / "bench.csv")
     assert (tmp_path / "README.md").read_text().startswith(speed.README_TITLE + "\n")
+
+
+def test_a_users_file_named_as_out_is_refused_and_kept(tmp_path, capsys):
+    """Campaign 13: ``--out <folder>/mine.csv``, a user's own file (``mine,1``), was replaced by the bench's
+    CSV, exit 0 (``mcd.bench.speed.check_csv``); a bench CSV there is replaced as before."""
+    mine = tmp_path / "mine.csv"
+    mine.write_text("mine,1\n")
+    with pytest.raises(SystemExit) as stop:
+        _bench(mine)
+    assert stop.value.code == 2
+    assert f"--out {mine}: exists and is not a CSV the bench wrote" in capsys.readouterr().err
+    assert mine.read_text() == "mine,1\n" and not (tmp_path / "README.md").exists()
+    _bench(tmp_path / "bench.csv")
+    _bench(tmp_path / "bench.csv")  # its own CSV again
+    assert (tmp_path / "bench.csv").read_text().startswith("method,device,")
