@@ -89,18 +89,24 @@ def writable_file_to_be(key: str, path: Path) -> Path:
     return path
 
 
+def _argparse_type(check: Callable[[str, Path], Path], key: str) -> Callable[[str], Path]:
+    """``check(key, path)`` as an argparse ``type``: its ValueError becomes the parser's error (exit 2)."""
+
+    def parse(text: str) -> Path:
+        try:
+            return check(key, Path(text))
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+
+    return parse
+
+
 def writable_file_arg(key: str) -> Callable[[str], Path]:
     """The argparse ``type`` of option ``key`` (``--out``) that names a file the command writes at its end:
     :func:`writable_file_to_be` at parse time, so that the parser's error (exit 2, naming ``key``) comes
     before any measurement. argparse applies it to a default given as a string too."""
 
-    def parse(text: str) -> Path:
-        try:
-            return writable_file_to_be(key, Path(text))
-        except ValueError as err:
-            raise argparse.ArgumentTypeError(str(err)) from None
-
-    return parse
+    return _argparse_type(writable_file_to_be, key)
 
 
 def writable_folder_arg(key: str) -> Callable[[str], Path]:
@@ -108,13 +114,7 @@ def writable_folder_arg(key: str) -> Callable[[str], Path]:
     :func:`writable_folder_to_be` at parse time, so that a file there is the parser's error (exit 2, naming
     ``key``), not a traceback naming the key of a config made from it."""
 
-    def parse(text: str) -> Path:
-        try:
-            return writable_folder_to_be(key, Path(text))
-        except ValueError as err:
-            raise argparse.ArgumentTypeError(str(err)) from None
-
-    return parse
+    return _argparse_type(writable_folder_to_be, key)
 
 
 def scenes_dir(value: str | Path | None) -> Path | None:
