@@ -205,8 +205,10 @@ def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
                   "kernel-map head", "kernel application", "F_d", "L0", "PP", "SA", "output steps", "other",
                   "**sum of stages**", "**frame**"):
         assert stage in rows, stage
-    stages = sum(float(c[1]) for c in cells if not c[0].startswith("**"))
-    assert stages == pytest.approx(float(rows["**sum of stages**"][0]), rel=1e-3)
+    printed = [float(c[1]) for c in cells if not c[0].startswith("**")]
+    stages = sum(printed)
+    # each row is printed to 0.01 ms, so the printed rows may miss the printed sum by half a unit per row
+    assert stages == pytest.approx(float(rows["**sum of stages**"][0]), abs=0.005 * (len(printed) + 1))
     assert stages == pytest.approx(float(rows["**frame**"][0]), rel=0.1)
     lines = [line for line in inclusive.splitlines() if line.startswith("| ")]
     nested = {c[0]: c[1:] for c in ([x.strip() for x in line.split("|")[1:-1]] for line in lines)}
