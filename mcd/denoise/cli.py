@@ -215,7 +215,7 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     if not args.inputs:
         raise ValueError("give EXR frames (a folder, files or a glob pattern) or --scene <scene.xml>")
     from mcd.denoise.frame_scores import check_references, find_references, score_text
-    from mcd.denoise.frames import check_frames, find_frames, read_header, siblings
+    from mcd.denoise.frames import check_frames, find_frames, read_header, refuse_clamping_exposure, siblings
     from mcd.denoise.resume import (
         Record,
         check_earlier_outputs,
@@ -240,6 +240,8 @@ def _frames(args: argparse.Namespace, loaded: weights.Loaded, device: torch.devi
     output_folder.check_space(args.output, [n for n in main_files if not (args.output / n).is_file()], h * w)
     folder_lock.enter_context(output_folder.hold(args.output))
     scan = check_frames(paths, wanted_layers(loaded), exposure_target(loaded))  # the one read before the work
+    if args.exposure is not None:  # before -o is claimed
+        refuse_clamping_exposure(args.exposure, scan.exposures, paths[0].parent, exposure_target(loaded))
     if refs:
         check_references(refs, scan.size)
     settings = {"inputs": file_stamps(inputs), "weights_sha256": weights_digest(loaded.model),

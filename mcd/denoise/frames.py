@@ -266,6 +266,26 @@ def check_frames(paths: list[Path], want: set[str], exposure_target: float) -> F
 EXPOSURE_SPREAD = 8.0
 
 
+def refuse_clamping_exposure(given: float, measured: list[FrameExposure | None], where: Path,
+                             target: float) -> None:
+    """FrameError where ``--exposure`` brings the median lit frame's mean to :data:`EXPOSURE_CLAMP` or beyond
+    (``measured``: each frame's, from :func:`check_frames`; ``where``: the frames' folder, named; ``target``:
+    the mean the frames' own exposure brings them to): :meth:`FrameSequence.load` would then clamp most colour
+    values to it, and every output would come out one constant (``--exposure 1e12`` on frames of mean about
+    1). Named before any output is written, with the largest exposure that keeps the mean under the clamp."""
+    means = [m.mean for m in measured if m is not None and m.mean > 0]
+    if not means:
+        return
+    typical = float(np.median(means))
+    if given * typical >= EXPOSURE_CLAMP:
+        raise FrameError(
+            f"{where}: --exposure {given:g} brings the frames' mean ({typical:.4g}, the median of the lit "
+            f"frames') to {given * typical:.4g}, at or above the clamp {EXPOSURE_CLAMP:g} that every colour "
+            f"value is held to, so most of each frame would be clamped and the outputs one constant; give "
+            f"an exposure below {EXPOSURE_CLAMP / typical:.4g}, or none (the frames' own, "
+            f"x{target / typical:.4g})")
+
+
 @dataclass
 class FrameSequence:
     """Frames of one sequence, loaded on demand and normalised like training data (module docstring).
@@ -292,6 +312,7 @@ class FrameSequence:
         if self.given_exposure is not None:
             exposure = self.given_exposure
             log.info("exposure x%.4g for every frame and score (--exposure)", exposure)
+            refuse_clamping_exposure(exposure, scan.exposures, self.paths[0].parent, self.exposure_target)
             self._warn_far(exposure, scan.exposures)
         else:
             exposure = self._first_exposure(scan.exposures)
