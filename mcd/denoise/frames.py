@@ -389,7 +389,9 @@ class FrameSequence:
             over = out[key] > EXPOSURE_CLAMP if name == "colour" else None
             if over is not None and over.any():  # one pixel of 3e38 moved the network's whole output
                 out[key][over] = EXPOSURE_CLAMP
-                log.warning("%s: %d colour values above %g after the exposure (which brings a frame's mean "
-                            "to %g) clamped to it: a broken render? check the file", path, int(over.sum()),
-                            EXPOSURE_CLAMP, self.exposure_target)
+                how = ("--exposure" if self.given_exposure is not None
+                       else f"the frames' own, which brings a frame's mean to {self.exposure_target:g}")
+                log.warning("%s: %d colour values above %g after the exposure x%.4g (%s) clamped to it: a "
+                            "broken render? check the file", path, int(over.sum()), EXPOSURE_CLAMP,
+                            self.exposure, how)
         return out

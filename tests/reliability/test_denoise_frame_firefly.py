@@ -87,6 +87,12 @@ def test_a_pixel_near_float32s_largest_is_clamped_and_named(tmp_path, caplog):
             run([str(folder), "-o", str(tmp_path / f"out_{folder.name}"), "--checkpoint", "unet-cpu-small",
                  "--no-progress"])
     assert "f0001.exr: 3 colour values above 1e+08 after the exposure" in caplog.text, caplog.text
+    assert "(the frames' own, which brings a frame's mean to 0.5)" in caplog.text, caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="mcd.denoise.frames"):  # a given exposure is named as such
+        run([str(fire), "-o", str(tmp_path / "out_given"), "--checkpoint", "unet-cpu-small", "--no-progress",
+             "--exposure", "0.5"])
+    assert "above 1e+08 after the exposure x0.5 (--exposure) clamped" in caplog.text, caplog.text
     base = read_exr(tmp_path / "out_clean" / "f0001.exr").max(-1)
     hit = read_exr(tmp_path / "out_fire" / "f0001.exr").max(-1)
     far = np.ones(base.shape, bool)
