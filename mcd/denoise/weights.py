@@ -15,6 +15,7 @@ state what the user expects: a checkpoint of another method or capacity is refus
 from __future__ import annotations
 
 import json
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -23,6 +24,8 @@ from omegaconf import DictConfig, OmegaConf
 
 from mcd.denoise.work import MAX_PARAMS
 from mcd.lit import checkpoint
+
+log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:  # torch is imported where used, so that --help starts fast (docs/architecture.md)
     from torch import nn
@@ -255,6 +258,10 @@ def resolve(spec: str) -> tuple[DictConfig, dict[str, Any], dict[str, Any], str]
                 f"--checkpoint={spec}: a folder without checkpoints/best*.ckpt or checkpoints/last.ckpt; "
                 "give a finished run directory of python -m mcd.run, a .ckpt file, or a bundled name "
                 f"({', '.join(bundled_names()) or 'none installed'})")
+        if path.is_dir() and not (path / "metrics.json").is_file():
+            log.warning("--checkpoint=%s: the run has no metrics.json (it never finished, or was never "
+                        "tested): %s is its checkpoint so far, untested; resume the run "
+                        "(python -m mcd.run ... ckpt_path=auto) for a tested one", spec, ckpt.name)
         cfg, weights, prov = _from_run_ckpt(ckpt)
         return cfg, weights, prov, str(ckpt)
     if path.exists():  # a device (/dev/zero), a FIFO, a socket: read whole, it could never end or block

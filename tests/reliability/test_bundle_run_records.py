@@ -55,6 +55,27 @@ def test_mcd_denoise_takes_the_runs_own_checkpoint_and_refuses_two_unrecorded(ab
         tested_checkpoint(run, "--checkpoint")
 
 
+def test_mcd_denoise_names_a_run_that_never_finished_and_takes_its_checkpoint_so_far(ab_sweep, tmp_path,
+                                                                                      caplog):
+    """``mcd-denoise --checkpoint <an interrupted run>`` (no ``metrics.json``) used its best checkpoint so far
+    without a word that the run never finished or was tested (campaign 13, low); a warning names it now, and
+    a finished run gets none."""
+    import logging
+
+    from mcd.denoise.weights import resolve
+
+    run, _ = _runs(ab_sweep, tmp_path)
+    with caplog.at_level(logging.WARNING, logger="mcd.denoise.weights"):
+        resolve(str(run))
+    assert "no metrics.json" not in caplog.text
+    (run / "metrics.json").unlink()
+    with caplog.at_level(logging.WARNING, logger="mcd.denoise.weights"):
+        *_, source = resolve(str(run))
+    assert source == str(run / "checkpoints" / "best-step000001.ckpt")
+    assert f"--checkpoint={run}: the run has no metrics.json (it never finished" in caplog.text, caplog.text
+    assert "best-step000001.ckpt is its checkpoint so far, untested" in caplog.text
+
+
 def test_a_checkpoint_of_another_experiment_under_the_tested_name_is_refused(ab_sweep, tmp_path):
     run, f_run = _runs(ab_sweep, tmp_path)
     (f_best,) = (f_run / "checkpoints").glob("best*.ckpt")
