@@ -128,6 +128,20 @@ def test_the_answer_follows_the_ordering_from_the_smallest_to_the_largest_scale_
     assert "cannot be answered" in notes.answer([])
 
 
+def test_the_answer_follows_f_minus_ntasad_along_each_axis_apart():
+    """notes.trends: over the budgets of each data profile and over the data at each budget, first to last
+    with the points between; a one-seed point is marked; an axis of one point gives no sentence."""
+    by = {(d, n, s): _gap(("F", "ntasad"), d, n, s, m, se=se) for d, n, s, m, se in [
+        ("tiny", 2, 1000, -2.27, 0.19), ("tiny", 2, 3000, -0.75, math.nan),
+        ("small", 5, 1000, -2.25, math.nan)]}
+    (text,) = notes.trends({(n, d, s): f for (d, n, s), f in by.items()})
+    assert "over steps on tiny it narrows, -2.27 (1000 steps) -> -0.75 (3000 steps, one seed)" in text
+    assert "over data at 1000 steps it narrows, -2.27 (tiny) -> -2.25 (small, one seed)" in text
+    assert "3000 steps it" not in text and "over steps on small" not in text
+    assert notes.trends({(2, "tiny", 1000): by["tiny", 2, 1000]}) == []
+    assert "Along each axis apart" in notes.answer(list(by.values()))
+
+
 def test_the_notes_name_the_input_that_carries_ntasads_lead():
     """notes.lead: at a scale point with F - NTASAD and NTASAD's diagnostics, the costliest resolved removal
     is named with its share of F's gap, what was given to F follows, and an unresolved cost names nothing."""

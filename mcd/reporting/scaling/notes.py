@@ -12,13 +12,13 @@ steps:
 - the ordering (F above both where both ran) holds at every scale point: yes, at every one measured;
 - it holds at the largest scale point and not at the smallest: it appears as the work grows;
 - it holds at the smallest and not at the largest: no, it fades as the work grows;
-- it holds at none: no, within the grid measured (with whether F's gap narrows between the smallest and
-  the largest point, and the crossings of the fits);
+- it holds at none: no, within the grid measured (with the crossings of the fits);
 - else: partly, naming where it holds.
 
-The verdict goes by the means; where the seeds do not resolve the sign of a difference it rests on (at the
-smallest or the largest scale point: fewer than ``RESOLVED_SE`` standard errors from zero, or no standard
-error), the paragraph says so.
+Then how F - NTASAD moves along each axis apart (:func:`trends`): over the budgets of each data profile, and
+over the data profiles at each budget. The verdict goes by the means; where the seeds do not resolve the
+sign of a difference it rests on (at the smallest or the largest scale point: fewer than ``RESOLVED_SE``
+standard errors from zero, or no standard error), the paragraph says so.
 
 Which of NTASAD's inputs carries its lead (:func:`lead`), at each scale point with F - NTASAD and at least one
 of NTASAD's diagnostics (``mcd.config.methods``: a ``diagnostic`` variant of ``ntasad``, each switching one
@@ -130,6 +130,33 @@ def lead(found: list[Finding]) -> list[str]:
     return out
 
 
+def _seeds(f: Finding) -> str:
+    return "" if not math.isnan(f.values["se"]) else ", one seed"
+
+
+def trends(by: dict[tuple[int, str, int], Finding]) -> list[str]:
+    """One sentence on how F - NTASAD (``by``: its finding at each scale point) moves along each axis of the
+    work apart: over the budgets of each data profile, and over the data profiles at each budget, each from
+    its first to its last point, with the points in between; empty where no axis has two points."""
+    def path(points: list[tuple[int, str, int]], label) -> str:
+        steps = " -> ".join(f"{by[p].values['mean']:+.2f} ({label(p)}{_seeds(by[p])})" for p in points)
+        first, last = by[points[0]].values["mean"], by[points[-1]].values["mean"]
+        return f"{'narrows' if last > first else 'does not narrow'}, {steps}"
+
+    axes = []
+    for data in dict.fromkeys(p[1] for p in sorted(by)):
+        line = sorted(p for p in by if p[1] == data)
+        if len(line) > 1:
+            axes.append(f"over steps on {data} it {path(line, lambda p: f'{p[2]} steps')}")
+    for steps in sorted({p[2] for p in by}):
+        line = sorted(p for p in by if p[2] == steps)
+        if len(line) > 1:
+            axes.append(f"over data at {steps} steps it {path(line, lambda p: p[1])}")
+    if not axes:
+        return []
+    return [f"Along each axis apart, F's gap to {display_name(MAIN[0][1])} (dB): {'; '.join(axes)}."]
+
+
 def answer(found: list[Finding]) -> str:
     """The first paragraph of ``notes.md`` (module docstring), from ``found`` alone."""
     coverage = next((f for f in found if f.kind == "scaling_coverage"), None)
@@ -181,23 +208,17 @@ def answer(found: list[Finding]) -> str:
                    f"({_where(points[0])}) and not at the largest ({_where(points[-1])}); it holds at "
                    f"{', '.join(map(_where, where))}")
     elif not where:
-        nt = gaps[MAIN[0]]
-        trend = ""
-        if len(nt) > 1:
-            low, high = nt[min(nt)].values["mean"], nt[max(nt)].values["mean"]
-            narrows = "narrows" if high > low else "does not narrow"
-            trend = (f"; F's gap to {display_name(MAIN[0][1])} {narrows} from {low:+.2f} to {high:+.2f} dB "
-                     "between the smallest and the largest scale point")
         ahead = [f.detail["data"] for f in crossings if f.detail["outcome"] in ("crossed", "crosses")]
         reach = (f", and the fits reach it within {HORIZON:g}x the largest budget on {', '.join(ahead)} only"
                  if ahead else f", and the fits reach it within {HORIZON:g}x the largest budget on no data "
                  "profile" if crossings else "")
         verdict = (f"no, not within the grid measured: {ordering} holds at none of its {len(points)} scale "
-                   f"points{trend}{reach}")
+                   f"points{reach}")
     else:
         verdict = (f"partly: {ordering} holds at {', '.join(map(_where, where))}, not at "
                    f"{', '.join(_where(p) for p in points if p not in where)}")
     parts.append(f"Does the paper's ordering appear as the work grows? {verdict[0].upper()}{verdict[1:]}.")
+    parts += trends(gaps[MAIN[0]])
     shaky = [f"{display_name(f.subjects[0])} - {display_name(f.subjects[1])} at {_where(p)}"
              for p in dict.fromkeys((points[0], points[-1])) for by in gaps.values() if p in by
              for f in [by[p]] if not abs(f.values["mean"]) >= RESOLVED_SE * f.values["se"]]
