@@ -9,7 +9,9 @@
 #      per-pixel identity channel (F_pixel_switch), there and at 1000 and 3000 steps on small; and F started
 #      from He's initialisation (F_he: why F's sampling map collapses on some seeds, docs/method.md
 #      "Initialisation") at the same point with seeds 0-2;
-#   3. F and NTASAD at 3000 steps (seed 0), then F_paper, C and A at 1000 and 3000 on tiny and small;
+#   3. F and NTASAD at 3000 steps (seed 0); then at 10000 steps on tiny, where the fits of 1000 and 3000 steps
+#      cross at about 5000 (reports/scaling): the crossing measured, not extrapolated; then F_paper, C and A at
+#      1000 and 3000 on tiny and small;
 #   4. seeds 1-2 of F and NTASAD at 3000 on small, F without SA (row E) at 3000 on small with seeds 0-2 (the
 #      fourth diagnostic, paired with F's seeds), then 10000 steps on small;
 #   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A, NTASAD and row E at 10000 (F, A and
@@ -22,11 +24,13 @@
 # Env: PY (.venv/bin/python), JOBS (2), DATA_DIR (data: the rendered profiles; a leg waits while a
 # `python -m mcd.render data=<profile>` of its profile still runs), STUDY_DIR (multirun/scaling: the job
 # directories, <STUDY_DIR>/<profile>/<experiment>_steps<steps>_seed<seed>), WAIT_PID (a process to wait for
-# before the first leg, e.g. a leg started by an earlier copy of this script). Needs MCD_SCENES_DIR for the
+# before the first leg, e.g. a leg started by an earlier copy of this script), CODE (the checkout whose code
+# the jobs run, default this script's: a second checkout pinned at one commit keeps the study's numerics while
+# this one moves on, notes/scaling_plan.md). Needs MCD_SCENES_DIR for the
 # scenes that are not vendored (docs/scenes.md). The jobs resume (ckpt_path=auto), so a session that ends in
 # the middle of a leg loses at most the steps since its last checkpoint.
 set -uo pipefail
-cd "$(dirname "$0")/.."
+cd "${CODE:-$(dirname "$0")/..}"
 PY=${PY:-.venv/bin/python}
 export OMP_NUM_THREADS=1
 COMMON=("paths.data_dir=$(realpath -m "${DATA_DIR:-data}")" "hydra.sweep.dir=$(realpath -m "${STUDY_DIR:-multirun/scaling}")"
@@ -52,6 +56,7 @@ leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0,1,2 "$GAP"
 leg data=tiny train.max_steps=1000 +experiment=F_he seed=0,1,2 "$GAP"
 leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
+leg data=tiny train.max_steps=10000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A,F_pixel_switch seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=1,2
