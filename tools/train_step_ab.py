@@ -13,7 +13,9 @@ step by the module) and an Adam step. Lightning's own loop, logging and validati
 
 - ``kernel_backward``: :func:`mcd.models.kernel_pool.apply_pixel_kernels` through autograd's backward of its
   multiply-adds instead of :class:`mcd.models.kernel_pool.PixelKernels`;
-- ``finite_check``: :func:`mcd.lit.module.check_finite` as ``torch.isfinite(value).all()``.
+- ``finite_check``: :func:`mcd.lit.module.check_finite` as ``torch.isfinite(value).all()``;
+- ``pad_backward``: :func:`mcd.models.cpu_fast.replicate.replicate_pad` as ``F.pad`` with autograd's backward
+  (the gradient handed to ATen's kernel in the layout it arrives in).
 
 Batches: the profile's training clips read from its store (``--data``, ``paths.data_dir`` by ``--set``; read
 only, checksums not verified), or ``--synthetic`` clips (:func:`mcd.data.synthetic.synthetic_frame`). Prints
@@ -32,6 +34,7 @@ import statistics
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
+from types import SimpleNamespace
 
 import torch
 from torch import Tensor
@@ -42,8 +45,9 @@ from mcd.core.provenance import short_commit
 from mcd.lit import module as lit_module
 from mcd.lit.precision import resolve
 from mcd.models import kernel_pool
+from mcd.models.cpu_fast import replicate
 
-PATHS = ("kernel_backward", "finite_check")
+PATHS = ("kernel_backward", "finite_check", "pad_backward")
 
 
 def isfinite_check(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
@@ -56,17 +60,19 @@ def isfinite_check(buffers: dict[str, Tensor], batch: dict[str, object]) -> None
 @contextmanager
 def without(paths: list[str]) -> Iterator[None]:
     """The code before ``paths`` (module docstring)."""
-    saved = lit_module.check_finite
+    saved = lit_module.check_finite, replicate.fast_paths
     if "kernel_backward" in paths:  # autograd.Function's own apply comes back when this one is deleted
         kernel_pool.PixelKernels.apply = kernel_pool.pixel_kernel_passes  # type: ignore[method-assign]
     if "finite_check" in paths:
         lit_module.check_finite = isfinite_check
+    if "pad_backward" in paths:  # replicate_pad's own switch, and that one only
+        replicate.fast_paths = SimpleNamespace(enabled=lambda: False)  # type: ignore[assignment]
     try:
         yield
     finally:
         if "apply" in vars(kernel_pool.PixelKernels):
             del kernel_pool.PixelKernels.apply
-        lit_module.check_finite = saved
+        lit_module.check_finite, replicate.fast_paths = saved
 
 
 def batches(cfg, model, n: int, synthetic: bool) -> list[dict[str, object]]:  # noqa: ANN001

@@ -34,7 +34,7 @@ from torch import Tensor, nn
 
 from mcd.models import fast_paths
 from mcd.models.blocks import BlockFactory, on_parts
-from mcd.models.cpu_fast.replicate import replicate_conv, replicate_conv_applies
+from mcd.models.cpu_fast.replicate import padded_conv, replicate_conv, replicate_conv_applies, replicate_pad
 
 
 def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
@@ -57,7 +57,7 @@ def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
     layout = memory_format(image)
     if fast_paths.enabled():
         image = image.contiguous(memory_format=memory_format(kernels))
-    padded = F.pad(image.to(dtype), (r, r, r, r), mode="replicate")
+    padded = replicate_pad(image.to(dtype), (r, r, r, r))
     kernels = kernels.to(dtype)
     if fast_paths.enabled() and torch.is_grad_enabled() and (padded.requires_grad or kernels.requires_grad):
         out = PixelKernels.apply(padded, kernels)
@@ -302,5 +302,5 @@ class KernelMapHead(nn.Module):
         if fast_paths.enabled() and replicate_conv_applies(self.out, x):
             z = replicate_conv(self.out, x)
         else:
-            z = self.out(x)
+            z = padded_conv(self.out, x)
         return torch.tanh(self.scale(z))
