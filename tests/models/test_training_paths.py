@@ -167,3 +167,31 @@ def test_row_f_training_step_is_the_code_before_bit_for_bit(cbox_store, monkeypa
     assert fast.keys() == ref.keys() and len(ref) > 50
     for name in ref:
         assert torch.equal(fast[name], ref[name]), name
+
+
+@pytest.mark.parametrize("dtype", [torch.bfloat16, torch.float32])
+@pytest.mark.parametrize("layout", LAYOUTS)
+def test_ring_sums_are_atens_pad_backward_bit_for_bit(cbox_store, dtype, layout):
+    """The gradient of a replicate pad summed on the input's ring (fp32 sums of a bf16 gradient, as under
+    autocast), against ATen's kernel: every bit, negative zeros and strides included; rendered frames with
+    fireflies, all black, and odd sizes down to 2 x 2."""
+    from mcd.models.cpu_fast.replicate import ring_sums, ring_sums_apply
+
+    bits = torch.int16 if dtype == torch.bfloat16 else torch.int32
+    shapes = [tuple(image.shape) for image in _images(cbox_store)] + [(2, 3, 2, 2), (1, 4, 2, 7)]
+    for i, shape in enumerate(shapes):
+        for p in (1, 2, 3, 4):
+            torch.manual_seed(i * 10 + p)
+            h, w = shape[-2:]
+            grad = torch.randn(*shape[:2], h + 2 * p, w + 2 * p) * torch.logspace(-4, 5, w + 2 * p)
+            grad = grad.to(dtype)
+            grad[..., 0, 0], grad[..., p + 1, p + 1] = -0.0, -0.0
+            grad = grad.contiguous(memory_format=layout)
+            if not ring_sums_apply(grad, shape, [p] * 4, dtype):
+                assert min(h, w) < 2
+                continue
+            like = torch.empty(shape, dtype=torch.float32, memory_format=layout)
+            ref = torch.ops.aten.replication_pad2d_backward(grad.float(), like, [p] * 4).to(dtype)
+            got = ring_sums(grad, shape, [p] * 4, torch.float32, layout)
+            assert got.stride() == ref.stride(), (shape, p)
+            assert torch.equal(got.contiguous().view(bits), ref.contiguous().view(bits)), (shape, p)

@@ -87,10 +87,53 @@ class ReplicatePad(torch.autograd.Function):
 
     @staticmethod
     def backward(ctx, grad: Tensor) -> tuple[Tensor, None]:  # noqa: ANN001
+        if ring_sums_apply(grad, ctx.shape, ctx.padding, ctx.dtype):
+            return ring_sums(grad, ctx.shape, ctx.padding, ctx.sum_dtype, ctx.layout), None
         like = torch.empty(ctx.shape, dtype=ctx.sum_dtype, device=grad.device, memory_format=ctx.layout)
         grad = grad.to(dtype=ctx.sum_dtype, memory_format=ctx.layout)
         summed = torch.ops.aten.replication_pad2d_backward(grad, like, ctx.padding)  # reads like's shape
         return summed.to(ctx.dtype), None
+
+
+def ring_sums_apply(grad: Tensor, shape: Sequence[int], padding: Sequence[int], dtype: torch.dtype) -> bool:
+    """Whether :func:`ring_sums` computes the gradient: the same padding on opposite sides, an input of at
+    least 2 x 2 pixels, and the gradient in the input's dtype."""
+    left, right, top, bottom = padding
+    return left == right >= 0 and top == bottom >= 0 and min(shape[-2:]) >= 2 and grad.dtype == dtype
+
+
+def ring_sums(grad: Tensor, shape: Sequence[int], padding: Sequence[int], sum_dtype: torch.dtype,
+              layout: torch.memory_format) -> Tensor:
+    """The gradient of ``F.pad(x, padding, mode="replicate")`` for the padded tensor's gradient ``grad``
+    (where :func:`ring_sums_apply`), the numbers of ATen's backward kernel in ``sum_dtype`` cast to
+    ``grad``'s dtype, computed on the input's outer ring only. The kernel adds the padded tensor's
+    gradient, in the padded tensor's row-major order, into a zero-filled gradient: a pixel inside the ring
+    receives one value (``0 + g``, which is ``g`` but for a negative zero, in any dtype), a pixel of the ring
+    the values of its padding too, in that order. Those sums are made here in the same order, in
+    ``sum_dtype``, on the ring's few pixels, and the inside is one copy (``g + 0``) in ``grad``'s dtype."""
+    pw, ph = padding[0], padding[2]
+    h, w = shape[-2:]
+    out = torch.empty(shape, dtype=grad.dtype, device=grad.device, memory_format=layout)
+    torch.add(grad[..., ph : ph + h, pw : pw + w], 0.0, out=out)
+
+    def ordered_sum(terms: Tensor) -> Tensor:
+        """``0 + t_0 + t_1 + ...`` over the last axis of ``terms``, in ``sum_dtype``, one add at a time."""
+        acc = terms[..., 0].to(sum_dtype) + 0.0
+        for k in range(1, terms.shape[-1]):
+            acc += terms[..., k]
+        return acc.to(grad.dtype)
+
+    rows = grad[..., : ph + 1, :], grad[..., h - 1 + ph :, :]              # top and bottom: [.., ph + 1, W']
+    for i, block in zip((0, h - 1), rows, strict=True):
+        out[..., i, 1 : w - 1] = ordered_sum(block[..., pw + 1 : pw + w - 1].transpose(-1, -2))
+    cols = grad[..., ph + 1 : ph + h - 1, : pw + 1], grad[..., ph + 1 : ph + h - 1, w - 1 + pw :]
+    for j, block in zip((0, w - 1), cols, strict=True):
+        out[..., 1 : h - 1, j] = ordered_sum(block)
+    corners = [block[..., :pw + 1] if j == 0 else block[..., w - 1 + pw :] for block in rows for j in (0, 1)]
+    sums = ordered_sum(torch.stack(corners, -1).flatten(-3, -2).transpose(-1, -2))   # [.., 4], row-major
+    for k, (i, j) in enumerate(((0, 0), (0, w - 1), (h - 1, 0), (h - 1, w - 1))):
+        out[..., i, j] = sums[..., k]
+    return out
 
 
 def pad_dtype(x: Tensor) -> torch.dtype:
