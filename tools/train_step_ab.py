@@ -15,7 +15,9 @@ step by the module) and an Adam step. Lightning's own loop, logging and validati
   multiply-adds instead of :class:`mcd.models.kernel_pool.PixelKernels`;
 - ``finite_check``: :func:`mcd.lit.module.check_finite` as ``torch.isfinite(value).all()``;
 - ``pad_backward``: :func:`mcd.models.cpu_fast.replicate.replicate_pad` as ``F.pad`` with autograd's backward
-  (the gradient handed to ATen's kernel in the layout it arrives in).
+  (the gradient handed to ATen's kernel in the layout it arrives in);
+- ``upsample_backward``: :func:`mcd.models.cpu_fast.upsample.upsample_bilinear` as ``F.interpolate`` with
+  autograd's backward.
 
 Batches: the profile's training clips read from its store (``--data``, ``paths.data_dir`` by ``--set``; read
 only, checksums not verified), or ``--synthetic`` clips (:func:`mcd.data.synthetic.synthetic_frame`). Prints
@@ -45,9 +47,9 @@ from mcd.core.provenance import short_commit
 from mcd.lit import module as lit_module
 from mcd.lit.precision import resolve
 from mcd.models import kernel_pool
-from mcd.models.cpu_fast import replicate
+from mcd.models.cpu_fast import replicate, upsample
 
-PATHS = ("kernel_backward", "finite_check", "pad_backward")
+PATHS = ("kernel_backward", "finite_check", "pad_backward", "upsample_backward")
 
 
 def isfinite_check(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
@@ -60,19 +62,22 @@ def isfinite_check(buffers: dict[str, Tensor], batch: dict[str, object]) -> None
 @contextmanager
 def without(paths: list[str]) -> Iterator[None]:
     """The code before ``paths`` (module docstring)."""
-    saved = lit_module.check_finite, replicate.fast_paths
+    saved = lit_module.check_finite, replicate.fast_paths, upsample.fast_paths
+    off = SimpleNamespace(enabled=lambda: False)  # a module's own switch, and that one only
     if "kernel_backward" in paths:  # autograd.Function's own apply comes back when this one is deleted
         kernel_pool.PixelKernels.apply = kernel_pool.pixel_kernel_passes  # type: ignore[method-assign]
     if "finite_check" in paths:
         lit_module.check_finite = isfinite_check
-    if "pad_backward" in paths:  # replicate_pad's own switch, and that one only
-        replicate.fast_paths = SimpleNamespace(enabled=lambda: False)  # type: ignore[assignment]
+    if "pad_backward" in paths:
+        replicate.fast_paths = off  # type: ignore[assignment]
+    if "upsample_backward" in paths:
+        upsample.fast_paths = off  # type: ignore[assignment]
     try:
         yield
     finally:
         if "apply" in vars(kernel_pool.PixelKernels):
             del kernel_pool.PixelKernels.apply
-        lit_module.check_finite, replicate.fast_paths = saved
+        lit_module.check_finite, replicate.fast_paths, upsample.fast_paths = saved
 
 
 def batches(cfg, model, n: int, synthetic: bool) -> list[dict[str, object]]:  # noqa: ANN001

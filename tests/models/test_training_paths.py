@@ -1,7 +1,9 @@
 """The training step's fast paths (notes/f_speed.md "The training step") against the code they replace, bit
 for bit: the kernel application's written-out backward (:class:`mcd.models.kernel_pool.PixelKernels`, against
 autograd's backward of its multiply-adds) and a convolution's input replicate-padded in its own dtype with
-``F.pad``'s gradient (:func:`mcd.models.cpu_fast.replicate.replicate_pad`, against ``F.pad`` under autocast);
+``F.pad``'s gradient (:func:`mcd.models.cpu_fast.replicate.replicate_pad`, against ``F.pad`` under autocast)
+with its backward summed on the ring (against ATen's kernel), the decoders' upsampling with its backward in
+channels-last (:func:`mcd.models.cpu_fast.upsample.upsample_bilinear`, against ``F.interpolate``);
 each on the rendered cbox frames (HDR, with 1e5 fireflies and a black band), all-black frames and odd sizes,
 in both layouts, in fp32 and under bf16 autocast; then row F's training step on rendered frames, output and
 every gradient."""
@@ -17,7 +19,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from mcd.models import fast_paths, kernel_pool
-from mcd.models.cpu_fast import replicate
+from mcd.models.cpu_fast import replicate, upsample
 from mcd.models.cpu_fast.replicate import padded_conv, replicate_pad
 from mcd.models.kernel_pool import KernelPool, apply_pixel_kernels, filter_below, interpolate_kernels
 from mcd.models.latency import model_inputs
@@ -163,6 +165,7 @@ def test_row_f_training_step_is_the_code_before_bit_for_bit(cbox_store, monkeypa
     fast = step()
     monkeypatch.setattr(kernel_pool.PixelKernels, "apply", kernel_pool.pixel_kernel_passes)
     monkeypatch.setattr(replicate, "fast_paths", SimpleNamespace(enabled=lambda: False))
+    monkeypatch.setattr(upsample, "fast_paths", SimpleNamespace(enabled=lambda: False))
     ref = step()
     assert fast.keys() == ref.keys() and len(ref) > 50
     for name in ref:
@@ -195,3 +198,36 @@ def test_ring_sums_are_atens_pad_backward_bit_for_bit(cbox_store, dtype, layout)
             got = ring_sums(grad, shape, [p] * 4, torch.float32, layout)
             assert got.stride() == ref.stride(), (shape, p)
             assert torch.equal(got.contiguous().view(bits), ref.contiguous().view(bits)), (shape, p)
+
+
+@pytest.mark.parametrize("dtype", [torch.bfloat16, torch.float32])
+@pytest.mark.parametrize("layout", LAYOUTS)
+def test_upsample_backward_is_autograds_bit_for_bit(cbox_store, dtype, layout):
+    """The decoder's bilinear upsampling (:func:`mcd.models.cpu_fast.upsample.upsample_bilinear`) with its
+    gradient arriving as a channel slice of a concatenation's (as in a U-Net decoder) or whole, against
+    ``F.interpolate`` and autograd: output and gradient, every bit; rendered frames with fireflies, all black,
+    odd sizes (up to odd output sizes)."""
+    from mcd.models.cpu_fast.upsample import upsample_bilinear
+
+    bits = torch.int16 if dtype == torch.bfloat16 else torch.int32
+    for image in _images(cbox_store):
+        features = torch.cat([image, torch.log1p(image)], 1).to(dtype).contiguous(memory_format=layout)
+        h, w = features.shape[-2:]
+        for size in ((2 * h, 2 * w), (2 * h + 1, 2 * w - 1)):
+            fast = _upsample_step(features, lambda x, size=size: upsample_bilinear(x, size))
+            ref = _upsample_step(features, lambda x, size=size: F.interpolate(x, size=size, mode="bilinear",
+                                                                              align_corners=False))
+            where = (tuple(features.shape), size)
+            for f, r in zip(fast, ref, strict=True):
+                assert f.stride() == r.stride(), where
+                assert torch.equal(f.contiguous().view(bits), r.contiguous().view(bits)), where
+
+
+def _upsample_step(features: torch.Tensor, up) -> list[torch.Tensor]:  # noqa: ANN001
+    """``up(features)`` and its gradient, the gradient arriving through a concatenation with a skip."""
+    x = features.clone().requires_grad_()
+    y = up(x)
+    z = torch.cat([y, torch.ones_like(y[:, :2])], 1)
+    torch.manual_seed(5)
+    z.backward(torch.randn_like(z) * 1e3)
+    return [y.detach(), x.grad]
