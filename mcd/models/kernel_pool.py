@@ -84,8 +84,8 @@ class PixelKernels(torch.autograd.Function):
 
     Autograd's backward of the ``l*l`` in-place multiply-adds built, per tap, a zero tensor the size of the
     padded image and one the size of the kernels around each tap's gradient (the shifted views' backward)
-    and added them all up: 42 ms for a batch of 4 crops of 96 x 96 on one CPU thread, where the forward takes
-    1 ms (notes/f_speed.md "The training step"). Here each tap's gradients are computed as autograd computes
+    and added them all up, at 40 times the forward's time on the CPU (notes/f_speed.md "The training
+    step"). Here each tap's gradients are computed as autograd computes
     them (``addcmul``'s derivative: ``(grad * view).sum(1)`` for the kernel's channel, ``grad * kernel`` for
     the view) and written into, or added to, one gradient tensor each, the taps in the order autograd adds
     them (the last first). The same values as autograd's: ``tests/models/test_fast_paths.py``."""

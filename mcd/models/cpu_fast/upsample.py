@@ -4,8 +4,8 @@ step"; the U-Net decoders of ``F_s`` and ``F_d``, :class:`mcd.models.unet.UNet`)
 A decoder level upsamples its input and concatenates the skip, so the upsampled tensor's gradient reaches
 ATen's ``upsample_bilinear2d_backward`` as a channel slice of the concatenation's gradient, or (``F_s``'s
 levels, whose tensors are in the plain layout in training) as a plain tensor. The CPU kernel ran 4-8x slower
-on those than on a channels-last gradient (a batch of 4 crops in bf16, one thread: e.g. 24 channels from 48
-x 48 to 96 x 96, 7.1 ms against 1.2 ms with both layout conversions). So the backward runs the kernel on the
+on those than on a channels-last gradient, both layout conversions included (notes/f_speed.md "The training
+step"). So the backward runs the kernel on the
 gradient in channels-last and hands the result back in the input's layout. The kernel adds each input
 pixel's contributions in the same order in either layout, so the gradient is the same, bit for bit
 (``tests/models/test_training_paths.py``).
