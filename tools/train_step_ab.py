@@ -17,7 +17,9 @@ step by the module) and an Adam step. Lightning's own loop, logging and validati
 - ``pad_backward``: :func:`mcd.models.cpu_fast.replicate.replicate_pad` as ``F.pad`` with autograd's backward
   (the gradient handed to ATen's kernel in the layout it arrives in);
 - ``upsample_backward``: :func:`mcd.models.cpu_fast.upsample.upsample_bilinear` as ``F.interpolate`` with
-  autograd's backward.
+  autograd's backward;
+- ``advance``: the clip frames whose output the loss does not read run the whole forward instead of
+  :meth:`mcd.models.two_stage.TwoStage.advance` (``F_d``'s encoder only).
 
 Batches: the profile's training clips read from its store (``--data``, ``paths.data_dir`` by ``--set``; read
 only, checksums not verified), or ``--synthetic`` clips (:func:`mcd.data.synthetic.synthetic_frame`). Prints
@@ -48,8 +50,9 @@ from mcd.lit import module as lit_module
 from mcd.lit.precision import resolve
 from mcd.models import kernel_pool
 from mcd.models.cpu_fast import replicate, upsample
+from mcd.models.two_stage import TwoStage
 
-PATHS = ("kernel_backward", "finite_check", "pad_backward", "upsample_backward")
+PATHS = ("kernel_backward", "finite_check", "pad_backward", "upsample_backward", "advance")
 
 
 def isfinite_check(buffers: dict[str, Tensor], batch: dict[str, object]) -> None:
@@ -63,6 +66,7 @@ def isfinite_check(buffers: dict[str, Tensor], batch: dict[str, object]) -> None
 def without(paths: list[str]) -> Iterator[None]:
     """The code before ``paths`` (module docstring)."""
     saved = lit_module.check_finite, replicate.fast_paths, upsample.fast_paths
+    advance = TwoStage.advance
     off = SimpleNamespace(enabled=lambda: False)  # a module's own switch, and that one only
     if "kernel_backward" in paths:  # autograd.Function's own apply comes back when this one is deleted
         kernel_pool.PixelKernels.apply = kernel_pool.pixel_kernel_passes  # type: ignore[method-assign]
@@ -72,12 +76,15 @@ def without(paths: list[str]) -> Iterator[None]:
         replicate.fast_paths = off  # type: ignore[assignment]
     if "upsample_backward" in paths:
         upsample.fast_paths = off  # type: ignore[assignment]
+    if "advance" in paths:
+        TwoStage.advance = lambda self, x: self(x)  # type: ignore[method-assign]
     try:
         yield
     finally:
         if "apply" in vars(kernel_pool.PixelKernels):
             del kernel_pool.PixelKernels.apply
         lit_module.check_finite, replicate.fast_paths, upsample.fast_paths = saved
+        TwoStage.advance = advance  # type: ignore[method-assign]
 
 
 def batches(cfg, model, n: int, synthetic: bool) -> list[dict[str, object]]:  # noqa: ANN001

@@ -65,8 +65,9 @@ class UNet(nn.Module):
             c = w
         self.head = nn.Conv2d(c, cout, 1)
 
-    def forward(self, x: Tensor) -> dict[str, Tensor]:
-        size = x.shape[-2:]
+    def encode(self, x: Tensor) -> tuple[list[Tensor], Tensor]:
+        """The encoder on ``x`` replicate-padded to a multiple of the stride: the skips (each level's
+        features before its pooling, finest first) and the deepest level's features."""
         x = pad_to_multiple(x, self.stride)
         skips = []
         for j, level in enumerate(self.encoder):
@@ -75,6 +76,11 @@ class UNet(nn.Module):
                 if j < len(self.pools):
                     skips.append(x)
                     x = self.pools[j](x)
+        return skips, x
+
+    def forward(self, x: Tensor) -> dict[str, Tensor]:
+        size = x.shape[-2:]
+        skips, x = self.encode(x)
         coarsest = x
         for j, (level, skip) in enumerate(zip(self.decoder, reversed(skips), strict=True)):
             with self._label(len(self.decoder) - 1 - j):

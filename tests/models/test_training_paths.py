@@ -231,3 +231,59 @@ def _upsample_step(features: torch.Tensor, up) -> list[torch.Tensor]:  # noqa: A
     torch.manual_seed(5)
     z.backward(torch.randn_like(z) * 1e3)
     return [y.detach(), x.grad]
+
+
+@pytest.mark.parametrize("half", [False, True])
+def test_row_f_clip_with_advance_is_the_whole_forward_bit_for_bit(cbox_store, monkeypatch, half):
+    """``DenoiseModule.run_clip`` on a training clip of five rendered frames (batch 2): the three frames whose
+    output the loss does not read go through ``TwoStage.advance`` (``F_d``'s encoder only), against the
+    whole forward for them; the two outputs, the loss and every parameter's gradient, bit for bit. Also
+    ``advance`` outside training runs the whole forward (the output steps' hook included)."""
+    from mcd.config.compose import compose
+    from mcd.lit.module import DenoiseModule
+    from mcd.losses import build_loss
+    from mcd.models import build
+    from mcd.models.two_stage import TwoStage
+
+    cfg = compose(["+experiment=F"])
+    torch.manual_seed(0)
+    model = build(cfg).train().to(memory_format=CL)
+    module = DenoiseModule(cfg, model, build_loss(cfg))
+    _, store = cbox_store
+    names = sorted(set(model.required_buffers()) | {"ref"})
+    batch = {}
+    for n in names:
+        frames = [torch.from_numpy(np.ascontiguousarray(store.load("cbox", f, n))).permute(2, 0, 1)
+                  for f in range(5, 10)]
+        clip = torch.stack(frames)[None]
+        batch[n] = torch.cat([clip, clip.flip(-1)])                                   # [2, 5, C, 32, 32]
+    assert module.clip_plan(5) == (0, 3, 3)
+
+    def step() -> dict[str, torch.Tensor]:
+        model.zero_grad(set_to_none=True)
+        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=half):
+            pred = module.run_clip(batch, with_ref=True)
+            loss = module.loss_fn(pred, batch["ref"][:, -pred.shape[1]:])["loss"]
+        loss.backward()
+        return {"pred": pred.detach(), "loss": loss.detach(),
+                **{n: p.grad.clone() for n, p in model.named_parameters() if p.grad is not None}}
+
+    calls = []
+    original = TwoStage._run
+    monkeypatch.setattr(TwoStage, "_run", lambda self, x, state_only: calls.append(state_only)
+                        or original(self, x, state_only))
+    fast = step()
+    assert calls == [True, True, True, False, False]
+    monkeypatch.setattr(TwoStage, "advance", lambda self, x: self(x))
+    ref = step()
+    assert fast.keys() == ref.keys() and len(ref) > 50
+    for name in ref:
+        assert torch.equal(fast[name], ref[name]), name
+    monkeypatch.undo()                                           # the real advance, _run recorded again
+    monkeypatch.setattr(TwoStage, "_run", lambda self, x, state_only: calls.append(state_only)
+                        or original(self, x, state_only))
+    calls.clear()
+    with torch.no_grad():
+        model.eval().reset()
+        model.advance({k: v[:, 0] for k, v in batch.items()})
+    assert calls == [False]                                      # outside training: the whole forward
