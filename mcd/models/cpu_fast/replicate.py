@@ -150,12 +150,16 @@ def replicate_pad(x: Tensor, padding: Sequence[int]) -> Tensor:
     same, and a cast of ``x`` and one of the padded tensor are saved), and where a gradient of ``x`` is
     taken, through :class:`ReplicatePad`."""
     pad = tuple(int(p) for p in padding)
-    if not (fast_paths.enabled() and x.dim() == 4):
-        return F.pad(x, pad, mode="replicate")
+    if not (fast_paths.enabled() and x.dim() == 4 and x.device.type in AUTOCAST_DEVICES):
+        return F.pad(x, pad, mode="replicate")  # e.g. the meta device of the MAC count: no autocast there
     if x.requires_grad and torch.is_grad_enabled():
         return ReplicatePad.apply(x, pad)
     with torch.autocast(x.device.type, enabled=False):
         return F.pad(x, pad, mode="replicate")
+
+
+#: The devices whose autocast state :func:`replicate_pad` reads (`torch.is_autocast_enabled` refuses others)
+AUTOCAST_DEVICES = ("cpu", "cuda")
 
 
 def padded_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
