@@ -182,3 +182,26 @@ def test_the_gradient_norm_is_logged_each_step_before_clipping(tiny_store, tmp_p
     norms = pd.read_csv(metrics).dropna(subset=["train/grad_norm"]).set_index("step")["train/grad_norm"]
     assert sorted(norms.index) == list(range(steps))
     assert (norms > 1e3 * clip).all() and norms.map(math.isfinite).all()
+
+
+def test_check_finite_refuses_exactly_what_isfinite_refuses():
+    """The clip check (one max reduction) against ``torch.isfinite(...).all()``, buffer by buffer: NaN, +-Inf
+    anywhere (first, last, inside a strided view), the largest finite values, all-black and empty buffers."""
+    from mcd.lit.module import check_finite
+
+    torch.manual_seed(0)
+    cases = []
+    for bad in (float("nan"), float("inf"), -float("inf"), 3.4e38, -3.4e38, 1e5, 0.0):
+        for where in ((0, 0, 0, 0, 0), (3, 4, 2, 95, 95), (1, 2, 1, 50, 7)):
+            clip = torch.rand(4, 5, 3, 96, 96)
+            clip[where] = bad
+            cases += [clip, clip[:, 1:, :, ::2]]
+    cases += [torch.zeros(4, 5, 3, 96, 96), torch.zeros(0, 5, 3, 8, 8),
+              torch.full((1, 1, 1, 3, 5), float("nan"))]
+    for clip in cases:
+        finite = bool(torch.isfinite(clip).all())
+        if finite:
+            check_finite({"c4": clip}, {})
+        else:
+            with pytest.raises(ValueError, match="non-finite values in buffer 'c4'"):
+                check_finite({"c4": clip}, {})
