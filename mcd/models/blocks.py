@@ -9,6 +9,7 @@ from collections.abc import Callable, Sequence
 from torch import Tensor, nn
 
 from mcd.models.cpu_fast import fused_conv
+from mcd.models.cpu_fast.replicate import padded_conv
 from mcd.models.inputs import cat_channels, with_constant
 
 #: ``block(in_channels, out_channels) -> module`` builds one conv block of a U-Net.
@@ -39,7 +40,7 @@ class ConvReLU(nn.Module):
     def forward(self, x: Tensor) -> Tensor:
         if self.conv.padding_mode == "zeros" and fused_conv.applies(self.conv.weight, [x]):
             return fused_conv.conv2d(x, self.conv.weight, self.conv.bias, self.conv.padding, relu=True)
-        return self.act(self.conv(x))
+        return self.act(padded_conv(self.conv, x))
 
     def forward_parts(self, parts: Sequence[Tensor], constant: Tensor | None = None) -> Tensor:
         """The block on the channel concatenation of ``parts`` and of ``constant`` ``[B, D]`` broadcast over

@@ -34,7 +34,7 @@ from torch import Tensor, nn
 
 from mcd.models import fast_paths
 from mcd.models.blocks import BlockFactory, on_parts
-from mcd.models.cpu_fast.replicate import replicate_conv, replicate_conv_applies
+from mcd.models.cpu_fast.replicate import padded_conv, replicate_conv, replicate_conv_applies, replicate_pad
 
 
 def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
@@ -45,25 +45,75 @@ def apply_pixel_kernels(image: Tensor, kernels: Tensor) -> Tensor:
     the CPU (docs/inference.md, "Kernel application"). Runs in the kernels' dtype promoted with
     the image's. Fast path (:mod:`mcd.models.fast_paths`): the passes run with the image and the output in
     the kernels' memory layout (a channels-last image against plain kernels made every pass a strided one,
-    2.2x slower on the CPU: docs/inference.md "Fast paths"), and the output is handed back in the image's.
+    2.2x slower on the CPU: docs/inference.md "Fast paths"), and the output is handed back in the image's;
+    where a gradient is taken, the backward is :class:`PixelKernels`'s.
     """
     taps = kernels.shape[1]
     size = int(round(taps ** 0.5))
     if size * size != taps or size % 2 == 0:
         raise ValueError(f"per-pixel kernels need an odd square number of taps; got {taps}")
-    h, w = image.shape[-2:]
     r = size // 2
     dtype = torch.promote_types(image.dtype, kernels.dtype)
     layout = memory_format(image)
     if fast_paths.enabled():
         image = image.contiguous(memory_format=memory_format(kernels))
-    padded = F.pad(image.to(dtype), (r, r, r, r), mode="replicate")
+    padded = replicate_pad(image.to(dtype), (r, r, r, r))
     kernels = kernels.to(dtype)
-    out = torch.zeros_like(image, dtype=dtype)
+    if fast_paths.enabled() and torch.is_grad_enabled() and (padded.requires_grad or kernels.requires_grad):
+        out = PixelKernels.apply(padded, kernels)
+    else:
+        out = pixel_kernel_passes(padded, kernels)
+    return out.contiguous(memory_format=layout)
+
+
+def pixel_kernel_passes(padded: Tensor, kernels: Tensor) -> Tensor:
+    """:func:`apply_pixel_kernels` on the image already padded by ``l // 2`` on each side, in ``kernels``'s
+    dtype: one ``addcmul_`` per tap of a shifted view."""
+    taps = kernels.shape[1]
+    size = int(round(taps ** 0.5))
+    h, w = kernels.shape[-2:]
+    out = torch.zeros_like(padded[..., :h, :w], dtype=kernels.dtype)
     for t in range(taps):
         dy, dx = divmod(t, size)
         out.addcmul_(kernels[:, t : t + 1], padded[..., dy : dy + h, dx : dx + w])
-    return out.contiguous(memory_format=layout)
+    return out
+
+
+class PixelKernels(torch.autograd.Function):
+    """:func:`pixel_kernel_passes` with its backward written out (fast path, :mod:`mcd.models.fast_paths`).
+
+    Autograd's backward of the ``l*l`` in-place multiply-adds built, per tap, a zero tensor the size of the
+    padded image and one the size of the kernels around each tap's gradient (the shifted views' backward)
+    and added them all up, at 40 times the forward's time on the CPU (notes/f_speed.md "The training
+    step"). Here each tap's gradients are computed as autograd computes
+    them (``addcmul``'s derivative: ``(grad * view).sum(1)`` for the kernel's channel, ``grad * kernel`` for
+    the view) and written into, or added to, one gradient tensor each, the taps in the order autograd adds
+    them (the last first). The same values as autograd's: ``tests/models/test_fast_paths.py``."""
+
+    @staticmethod
+    def forward(ctx, padded: Tensor, kernels: Tensor) -> Tensor:  # noqa: ANN001
+        ctx.save_for_backward(padded, kernels)
+        return pixel_kernel_passes(padded, kernels)
+
+    @staticmethod
+    def backward(ctx, grad: Tensor) -> tuple[Tensor | None, Tensor | None]:  # noqa: ANN001
+        padded, kernels = ctx.saved_tensors
+        taps = kernels.shape[1]
+        size = int(round(taps ** 0.5))
+        h, w = kernels.shape[-2:]
+        grad_padded = grad_kernels = None
+        if ctx.needs_input_grad[1]:
+            grad_kernels = torch.empty_like(kernels)
+            for t in range(taps):
+                dy, dx = divmod(t, size)
+                view = padded[..., dy : dy + h, dx : dx + w]
+                grad_kernels[:, t : t + 1] = (grad * view).sum(1, keepdim=True)
+        if ctx.needs_input_grad[0]:
+            grad_padded = torch.zeros_like(padded)
+            for t in reversed(range(taps)):
+                dy, dx = divmod(t, size)
+                grad_padded[..., dy : dy + h, dx : dx + w] += grad * kernels[:, t : t + 1]
+        return grad_padded, grad_kernels
 
 
 def memory_format(x: Tensor) -> torch.memory_format:
@@ -252,5 +302,5 @@ class KernelMapHead(nn.Module):
         if fast_paths.enabled() and replicate_conv_applies(self.out, x):
             z = replicate_conv(self.out, x)
         else:
-            z = self.out(x)
+            z = padded_conv(self.out, x)
         return torch.tanh(self.scale(z))

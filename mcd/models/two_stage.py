@@ -153,7 +153,25 @@ class TwoStage(nn.Module):
         (:func:`mcd.models.margin.with_margin`, docs/method.md "Frame edges")."""
         return with_margin(self, self.denoiser, z)
 
+    def advance(self, x: dict[str, Tensor | None]) -> None:
+        """Carry the state of frame ``x`` to the next frame without computing its output (a training clip's
+        frame that takes no gradient and whose output the loss does not read:
+        :meth:`mcd.lit.module.DenoiseModule.run_clip`). The state is semantic alignment's, which ``F_d``'s
+        encoder makes from ``F_d``'s input; so the frame runs as :meth:`forward` up to ``F_d``'s input and
+        then through ``F_d``'s encoder only: ``F_d``'s decoder, head and the output steps are skipped. The
+        same state, bit for bit (``tests/models/test_training_paths.py``). Where the output itself is state
+        (``method.warp_previous``), outside training (the denoiser's margin) or with gradients on, the whole
+        forward runs."""
+        if self.warp_previous or not self.training or torch.is_grad_enabled() or not self.sw["SA"]:
+            self(x)
+            return
+        self._run(x, state_only=True)
+
     def forward(self, x: dict[str, Tensor | None]) -> dict[str, Tensor]:
+        return self._run(x, state_only=False)
+
+    def _run(self, x: dict[str, Tensor | None], state_only: bool) -> dict[str, Tensor]:
+        """:meth:`forward`; with ``state_only``, :meth:`advance`'s part of it (``F_d``'s encoder)."""
         who = "two_stage"
         with stage("input packing"):
             g = gbuffers(x, who)
@@ -187,6 +205,10 @@ class TwoStage(nn.Module):
             feats = [*feats, self.previous(x, feats[0].float())]
         with stage("input packing"):
             z = cat_channels([f.float() for f in feats])
+        if state_only:  # training, so no margin: F_d reads z as it is
+            with stage("F_d"):
+                self.denoiser.unet.encode(z)
+            return out
         with stage("F_d"):
             y = self.denoise(z)
             if self.residual:

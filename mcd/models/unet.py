@@ -14,11 +14,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 
-import torch.nn.functional as F
 from torch import Tensor, nn
 
 from mcd.core.stages import stage
 from mcd.models.blocks import BlockFactory, ConvReLU, on_parts
+from mcd.models.cpu_fast.upsample import upsample_bilinear
 from mcd.models.inputs import crop, pad_to_multiple
 
 PoolFactory = Callable[[int], nn.Module]
@@ -65,8 +65,9 @@ class UNet(nn.Module):
             c = w
         self.head = nn.Conv2d(c, cout, 1)
 
-    def forward(self, x: Tensor) -> dict[str, Tensor]:
-        size = x.shape[-2:]
+    def encode(self, x: Tensor) -> tuple[list[Tensor], Tensor]:
+        """The encoder on ``x`` replicate-padded to a multiple of the stride: the skips (each level's
+        features before its pooling, finest first) and the deepest level's features."""
         x = pad_to_multiple(x, self.stride)
         skips = []
         for j, level in enumerate(self.encoder):
@@ -75,10 +76,15 @@ class UNet(nn.Module):
                 if j < len(self.pools):
                     skips.append(x)
                     x = self.pools[j](x)
+        return skips, x
+
+    def forward(self, x: Tensor) -> dict[str, Tensor]:
+        size = x.shape[-2:]
+        skips, x = self.encode(x)
         coarsest = x
         for j, (level, skip) in enumerate(zip(self.decoder, reversed(skips), strict=True)):
             with self._label(len(self.decoder) - 1 - j):
-                x = F.interpolate(x, size=skip.shape[-2:], mode="bilinear", align_corners=False)
+                x = upsample_bilinear(x, skip.shape[-2:])
                 x = level[1:](on_parts(level[0], [x, skip]))
         with self._label(0):
             out = self.head(x)

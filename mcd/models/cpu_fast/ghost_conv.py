@@ -30,7 +30,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from mcd.models.cpu_fast import fused_conv
-from mcd.models.cpu_fast.replicate import replicate_padded
+from mcd.models.cpu_fast.replicate import padded_conv, replicate_pad, replicate_padded
 from mcd.models.inputs import cat_channels, with_constant
 
 
@@ -375,7 +375,7 @@ def merged_primary(group: nn.Conv2d, point: nn.Conv2d, x: Tensor) -> Tensor:
     padding = group.padding
     if group.padding_mode != "zeros":
         ph, pw = group.padding
-        x, padding = F.pad(x, (pw, pw, ph, ph), mode=group.padding_mode), (0, 0)
+        x, padding = replicate_pad(x, (pw, pw, ph, ph)), (0, 0)
     return F.conv2d(x, weight, bias, padding=padding)
 
 
@@ -395,11 +395,11 @@ def grouped_conv(conv: nn.Conv2d, x: Tensor) -> Tensor:
     block's true MACs."""
     g = conv.groups
     if g == 1 or x.device.type != "cpu" or not torch.is_grad_enabled():
-        return conv(x)
+        return padded_conv(conv, x)
     cout, cin_g = conv.weight.shape[:2]
     mask = torch.block_diag(*[x.new_ones(cout // g, cin_g) for _ in range(g)])[:, :, None, None]
     padding = conv.padding
     if conv.padding_mode != "zeros":  # replicate: pad first, as nn.Conv2d does
         ph, pw = conv.padding
-        x, padding = F.pad(x, (pw, pw, ph, ph), mode=conv.padding_mode), 0
+        x, padding = replicate_pad(x, (pw, pw, ph, ph)), 0
     return F.conv2d(x, conv.weight.repeat(1, g, 1, 1) * mask, conv.bias, padding=padding)
