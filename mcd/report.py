@@ -419,8 +419,10 @@ def make_report(
     from mcd.reporting import records
     from mcd.reporting.runs import NoRunsError, find_runs, find_sweeps
     from mcd.reporting.scaling.grid import is_scaling
+    from mcd.reporting.strips import UNREADABLE
 
     started = time.perf_counter()
+    UNREADABLE.clear()  # this report's damaged samples, not an earlier report's of the same process
     runs = find_runs(dirs)
     if not runs:
         raise NoRunsError(

@@ -48,7 +48,8 @@ _NAME = re.compile(r"^(?P<frame>\d+)_(?P<name>[a-z_]+?)(?:_\d+spp)?$")
 DIR, = writes("standard", "strips")
 
 
-#: The sample EXRs this process found damaged (:func:`read_sample`), for ``mcd.report`` to name at its end.
+#: The sample EXRs the current report found damaged (:func:`read_sample`), for ``mcd.report`` to name at its
+#: end (``mcd.report.make_report`` empties it first).
 UNREADABLE: dict[Path, str] = {}
 
 

@@ -11,6 +11,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import module_env
 
 SMALL = ["--crop", "16", "--frames", "7", "--clip-len", "5", "--seconds", "0.05", "--capacity", "cpu",
@@ -23,6 +25,7 @@ def _loader(folder, size: int) -> subprocess.CompletedProcess:
                           text=True, timeout=600)
 
 
+@pytest.mark.slow
 def test_a_dir_reused_at_another_size_is_packed_again_and_timed_at_the_new_size(tmp_path):
     first = _loader(tmp_path / "d", 48)
     assert first.returncode == 0, first.stderr[-3000:]

@@ -52,6 +52,7 @@ def test_a_shipped_bundles_name_is_refused_and_kept_unless_replace(finished, tmp
     assert proc.returncode == 0 and (out / "fresh.pt").is_file(), proc.stderr[-3000:]
 
 
+@pytest.mark.slow
 def test_a_bad_name_or_an_unfinished_run_is_one_error_line(finished, tmp_path):
     out = tmp_path / "bundled"
     proc = _bundle(str(finished), "--name", "../escaped", "--out", str(out))

@@ -103,6 +103,7 @@ def test_a_run_record_of_another_shape_is_one_error_line_naming_the_file(ab_swee
     assert "Traceback" not in proc.stderr and not (tmp_path / "out" / "a.pt").exists()
 
 
+@pytest.mark.slow
 def test_a_bundles_weights_replaced_by_another_bundles_are_refused(ab_sweep, tmp_path, capsys):
     """Two bundles of one model (row A's best and its last checkpoint): the second's ``.pt`` copied over the
     first's was denoised with, and ``denoise.json`` stated the first's training for it, exit 0."""

@@ -38,6 +38,7 @@ def test_a_users_log_named_like_the_commands_is_refused_and_kept(tmp_path, modul
     assert not (tmp_path / "data").exists()
 
 
+@pytest.mark.slow
 def test_a_commands_own_folder_is_taken_again(tmp_path):
     own = tmp_path / "plan"
     for _ in range(2):

@@ -18,6 +18,7 @@ from mcd.run import train_and_test
 from tests.conftest import compose_cfg, store32_overrides
 
 
+@pytest.mark.slow
 def test_one_frame_clips_with_the_temporal_loss_are_refused_before_rendering(tmp_path):
     overrides = [*store32_overrides(tmp_path / "data"), "+experiment=unet", "capacity=cpu",
                  "train.max_steps=1", "data.clip_len=1", "trainer.enable_progress_bar=false"]

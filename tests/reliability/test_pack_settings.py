@@ -34,6 +34,7 @@ def test_a_store_rendered_with_other_settings_is_refused_before_any_work(cbox_st
     assert not folder.exists()
 
 
+@pytest.mark.slow
 def test_the_pack_command_refuses_it_and_packs_a_store_of_its_settings(cbox_store, tmp_path):
     _, shared = cbox_store
     base = [sys.executable, "-m", "mcd.pack", "+experiment=unet", *store32_overrides(shared.data_dir)]

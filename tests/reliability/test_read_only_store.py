@@ -18,6 +18,7 @@ import pytest
 from tests.conftest import module_env, store32_overrides
 
 
+@pytest.mark.slow
 def test_a_fully_rendered_store_on_a_read_only_mount_is_trained_from(cbox_store, tmp_path):
     if subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode != 0:
         pytest.skip("no unprivileged mount namespace here (unshare -rm) to make a read-only mount")

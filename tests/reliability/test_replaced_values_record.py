@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from mcd.data.exr import read_exr, sha256, write_exr
 from tests.conftest import mcd_run, store32_overrides
@@ -31,6 +32,7 @@ def _damage(store, frame: int, buffer: str, values: list[float]) -> None:
     man_path.write_text(json.dumps(man))
 
 
+@pytest.mark.slow
 def test_values_replaced_by_0_and_clamped_to_float16_are_counted_in_metrics_json(own_store, tmp_path):
     cfg, store = own_store
     for f in range(12):  # the clean store holds none (so every count below is the damage's)

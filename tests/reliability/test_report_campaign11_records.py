@@ -49,6 +49,7 @@ def _sweeps(ab_sweep: Path, tmp_path: Path) -> tuple[Path, Path]:
     return x, y
 
 
+@pytest.mark.slow
 def test_two_sweeps_that_would_share_a_record_folder_are_refused_before_writing(ab_sweep, tmp_path):
     x, y = _sweeps(ab_sweep, tmp_path)
     proc = _report(str(x), str(y), "--out", str(tmp_path / "reports"), "--name", "two", "--no-viewer")
@@ -117,6 +118,7 @@ def test_a_bench_csv_with_a_latency_no_bench_measures_is_refused(ab_sweep, tmp_p
     assert not (tmp_path / "reports").exists()
 
 
+@pytest.mark.slow
 def test_a_frames_csv_giving_a_frame_twice_fails_that_run(ab_sweep, tmp_path):
     """A ``frames.csv`` whose last row is given twice was reported, the copy a second point of the per-frame
     table and plot, exit 0 (a low: no run writes one twice; a resumed run drops what it logged past its

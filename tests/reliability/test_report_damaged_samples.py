@@ -10,9 +10,12 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import copy_sweep, module_env
 
 
+@pytest.mark.slow
 def test_a_damaged_sample_is_left_out_and_named_and_the_report_is_whole(ab_sweep, tmp_path):
     copy_sweep(ab_sweep, tmp_path)
     jobs = tmp_path / "multirun" / "ablation" / "tiny"

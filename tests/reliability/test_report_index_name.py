@@ -23,6 +23,7 @@ def _report(tmp_path, *args):
 
 
 @pytest.mark.parametrize("how", ["--name", "data_profile"])
+@pytest.mark.slow
 def test_a_report_named_like_the_index_is_refused_before_anything_is_written(tmp_path, how):
     sweep = tmp_path / "multirun"
     profile = {"data_profile": "readme.MD"} if how == "data_profile" else {}

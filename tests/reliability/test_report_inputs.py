@@ -4,7 +4,10 @@ for real."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
+import logging
 import os
 import re
 import subprocess
@@ -18,11 +21,44 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _report(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
+def _report_process(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
+    """``python -m mcd.report <args> --out <tmp_path>/reports --name t --no-viewer`` in a fresh interpreter,
+    in `tmp_path`: for what only a process shows (a wait bounded by the timeout, every line on stderr)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.run([sys.executable, "-m", "mcd.report", *args, "--out", str(tmp_path / "reports"),
                            "--name", "t", "--no-viewer"], cwd=tmp_path, env=env, capture_output=True,
                           text=True, timeout=300)
+
+
+def _report(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
+    """The same command as :func:`_report_process`, run in this process (``mcd.report.main``, what
+    ``python -m mcd.report`` calls), without a new interpreter's imports of torch and pandas: the exit
+    status as the interpreter would give it (``sys.exit("error: ...")`` is 1 with the message on stderr),
+    and warnings logged by the command on stderr, as a fresh interpreter prints them. An exception the
+    command does not turn into an exit is raised here, so the test fails with its traceback."""
+    from mcd.report import main
+
+    out, err = io.StringIO(), io.StringIO()
+    to_stderr = logging.StreamHandler(err)
+    to_stderr.setLevel(logging.WARNING)
+    root = logging.getLogger()
+    root.addHandler(to_stderr)
+    cwd = Path.cwd()
+    code: int | str | None = 0
+    try:
+        os.chdir(tmp_path)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                main([*args, "--out", str(tmp_path / "reports"), "--name", "t", "--no-viewer"])
+            except SystemExit as exit_:
+                code = exit_.code
+                if isinstance(code, str):
+                    print(code, file=sys.stderr)
+    finally:
+        os.chdir(cwd)
+        root.removeHandler(to_stderr)
+    returncode = 1 if isinstance(code, str) else int(code or 0)
+    return subprocess.CompletedProcess(["mcd.report", *args], returncode, out.getvalue(), err.getvalue())
 
 
 @pytest.mark.parametrize(("kind", "message"), [
@@ -36,7 +72,7 @@ def test_defect17_an_empty_or_missing_folder_is_one_line_without_a_traceback(tmp
         given.mkdir()
     elif kind == "a_file":
         given.write_text("not a folder\n")
-    proc = _report(tmp_path, str(given))
+    proc = _report_process(tmp_path, str(given))
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr, proc.stderr
     lines = proc.stderr.strip().splitlines()

@@ -19,7 +19,7 @@ import pytest
 
 from mcd.data.exr import write_exr
 from tests.conftest import module_env
-from tests.reliability.test_report_inputs import GARBAGE, _job, _report
+from tests.reliability.test_report_inputs import GARBAGE, _job, _report, _report_process
 
 
 def _sweep(tmp_path: Path) -> tuple[Path, Path]:
@@ -156,7 +156,7 @@ def test_a_record_that_is_a_fifo_fails_that_run_instead_of_waiting_for_ever(tmp_
     (sweep / "multirun.yaml").write_text("hydra:\n  overrides:\n    task: [+experiment=F,unet]\n")
     (bad / file).unlink(missing_ok=True)
     os.mkfifo(bad / file)
-    proc = _report(tmp_path, str(sweep))  # the report waited on the FIFO until the test's timeout
+    proc = _report_process(tmp_path, str(sweep))  # it waited on the FIFO until the timeout: a process
     assert proc.returncode == 1, proc.stderr
     assert f"error: {bad.resolve() / file} is corrupt (not a regular file)" in proc.stderr, proc.stderr
     assert "2 found, 1 finished, 1 failed" in (tmp_path / "reports" / "t" / "README.md").read_text()

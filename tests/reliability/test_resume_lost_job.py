@@ -30,6 +30,7 @@ from tests.reliability.test_resume import FROZEN
 CHOICES = {"data": "tiny"}
 
 
+@pytest.mark.slow
 def test_a_resume_after_job_json_is_lost_is_checked_against_the_checkpoint(own_interrupted, tmp_path):
     run, overrides, store = own_interrupted  # row A killed after its checkpoint
     (run / "job.json").unlink()  # and its record lost

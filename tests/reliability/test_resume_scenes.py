@@ -57,6 +57,7 @@ def test_a_resume_on_other_scenes_or_values_is_refused_and_a_rerun_not_skipped(o
                        CHOICES)
 
 
+@pytest.mark.slow
 def test_a_resume_of_a_scene_file_edited_in_place_is_refused(tmp_path):
     shutil.copytree(VENDORED_DIR / "cbox", tmp_path / "mybox")
     scene = tmp_path / "mybox" / "scene.xml"

@@ -14,6 +14,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import module_env, store32_overrides
 
 
@@ -39,6 +41,7 @@ def test_a_link_where_a_run_writes_is_refused_and_its_target_kept(tmp_path):
     assert sorted(p.name for p in run.iterdir()) == ["logs", "run.lock"]
 
 
+@pytest.mark.slow
 def test_a_sweep_job_with_a_linked_lock_is_refused_and_its_target_kept(tmp_path):
     thesis = tmp_path / "thesis.tex"
     thesis.write_text("chapter 3\n")

@@ -17,6 +17,7 @@ RUN = ["+experiment=unet", "train.max_steps=2", "train.batch_size=1", "train.sam
 
 
 @pytest.mark.parametrize("value", ["banana", "64-true"])
+@pytest.mark.slow
 def test_an_unusable_precision_is_named_before_anything_is_rendered(tmp_path, value):
     data = tmp_path / "data"
     proc = mcd_run(*RUN, *store32_overrides(data), f"trainer.precision={value}",

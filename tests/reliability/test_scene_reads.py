@@ -14,6 +14,8 @@ from __future__ import annotations
 import json
 import shutil
 
+import pytest
+
 from mcd.data import StoreBuilder
 from mcd.data.scenes import VENDORED_DIR
 from tests.conftest import compose_cfg, store32_overrides
@@ -30,6 +32,7 @@ def _halve(obj) -> None:
     obj.write_text("\n".join(lines) + "\n")
 
 
+@pytest.mark.slow
 def test_a_changed_mesh_renders_the_scene_again(tmp_path):
     shutil.copytree(VENDORED_DIR / "cbox", tmp_path / "boxm")
     scene = tmp_path / "boxm" / "scene.xml"

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from mcd.data import StoreBuilder
 from tests.conftest import compose_cfg, store32_overrides
 
@@ -25,6 +27,7 @@ def _quality(store: StoreBuilder) -> dict:
     return json.loads(store.manifest_path("cbox").read_text())["ref_quality"]
 
 
+@pytest.mark.slow
 def test_another_exposure_target_runs_the_pilot_again_as_a_fresh_store_does(own_store, tmp_path):
     _, store = own_store
     old = _quality(store)

@@ -38,6 +38,7 @@ def test_a_sweep_folder_outside_its_root_is_refused_naming_the_key(tmp_path, ove
     assert not (cwd / "data").exists() and not (cwd / "multirun").exists()
 
 
+@pytest.mark.slow
 def test_a_plan_above_its_limit_is_one_error_line(tmp_path):
     proc = _mcd_run(tmp_path, "+sweep=scaling", "+experiment=A", "train.max_steps=1000",
                     "sweep_plan.cpu_hours_limit=0.000001", f"hydra.sweep.dir={tmp_path / 'sweep'}")

@@ -13,6 +13,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import module_env, store32_overrides
 
 
@@ -22,6 +24,7 @@ def _sweep(cwd, sweep_dir) -> subprocess.CompletedProcess:
     return subprocess.run(argv, cwd=cwd, env=module_env(), capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow
 def test_a_users_multirun_yaml_is_not_replaced_by_a_sweep(tmp_path):
     notes, linked = tmp_path / "notes", tmp_path / "linked"
     notes.mkdir()

@@ -33,6 +33,7 @@ def _cfg(data_dir, train_store, *overrides: str):
     return cfg
 
 
+@pytest.mark.slow
 def test_a_pack_of_other_data_into_a_store_being_trained_from_is_refused(cbox_store, tmp_path):
     shared = tmp_path / "train_store"
     cfg_a = _cfg(cbox_store[1].data_dir, shared)
