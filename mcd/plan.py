@@ -31,9 +31,10 @@ and it measures, on the machine it runs on, in this process (``plan.measure=fals
   (:func:`mcd.data.synthetic.synthetic_frame`) of ``data.clip_len`` frames, in ``trainer.precision`` (bf16
   autocast where it resolves to ``bf16-mixed``) and the weights' layout of ``train.channels_last``, backward
   and an Adam step: on a GPU at ``data.train_crop``, the peak of ``torch.cuda.max_memory_allocated``; on CPU
-  at ``plan.step_crop`` and half of it (a paper-sized step takes minutes on a small CPU), CPU seconds and the
-  rise of the peak resident memory (``VmHWM`` after ``/proc/self/clear_refs``), extrapolated to the crop's
-  pixels; plus 16 bytes per parameter (weights, gradients, Adam's two moments);
+  CPU seconds and the rise of the peak resident memory (``VmHWM`` after ``/proc/self/clear_refs``) at the
+  crop, or for a crop above ``plan.step_crop`` (a paper-sized step takes minutes on a small CPU) at that and
+  half of it, extrapolated to the crop's pixels; plus 16 bytes per parameter (weights, gradients, Adam's two
+  moments);
 - the loader's clips/s per worker (:func:`mcd.data.loader_rate.measure`: the training store on a small
   synthetic store of the run's buffers at the crop size), against the rate a GPU needs (GPU steps/s x batch).
 
@@ -95,7 +96,7 @@ def plan(cfg: DictConfig, measure: bool = True) -> dict[str, Any]:
     wk = p["work"]
     pc = cfg.get("plan") or {}
     t0 = time.perf_counter()
-    p["train_step"] = train_step(cfg, int(pc.get("step_crop", 64)))  # first: a clean peak-memory reading
+    p["train_step"] = train_step(cfg, int(pc.get("step_crop", 96)))  # first: a clean peak-memory reading
     t1 = time.perf_counter()
     p["pilot"] = pilot_render(cfg, int(pc.get("pilot_scale", 8)), int(pc.get("pilot_spp", 8)),
                               int(pc.get("pilot_frames", 1)))

@@ -93,6 +93,7 @@ def test_the_step_time_and_memory_are_the_measured_batchs(tmp_path):
     assert cpu["gpu_step_s"] == pytest.approx(0.9 / cpu["ratio"]) and cpu["step_memory_mb"] == 6020.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("precision", "channels_last", "autocast"),
                          [("bf16-mixed", True, "bfloat16"), ("32-true", False, None)])
 def test_the_planned_step_is_the_step_the_run_trains(tmp_path, precision, channels_last, autocast):
@@ -106,7 +107,7 @@ def test_the_planned_step_is_the_step_the_run_trains(tmp_path, precision, channe
                       "train.grad_frames=1")
     step = train_step(cfg, step_crop=16)
     assert step["precision"] == precision and step["batch"] == step["measured_batch"] == 3
-    assert step["measured_crops"] == [8, 16] and step["seconds"] > 0
+    assert step["measured_crops"] == [16] and step["seconds"] > 0  # the crop itself
     assert step["observed"]["channels_last"] is channels_last
     first, grad_from, returned = DenoiseModule(cfg, build(cfg), build_loss(cfg)).clip_plan(4)
     assert returned > first  # F carries state: frames before the loss's go through advance
@@ -115,12 +116,14 @@ def test_the_planned_step_is_the_step_the_run_trains(tmp_path, precision, channe
     assert all(c["batch"] == 3 and c["size"] == [16, 16] and c["autocast"] == autocast for c in calls)
 
 
+@pytest.mark.slow
 def test_one_clip_measured_is_scaled_to_the_batch(tmp_path):
-    """``batch=1`` measures one clip and scales seconds and memory to ``train.batch_size``."""
+    """``batch=1`` measures one clip and scales seconds and memory to ``train.batch_size``; a crop above
+    ``step_crop`` is measured at it and half of it."""
     cfg = compose_cfg(*store32_overrides(tmp_path), "+experiment=A", "train.batch_size=3")
-    step = train_step(cfg, step_crop=16, batch=1)
-    assert step["batch"] == 3 and step["measured_batch"] == 1
-    assert {c["batch"] for c in step["observed"]["calls"]} == {1}
+    step = train_step(cfg, step_crop=12, batch=1)
+    assert step["batch"] == 3 and step["measured_batch"] == 1 and step["measured_crops"] == [8, 12]
+    assert {(c["batch"], tuple(c["size"])) for c in step["observed"]["calls"]} == {(1, (12, 12))}
 
 
 def test_a_profile_too_short_to_train_on_is_planned_without_training(tmp_path, capsys):

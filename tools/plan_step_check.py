@@ -1,11 +1,10 @@
 """How well the plan's training step (:func:`mcd.lit.workload.train_step`) predicts the step it plans
-(notes/scaling_plan.md "The plan re-measured with the configured step"): per method, the plan's figure
-measured two ways, the whole batch at ``plan.step_crop`` / 2 and ``plan.step_crop`` extrapolated to the crop,
-and one clip at the same crops extrapolated and scaled by ``train.batch_size``; against the same step
-measured at the crop itself (``step_crop`` = the crop: the last of its two measured sizes is the crop, no
-extrapolation). The three alternate, ``--repeat`` rounds, in one process; CPU seconds of one thread, and the
-wall seconds each measurement took (the model's build and warm-up steps included). Run with
-``OMP_NUM_THREADS=1``:
+(notes/scaling_plan.md "The plan re-measured with the configured step"): per method, the step measured three
+ways: the whole batch at ``--small`` / 2 and ``--small`` extrapolated to the crop, one clip at the same crops
+extrapolated and scaled by ``train.batch_size``, and the whole batch at the crop itself (the plan's way where
+the crop is at most ``plan.step_crop``), the reference of the other two. The three alternate, ``--repeat``
+rounds, in one process; CPU seconds of one thread, and the wall seconds each measurement took (the model's
+build and warm-up steps included). Run with ``OMP_NUM_THREADS=1``:
 
     OMP_NUM_THREADS=1 PYTHONPATH=. python tools/plan_step_check.py --methods F,ntasad,C,A --data small
 """
@@ -30,13 +29,14 @@ def main() -> None:
     ap.add_argument("--methods", default="F,ntasad", help="experiments, comma-separated (+experiment=<name>)")
     ap.add_argument("--data", default="small", help="data profile")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a config override")
+    ap.add_argument("--small", type=int, default=64, help="the larger of the two small crops")
     ap.add_argument("--repeat", type=int, default=2, help="rounds of the three measurements")
     args = ap.parse_args()
     print(f"commit {short_commit()}; {device_name(torch.device('cpu'))}; torch {torch.__version__}; "
           f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     for method in args.methods.split(","):
         cfg = compose([f"+experiment={method}", f"data={args.data}", *args.set])
-        small, crop = int(cfg.plan.step_crop), int(cfg.data.train_crop)
+        small, crop = args.small, int(cfg.data.train_crop)
         ways = {"batch": (small, None), "clip": (small, 1), "at the crop": (crop, None)}
         got: dict[str, list[float]] = {k: [] for k in ways}
         wall: dict[str, list[float]] = {k: [] for k in ways}
@@ -50,7 +50,8 @@ def main() -> None:
         print(f"{method} {args.data} ({r['precision']}, channels-last {r['observed']['channels_last']}, "
               f"batch {r['batch']} x {r['clip_len']} frames at {crop}): " + "; ".join(
                   f"{k} {' '.join(f'{s:.3f}' for s in v)} s (median {med[k]:.3f}, "
-                  f"{med[k] / med['at the crop']:.2f}x; the measurement took {statistics.median(wall[k]):.1f} s)"
+                  f"{med[k] / med['at the crop']:.2f}x; the measurement took "
+                  f"{statistics.median(wall[k]):.1f} s)"
                   for k, v in got.items()), flush=True)
     print(f"load average at the end {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
 

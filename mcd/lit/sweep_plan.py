@@ -103,8 +103,8 @@ def plan_lines(rows: list[dict[str, Any]], limit: float) -> list[str]:
 
 def measured_step_seconds(cfg: DictConfig) -> float:
     """CPU seconds of one optimiser step of ``cfg`` as its job trains it (:func:`mcd.lit.workload.train_step`:
-    ``train.batch_size`` clips in the configured precision and layout, measured at ``plan.step_crop`` and
-    half of it, extrapolated to ``data.train_crop``)."""
+    ``train.batch_size`` clips in the configured precision and layout, at ``data.train_crop``, or extrapolated
+    to it from ``plan.step_crop`` and half of it where the crop is larger)."""
     from mcd.lit.workload import train_step
 
     return float(train_step(cfg, int(cfg.plan.step_crop))["seconds"])

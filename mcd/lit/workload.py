@@ -187,7 +187,7 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
                             "plan.measure=false")
 
 
-def train_step(cfg: DictConfig, step_crop: int = 64, batch: int | None = None) -> dict[str, Any]:
+def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -> dict[str, Any]:
     """One optimiser step of the configured method as its run trains it (:mod:`mcd.plan`, the sweep's plan
     :mod:`mcd.lit.sweep_plan`): seconds and activation memory in MB of one step of ``train.batch_size`` clips
     of ``data.clip_len`` frames at ``data.train_crop``, and what was measured (docs/scale.md "Plan").
@@ -206,11 +206,14 @@ def train_step(cfg: DictConfig, step_crop: int = 64, batch: int | None = None) -
 
     On a GPU: at the crop, after a warm-up step (cuDNN's algorithm choice, the allocator's first blocks),
     the median wall time of three steps and the peak of ``torch.cuda.max_memory_allocated``; at one clip
-    scaled to the batch where the batch does not fit. On CPU: at `step_crop` / 2 and `step_crop` (at most the
-    crop), each after a warm-up step at its size, on one thread, as CPU seconds over torch's threads (the
-    step on an idle machine, ideal scaling; a shared machine stretches wall time, not this) and the rise of
-    the peak resident memory; both extrapolated to the crop's pixels along the line through the two (a fixed
-    part plus a part per pixel), or scaled by the pixel ratio where the two are out of order (noise).
+    scaled to the batch where the batch does not fit. On CPU: on one thread, after a warm-up step at the
+    size, as CPU seconds over torch's threads (the step on an idle machine, ideal scaling; a shared machine
+    stretches wall time, not this) and the rise of the peak resident memory; at the crop where it is at most
+    `step_crop`, else at `step_crop` / 2 and `step_crop` and extrapolated to the crop's pixels along the line
+    through the two (a fixed part plus a part per pixel), or scaled by the pixel ratio where the two are out
+    of order (noise). The whole batch at the crop is the plan's step: extrapolated from a third and two
+    thirds of the crop's side, the same step came out 1.2-1.4x over, one clip times the batch 2.3-3.4x over
+    (``tools/plan_step_check.py``; notes/scaling_plan.md "The plan re-measured with the configured step").
 
     ``observed``: what the model saw in the last timed step, read by a hook on its ``forward`` (the frames it
     computed an output for): per call the batch and frame size, whether autocast was on and to which dtype,
@@ -291,14 +294,16 @@ def train_step(cfg: DictConfig, step_crop: int = 64, batch: int | None = None) -
             how = "median wall time of 3 steps after a warm-up; torch.cuda.max_memory_allocated"
         else:
             torch.set_num_threads(1)  # CPU time without the threads' spin-waiting; restored below
-            sizes = sorted({max(8, min(crop, step_crop) // 2), min(crop, step_crop)})
+            sizes = [crop] if crop <= step_crop else [max(8, step_crop // 2), step_crop]
             measured = []
             for c in sizes:
                 step(c, clips)  # warm-up at the size: oneDNN's primitives for its shapes, Adam's state
                 measured.append(step(c, clips))
             (s1, m1), (s2, m2) = measured if len(measured) == 2 else measured * 2
             p1, p2, p = sizes[0] ** 2, sizes[-1] ** 2, crop ** 2
-            if p2 > p1 and s2 > s1 and m2 > m1:
+            if p2 == p:
+                seconds, memory = s2, m2
+            elif p2 > p1 and s2 > s1 and m2 > m1:
                 seconds, memory = s2 + (s2 - s1) / (p2 - p1) * (p - p2), m2 + (m2 - m1) / (p2 - p1) * (p - p2)
             else:
                 seconds, memory = s2 * p / p2, m2 * p / p2
