@@ -206,9 +206,10 @@ def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -
 
     On a GPU: at the crop, after a warm-up step (cuDNN's algorithm choice, the allocator's first blocks),
     the median wall time of three steps and the peak of ``torch.cuda.max_memory_allocated``; at one clip
-    scaled to the batch where the batch does not fit. On CPU: on one thread, after a warm-up step at the
-    size, as CPU seconds over torch's threads (the step on an idle machine, ideal scaling; a shared machine
-    stretches wall time, not this) and the rise of the peak resident memory; at the crop where it is at most
+    scaled to the batch where the batch does not fit. On CPU: on one thread, the median of three steps after
+    a warm-up step at the size (one step alone moved by up to 1.6x between two plans on a loaded machine), as
+    CPU seconds over torch's threads (the step on an idle machine, ideal scaling; a shared machine stretches
+    wall time, not this) and the rise of the peak resident memory; at the crop where it is at most
     `step_crop`, else at `step_crop` / 2 and `step_crop` and extrapolated to the crop's pixels along the line
     through the two (a fixed part plus a part per pixel), or scaled by the pixel ratio where the two are out
     of order (noise). The whole batch at the crop is the plan's step: extrapolated from a third and two
@@ -298,7 +299,8 @@ def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -
             measured = []
             for c in sizes:
                 step(c, clips)  # warm-up at the size: oneDNN's primitives for its shapes, Adam's state
-                measured.append(step(c, clips))
+                runs = [step(c, clips) for _ in range(3)]
+                measured.append((float(np.median([r[0] for r in runs])), max(r[1] for r in runs)))
             (s1, m1), (s2, m2) = measured if len(measured) == 2 else measured * 2
             p1, p2, p = sizes[0] ** 2, sizes[-1] ** 2, crop ** 2
             if p2 == p:
@@ -307,8 +309,8 @@ def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -
                 seconds, memory = s2 + (s2 - s1) / (p2 - p1) * (p - p2), m2 + (m2 - m1) / (p2 - p1) * (p - p2)
             else:
                 seconds, memory = s2 * p / p2, m2 * p / p2
-            how = (f"CPU seconds of one thread / {threads} threads, after a warm-up step; rise of peak RSS "
-                   "(VmHWM)")
+            how = (f"CPU seconds of one thread / {threads} threads, median of 3 steps after a warm-up; rise "
+                   "of peak RSS (VmHWM)")
     finally:
         hook.remove()
         if device == "cpu":
