@@ -24,13 +24,16 @@ and it measures, on the machine it runs on, in this process (``plan.measure=fals
   :func:`mcd.lit.workload.pilot_size`) and ``plan.pilot_spp`` spp after one
   warm-up frame; seconds per sample
   = seconds / (pixels x spp x frames), times the profile's samples gives the render time here;
-- training memory and time per step: one real forward and backward of the configured method and loss on a
-  synthetic clip (:func:`mcd.data.synthetic.synthetic_frame`) of ``data.clip_len`` frames, batch 1, with the
-  training module's own clip loop (:meth:`mcd.lit.module.DenoiseModule.run_clip`): on a GPU at
-  ``data.train_crop``, the peak of ``torch.cuda.max_memory_allocated``; on CPU at ``plan.step_crop`` and half
-  of it (a paper-sized step takes minutes on a small CPU), CPU seconds and the rise of the peak resident
-  memory (``VmHWM`` after ``/proc/self/clear_refs``), extrapolated to the crop's pixels (:func:`train_step`);
-  a step at ``train.batch_size`` is batch x that, plus 16 bytes per parameter (weights, gradients, Adam's two
+- training memory and time per step: one real optimiser step as the run trains it
+  (:func:`mcd.lit.workload.train_step`): the training module's own step
+  (:meth:`mcd.lit.module.DenoiseModule.training_step`: the clip's frames as the run computes them, those
+  without gradient included) on ``train.batch_size`` synthetic clips
+  (:func:`mcd.data.synthetic.synthetic_frame`) of ``data.clip_len`` frames, in ``trainer.precision`` (bf16
+  autocast where it resolves to ``bf16-mixed``) and the weights' layout of ``train.channels_last``, backward
+  and an Adam step: on a GPU at ``data.train_crop``, the peak of ``torch.cuda.max_memory_allocated``; on CPU
+  CPU seconds and the rise of the peak resident memory (``VmHWM`` after ``/proc/self/clear_refs``) at the
+  crop, or for a crop above ``plan.step_crop`` (a paper-sized step takes minutes on a small CPU) at that and
+  half of it, extrapolated to the crop's pixels; plus 16 bytes per parameter (weights, gradients, Adam's two
   moments);
 - the loader's clips/s per worker (:func:`mcd.data.loader_rate.measure`: the training store on a small
   synthetic store of the run's buffers at the crop size), against the rate a GPU needs (GPU steps/s x batch).
@@ -93,7 +96,7 @@ def plan(cfg: DictConfig, measure: bool = True) -> dict[str, Any]:
     wk = p["work"]
     pc = cfg.get("plan") or {}
     t0 = time.perf_counter()
-    p["train_step"] = train_step(cfg, int(pc.get("step_crop", 64)))  # first: a clean peak-memory reading
+    p["train_step"] = train_step(cfg, int(pc.get("step_crop", 96)))  # first: a clean peak-memory reading
     t1 = time.perf_counter()
     p["pilot"] = pilot_render(cfg, int(pc.get("pilot_scale", 8)), int(pc.get("pilot_spp", 8)),
                               int(pc.get("pilot_frames", 1)))
@@ -139,20 +142,19 @@ def lines(p: dict[str, Any]) -> list[str]:
          f"per sample on staircase2 at 1080p, docs/scale.md \"Measured on a GPU\"; this machine renders "
          f"{p['ratio']:.0f}x slower per sample; scenes differ): ")
         + f"{_range(*p['render_gpu_hours'], ' GPU-h')}",
-        f"training step memory: {st['memory_mb']:.0f} MB for 1 crop of {st['crop']}x{st['crop']} x "
-        f"{wk['clip_len']} frames on {st['device']} ({st['how']}; one real forward+backward at "
-        f"{' and '.join(f'{c}x{c}' for c in st['measured_crops'])}"
+        f"training step memory: {st['memory_mb']:.0f} MB for a step of {st['batch']} clip(s) of "
+        f"{st['clip_len']} frames at {st['crop']}x{st['crop']} on {st['device']} ({st['precision']}, "
+        f"{'channels-last' if st['observed']['channels_last'] else 'plain layout'}; {st['how']}; the "
+        f"training module's step at {' and '.join(f'{c}x{c}' for c in st['measured_crops'])}"
         + ("" if st["measured_crops"] == [st["crop"]] else ", extrapolated to the crop's pixels")
-        + (f") x batch {wk['batch']}" if st.get("batch_memory_mb") is None else
-           f"); measured at batch {wk['batch']}: {st['batch_memory_mb']:.0f} MB")
-        + f" + {st['state_mb']:.0f} MB of weights, gradients and Adam's moments "
-        f"({st['params']} parameters x 16 bytes) = {p['step_memory_mb']:.0f} MB per step"
-        + (" (activations taken as linear in pixels and batch)" if st.get("batch_memory_mb") is None else ""),
-        f"training step time: {st['seconds']:.3f} s per crop on {st['device']}"
-        + (f"; measured at batch {wk['batch']}" if st.get("batch_seconds") is not None else
-           f" x batch {wk['batch']}" + ("" if st["device"] == "cuda" else
+        + ("" if st["measured_batch"] == st["batch"] else
+           f", measured at {st['measured_batch']} clip(s) and scaled to the batch")
+        + f") + {st['state_mb']:.0f} MB of weights, gradients and Adam's moments "
+        f"({st['params']} parameters x 16 bytes) = {p['step_memory_mb']:.0f} MB per step",
+        f"training step time: {st['seconds']:.3f} s per step of {st['batch']} clip(s) on {st['device']}"
+        + ("" if st["device"] == "cuda" else
            f" / {p['ratio']:.0f} (this machine's render ratio to the reference GPU, assumed for training "
-           "too: rough)"))
+           "too: rough)")
         + f" = {p['gpu_step_s']:.3f} s per GPU step",
         f"loader: a GPU needs {wk['batch']} clips / {p['gpu_step_s']:.3f} s = {p['need_clips_per_s']:.1f} "
         f"clips/s; one worker reads {p['loader_clips_per_s']:.1f} clips/s warm, "

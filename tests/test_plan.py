@@ -17,7 +17,10 @@ import pytest
 import mcd
 from mcd.data import StoreBuilder
 from mcd.data.pack import pack
-from mcd.lit.workload import _gb, _range, derive, work
+from mcd.lit.module import DenoiseModule
+from mcd.lit.workload import _gb, _range, derive, train_step, work
+from mcd.losses import build_loss
+from mcd.models import build
 from mcd.plan import lines, main, plan
 from tests.conftest import compose_cfg, store32_overrides
 
@@ -77,19 +80,50 @@ def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):
     assert not (tmp_path / "test32").exists()  # nothing rendered into the store
 
 
-def test_a_gpu_step_measured_at_the_batch_replaces_the_linear_scaling(tmp_path):
-    """On a GPU the step is measured at ``train.batch_size`` too; the plan uses that figure for the step time
-    and memory, and scales batch 1 linearly only where the batch did not fit."""
+def test_the_step_time_and_memory_are_the_measured_batchs(tmp_path):
+    """The step's figures are those of one optimiser step of the whole batch as measured: on a GPU its
+    seconds are the GPU step; on CPU they are divided by the render ratio; the memory adds the state's."""
     wk = work(compose_cfg("data=paper", "capacity=paper", "train=paper", f"paths.data_dir={tmp_path}"))
-    assert wk["batch"] == 8
     pilot = {"s_per_sample": 3e-8, "variant": "cuda_ad_rgb"}
-    step = {"device": "cuda", "seconds": 0.2, "memory_mb": 1000.0, "state_mb": 20.0,
-            "batch_seconds": 0.9, "batch_memory_mb": 6000.0}
+    step = {"device": "cuda", "seconds": 0.9, "memory_mb": 6000.0, "state_mb": 20.0}
     measured = derive(wk, pilot, step, None)
     assert measured["gpu_step_s"] == 0.9 and measured["step_memory_mb"] == 6020.0
     assert measured["train_gpu_hours"] == pytest.approx(wk["run_steps"] * 0.9 / 3600)
-    scaled = derive(wk, pilot, {**step, "batch_seconds": None, "batch_memory_mb": None}, None)
-    assert scaled["gpu_step_s"] == pytest.approx(1.6) and scaled["step_memory_mb"] == 8020.0
+    cpu = derive(wk, {"s_per_sample": 3e-7, "variant": "llvm_ad_rgb"}, {**step, "device": "cpu"}, None)
+    assert cpu["gpu_step_s"] == pytest.approx(0.9 / cpu["ratio"]) and cpu["step_memory_mb"] == 6020.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("precision", "channels_last", "autocast"),
+                         [("bf16-mixed", True, "bfloat16"), ("32-true", False, None)])
+def test_the_planned_step_is_the_step_the_run_trains(tmp_path, precision, channels_last, autocast):
+    """:func:`train_step` times the training module's own step as configured: ``train.batch_size`` clips of
+    ``data.clip_len`` frames at the crop, in ``trainer.precision`` and the layout of ``train.channels_last``,
+    the frames run as :meth:`DenoiseModule.clip_plan` says (those before the returned ones through
+    ``TwoStage.advance``, not the whole forward; gradient from its first frame with gradient): read by a
+    hook on the real model F, not from the config."""
+    cfg = compose_cfg(*store32_overrides(tmp_path), "+experiment=F", f"trainer.precision={precision}",
+                      f"train.channels_last={channels_last}", "train.batch_size=3", "data.clip_len=4",
+                      "train.grad_frames=1")
+    step = train_step(cfg, step_crop=16)
+    assert step["precision"] == precision and step["batch"] == step["measured_batch"] == 3
+    assert step["measured_crops"] == [16] and step["seconds"] > 0  # the crop itself
+    assert step["observed"]["channels_last"] is channels_last
+    first, grad_from, returned = DenoiseModule(cfg, build(cfg), build_loss(cfg)).clip_plan(4)
+    assert returned > first  # F carries state: frames before the loss's go through advance
+    calls = step["observed"]["calls"]  # the last timed step's, at the measured crop 16
+    assert [c["grad"] for c in calls] == [t >= grad_from for t in range(returned, 4)]
+    assert all(c["batch"] == 3 and c["size"] == [16, 16] and c["autocast"] == autocast for c in calls)
+
+
+@pytest.mark.slow
+def test_one_clip_measured_is_scaled_to_the_batch(tmp_path):
+    """``batch=1`` measures one clip and scales seconds and memory to ``train.batch_size``; a crop above
+    ``step_crop`` is measured at it and half of it."""
+    cfg = compose_cfg(*store32_overrides(tmp_path), "+experiment=A", "train.batch_size=3")
+    step = train_step(cfg, step_crop=12, batch=1)
+    assert step["batch"] == 3 and step["measured_batch"] == 1 and step["measured_crops"] == [8, 12]
+    assert {(c["batch"], tuple(c["size"])) for c in step["observed"]["calls"]} == {(1, (12, 12))}
 
 
 def test_a_profile_too_short_to_train_on_is_planned_without_training(tmp_path, capsys):

@@ -14,7 +14,7 @@ import pytest
 from omegaconf import OmegaConf
 
 from mcd.core.paths import CONF_DIR
-from mcd.lit.sweep_plan import job_values, keep, plan_lines, plan_rows
+from mcd.lit.sweep_plan import STEP_KEYS, job_values, keep, plan_lines, plan_rows
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEP = OmegaConf.load(CONF_DIR / "sweep" / "scaling.yaml")
@@ -67,6 +67,25 @@ def test_the_plan_sums_each_cells_jobs():
     assert small["seeds"] == [0, 1, 2] and small["cpu_h"] == pytest.approx(3 * 3000 * 2.0 / 3600)
     assert tiny["cpu_h"] == pytest.approx(1000 / 3600)
     assert plan_lines(rows, 40)[-1].startswith("plan: 4 jobs, 5.3 CPU-hours of training in all (limit 40")
+
+
+def test_jobs_whose_step_differs_are_measured_apart():
+    """Cells that share the method and the step's shape share one measurement; a cell whose configured
+    precision (or any of :data:`STEP_KEYS`) differs gets its own."""
+    jobs = [[f"data={d}", "train.max_steps=1000", "+experiment=F", "seed=0"]
+            for d in ("small", "medium", "x")]
+
+    def config(job):
+        v = job_values(job)
+        return OmegaConf.create({"data": {"name": v["data"], "train_crop": 96, "clip_len": 5},
+                                 "train": {"max_steps": 1000, "batch_size": 4, "channels_last": True},
+                                 "trainer": {"precision": "32-true" if v["data"] == "x" else "auto"},
+                                 "experiment": "F", "seed": 0, "capacity": {}})
+
+    asked = []
+    rows = plan_rows(jobs, config, lambda cfg: asked.append(cfg.data.name) or 1.0)
+    assert asked == ["small", "x"] and len(rows) == 3
+    assert "trainer.precision" in STEP_KEYS and "train.channels_last" in STEP_KEYS
 
 
 def mcd_run(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:

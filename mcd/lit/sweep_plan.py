@@ -9,9 +9,10 @@ three additions, all read from the root config's ``sweep_plan`` block:
   one of the listed values (the scaling study: seeds 1 and 2 only at 3000 steps on ``small`` and ``medium``);
   the plan says how many jobs of the grid it leaves out;
 - before any job starts, the plan: every job's CPU-hours of training, ``train.max_steps`` x the seconds of
-  one optimiser step measured here (:func:`mcd.lit.workload.train_step`: CPU seconds of one thread at batch 1,
-  times ``train.batch_size``, the rule of ``python -m mcd.plan``), per cell and in all; rendering the stores
-  is not in it (``python -m mcd.plan data=<profile>`` says what that costs);
+  one optimiser step measured here as the job trains it (:func:`mcd.lit.workload.train_step`, the rule of
+  ``python -m mcd.plan``: the module's training step on ``train.batch_size`` synthetic clips in the
+  configured precision and layout, CPU seconds of one thread), per cell and in all; rendering the stores and
+  the data loader are not in it (``python -m mcd.plan data=<profile>`` says what rendering costs);
 - a grid whose CPU-hours exceed ``cpu_hours_limit`` is refused, before anything is written, unless
   ``allow_large=true``; ``dry_run=true`` prints the plan and runs nothing.
 """
@@ -53,11 +54,17 @@ def kept_jobs(grid: list[list[str]], config: DictConfig) -> list[list[str]]:
     return [j for j in grid if keep(job_values(j), base, only)]  # type: ignore[arg-type]
 
 
+#: The keys that shape a training step, besides the method (``experiment``) and ``capacity``: jobs that agree
+#: on them share one measurement (:func:`plan_rows`).
+STEP_KEYS = ("data.train_crop", "data.clip_len", "train.batch_size", "train.grad_frames",
+             "train.channels_last", "train.compile", "trainer.precision", "budget", "method", "loss")
+
+
 def plan_rows(jobs: list[list[str]], job_config: Callable[[list[str]], DictConfig],
               step_seconds: Callable[[DictConfig], float]) -> list[dict[str, Any]]:
     """One row per cell (data, steps, experiment) of ``jobs`` (each a list of overrides): its seeds, the
     seconds of one optimiser step of its config (``job_config(job)``; ``step_seconds``, asked once per
-    experiment, crop, batch, clip length and capacity), and its CPU-hours over its jobs."""
+    experiment, capacity and values of :data:`STEP_KEYS`), and its CPU-hours over its jobs."""
     cells: dict[tuple[str, int, str], list[int]] = {}
     configs: dict[tuple[str, int, str], DictConfig] = {}
     for job in jobs:
@@ -73,8 +80,8 @@ def plan_rows(jobs: list[list[str]], job_config: Callable[[list[str]], DictConfi
     rows = []
     for (data, steps, experiment), seeds in cells.items():
         cfg = configs[data, steps, experiment]
-        what = (experiment, int(cfg.data.train_crop), int(cfg.train.batch_size), int(cfg.data.clip_len),
-                OmegaConf.to_yaml(cfg.capacity))
+        what = (experiment, OmegaConf.to_yaml(cfg.capacity),
+                *(str(OmegaConf.select(cfg, k, default=None)) for k in STEP_KEYS))
         if what not in measured:
             measured[what] = step_seconds(cfg)
         rows.append({"data": data, "steps": steps, "experiment": experiment, "seeds": sorted(seeds),
@@ -89,18 +96,18 @@ def plan_lines(rows: list[dict[str, Any]], limit: float) -> list[str]:
     out += [f"{r['data']:8} {r['steps']:>6} {r['experiment']:12} {','.join(map(str, r['seeds'])):8} "
             f"{r['step_s']:>7.3f} {r['cpu_h']:>7.2f}" for r in rows]
     out.append(f"plan: {jobs} jobs, {total:.1f} CPU-hours of training in all (limit {limit:g}: "
-               "sweep_plan.cpu_hours_limit; one optimiser step measured here on one thread, rendering not "
-               "included)")
+               "sweep_plan.cpu_hours_limit; one optimiser step as the job trains it, measured here on one "
+               "thread; rendering and the data loader not included)")
     return out
 
 
 def measured_step_seconds(cfg: DictConfig) -> float:
-    """CPU seconds of one optimiser step of ``cfg``: one measured step at batch 1 (:func:`train_step`, at
-    ``plan.step_crop`` extrapolated to ``data.train_crop``) times ``train.batch_size``."""
+    """CPU seconds of one optimiser step of ``cfg`` as its job trains it (:func:`mcd.lit.workload.train_step`:
+    ``train.batch_size`` clips in the configured precision and layout, at ``data.train_crop``, or extrapolated
+    to it from ``plan.step_crop`` and half of it where the crop is larger)."""
     from mcd.lit.workload import train_step
 
-    step = train_step(cfg, int(cfg.plan.step_crop))
-    return float(step["seconds"]) * int(cfg.train.batch_size)
+    return float(train_step(cfg, int(cfg.plan.step_crop))["seconds"])
 
 
 class PlannedSweeper(BasicSweeper):

@@ -187,22 +187,41 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
                             "plan.measure=false")
 
 
-def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
-    """One forward and backward of the configured method and loss, batch 1 (:mod:`mcd.plan`): seconds and
-    memory in MB of one crop at ``data.train_crop``, and how they were measured.
+def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -> dict[str, Any]:
+    """One optimiser step of the configured method as its run trains it (:mod:`mcd.plan`, the sweep's plan
+    :mod:`mcd.lit.sweep_plan`): seconds and activation memory in MB of one step of ``train.batch_size`` clips
+    of ``data.clip_len`` frames at ``data.train_crop``, and what was measured (docs/scale.md "Plan").
 
-    On a GPU: measured at the crop in the precision the run trains in (``trainer.precision``, ``auto``
-    resolved by :mod:`mcd.lit.precision`: bf16 autocast where the GPU has bf16), after a warm-up step at the
-    crop (cuDNN's algorithm choice, the allocator's first blocks): the median wall time of three steps and
-    the peak of ``torch.cuda.max_memory_allocated``; then the same at ``train.batch_size`` crops in one step
-    (``batch_seconds``, ``batch_memory_mb``; ``None`` where the batch does not fit the GPU's memory, and the
-    plan scales batch 1 linearly instead). On CPU: measured at
-    `step_crop` / 2 and `step_crop` (at most the crop), after a warm-up step, on one thread, as CPU seconds
-    over torch's threads (the step on an idle machine, ideal scaling; a shared machine stretches wall time,
-    not this) and the
-    rise of the peak resident memory; both extrapolated to the crop's pixels along the line through the two
-    (a fixed part plus a part per pixel), or scaled by the pixel ratio where the two are out of order (noise).
+    The step is the training's own: :meth:`mcd.lit.module.DenoiseModule.on_fit_start` (the weights
+    channels-last where ``train.channels_last``), :meth:`~mcd.lit.module.DenoiseModule.training_step` (the
+    clip's frames as :meth:`~mcd.lit.module.DenoiseModule.clip_plan` runs them: those before the last
+    ``train.grad_frames`` without gradient, through the model's ``advance`` where it has one; the configured
+    loss) under ``trainer.precision`` as :mod:`mcd.lit.precision` resolves it on this device (bf16 autocast
+    for ``bf16-mixed``), backward, the gradients' norm
+    (:meth:`~mcd.lit.module.DenoiseModule.on_before_optimizer_step`) and an Adam step, on synthetic clips
+    (:func:`mcd.data.synthetic.synthetic_frame`). Not in it: the data loader, validation and Lightning's loop.
+
+    `batch`: the clips per measured step, ``train.batch_size`` by default; a smaller one is scaled linearly to
+    ``train.batch_size`` (its fixed cost per step counted once per clip: an overestimate).
+
+    On a GPU: at the crop, after a warm-up step (cuDNN's algorithm choice, the allocator's first blocks),
+    the median wall time of three steps and the peak of ``torch.cuda.max_memory_allocated``; at one clip
+    scaled to the batch where the batch does not fit. On CPU: on one thread, the median of three steps after
+    a warm-up step at the size (one step alone moved by up to 1.6x between two plans on a loaded machine), as
+    CPU seconds over torch's threads (the step on an idle machine, ideal scaling; a shared machine stretches
+    wall time, not this) and the rise of the peak resident memory; at the crop where it is at most
+    `step_crop`, else at `step_crop` / 2 and `step_crop` and extrapolated to the crop's pixels along the line
+    through the two (a fixed part plus a part per pixel), or scaled by the pixel ratio where the two are out
+    of order (noise). The whole batch at the crop is the plan's step: extrapolated from a third and two
+    thirds of the crop's side, the same step came out 1.2-1.4x over, one clip times the batch 2.3-3.4x over
+    (``tools/plan_step_check.py``; notes/scaling_plan.md "The plan re-measured with the configured step").
+
+    ``observed``: what the model saw in the last timed step, read by a hook on its ``forward`` (the frames it
+    computed an output for): per call the batch and frame size, whether autocast was on and to which dtype,
+    whether gradient was enabled; and whether its 4-D weights were channels-last.
     """
+    import warnings
+
     import torch
 
     from mcd.data.synthetic import synthetic_frame
@@ -213,19 +232,31 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
     from mcd.models import build
 
     device = "cuda" if torch.cuda.is_available() else "cpu"
-    model = build(cfg).to(device)
-    module = DenoiseModule(cfg, model, build_loss(cfg).to(device))
+    module = DenoiseModule(cfg, build(cfg).train(), build_loss(cfg)).to(device)
+    model = module.model
+    module.on_fit_start()  # the loss to the device; channels-last weights (and compile) as the run's fit
     names = run_buffers(model.required_buffers(), cfg.budget)
     crop = min(int(cfg.data.train_crop), int(cfg.data.width), int(cfg.data.height))
+    clip_len, full = int(cfg.data.clip_len), int(cfg.train.batch_size)
+    clips = full if batch is None else min(int(batch), full)
+    precision = resolve_precision(str(cfg.trainer.get("precision", "auto")),
+                                  "cpu" if device == "cpu" else "gpu")
+    half = {"bf16-mixed": torch.bfloat16, "bf16": torch.bfloat16,
+            "16-mixed": torch.float16, "16": torch.float16}.get(precision)
+    opt = torch.optim.Adam(model.parameters(), lr=float(cfg.train.lr),
+                           weight_decay=float(cfg.train.weight_decay))
+    seen: list[dict[str, Any]] = []
 
-    half = None
-    if device == "cuda":
-        chosen = resolve_precision(str(cfg.trainer.get("precision", "auto")), str(cfg.trainer.accelerator))
-        half = {"bf16-mixed": torch.bfloat16, "16-mixed": torch.float16}.get(chosen)
+    def look(_: torch.nn.Module, args: tuple) -> None:
+        x = next(v for v in args[0].values() if isinstance(v, torch.Tensor))
+        seen.append({"batch": int(x.shape[0]), "size": [int(s) for s in x.shape[-2:]],
+                     "autocast": str(torch.get_autocast_dtype(device)).removeprefix("torch.")
+                     if torch.is_autocast_enabled(device) else None, "grad": torch.is_grad_enabled()})
 
-    def step(size: int, batch_size: int = 1) -> tuple[float, float]:
-        """(seconds, MB) of one step of `batch_size` crops at `size`."""
-        batch = synthetic_frame(names, size, size, lead=(batch_size, int(cfg.data.clip_len)), device=device)
+    def step(size: int, n: int) -> tuple[float, float]:
+        """(seconds, MB) of one optimiser step of `n` clips at `size`."""
+        clip = synthetic_frame(names, size, size, lead=(n, clip_len), device=device)
+        seen.clear()
         if device == "cuda":
             torch.cuda.synchronize()
             torch.cuda.reset_peak_memory_stats()
@@ -234,48 +265,63 @@ def train_step(cfg: DictConfig, step_crop: int = 64) -> dict[str, Any]:
             restart_peak_rss()  # VmHWM := VmRSS
             base = status_mb("VmRSS")
         t0, c0 = time.perf_counter(), time.process_time()
-        with autocast_to(torch.device(device), half):
-            pred = module.run_clip(batch, with_ref=True)
-            loss = module.loss_fn(pred, batch["ref"][:, -pred.shape[1]:])["loss"]
-        loss.backward()
-        model.zero_grad(set_to_none=False)
+        with warnings.catch_warnings():  # self.log without a Trainer: warned and skipped
+            warnings.filterwarnings("ignore", message=".*self.log.*")
+            with autocast_to(torch.device(device), half):
+                loss = module.training_step(clip, 0)
+            loss.backward()
+            module.on_before_optimizer_step(opt)
+        opt.step()
+        opt.zero_grad(set_to_none=True)
         if device == "cuda":
             torch.cuda.synchronize()
             return time.perf_counter() - t0, (torch.cuda.max_memory_allocated() - base) / 2**20
         return (time.process_time() - c0) / threads, status_mb("VmHWM") - base
 
     threads = torch.get_num_threads()
-    if device == "cpu":
-        torch.set_num_threads(1)  # CPU time without the threads' spin-waiting; restored below
-    step(8)  # warm-up: lazy initialisation, gradient buffers
-    extra: dict[str, Any] = {}
-    if device == "cuda":
-        step(crop)  # warm-up at the crop: cuDNN's algorithms, the allocator's blocks
-        runs = [step(crop) for _ in range(3)]
-        seconds, memory = float(np.median([r[0] for r in runs])), max(r[1] for r in runs)
-        sizes = [crop]
-        how = (f"{'fp32' if half is None else str(half).removeprefix('torch.') + ' autocast'}, median wall "
-               "time of 3 steps after a warm-up; torch.cuda.max_memory_allocated")
-        extra = {"batch_seconds": None, "batch_memory_mb": None}
-        b = int(cfg.train.batch_size)
-        try:
-            step(crop, b)
-            extra["batch_seconds"], extra["batch_memory_mb"] = step(crop, b)
-        except torch.cuda.OutOfMemoryError:
-            torch.cuda.empty_cache()
-    else:
-        sizes = sorted({max(8, min(crop, step_crop) // 2), min(crop, step_crop)})
-        (s1, m1), (s2, m2) = [step(c) for c in sizes] if len(sizes) == 2 else [step(sizes[0])] * 2
-        p1, p2, p = sizes[0] ** 2, sizes[-1] ** 2, crop ** 2
-        if p2 > p1 and s2 > s1 and m2 > m1:
-            seconds, memory = s2 + (s2 - s1) / (p2 - p1) * (p - p2), m2 + (m2 - m1) / (p2 - p1) * (p - p2)
+    hook = model.register_forward_pre_hook(look)
+    try:
+        if device == "cuda":
+            try:
+                step(crop, clips)  # warm-up at the crop: cuDNN's algorithms, the allocator's blocks
+                runs = [step(crop, clips) for _ in range(3)]
+            except torch.cuda.OutOfMemoryError:
+                torch.cuda.empty_cache()
+                clips = 1
+                step(crop, clips)
+                runs = [step(crop, clips) for _ in range(3)]
+            seconds, memory = float(np.median([r[0] for r in runs])), max(r[1] for r in runs)
+            sizes = [crop]
+            how = "median wall time of 3 steps after a warm-up; torch.cuda.max_memory_allocated"
         else:
-            seconds, memory = s2 * p / p2, m2 * p / p2
-        how = f"CPU seconds of one thread / {threads} threads; rise of peak RSS (VmHWM)"
-        torch.set_num_threads(threads)
-    params = sum(p.numel() for p in model.parameters())
-    return {"device": device, "seconds": seconds, "memory_mb": memory, "how": how, "crop": crop,
-            "measured_crops": sizes, "params": params, "state_mb": params * 16 / 2**20, **extra}
+            torch.set_num_threads(1)  # CPU time without the threads' spin-waiting; restored below
+            sizes = [crop] if crop <= step_crop else [max(8, step_crop // 2), step_crop]
+            measured = []
+            for c in sizes:
+                step(c, clips)  # warm-up at the size: oneDNN's primitives for its shapes, Adam's state
+                runs = [step(c, clips) for _ in range(3)]
+                measured.append((float(np.median([r[0] for r in runs])), max(r[1] for r in runs)))
+            (s1, m1), (s2, m2) = measured if len(measured) == 2 else measured * 2
+            p1, p2, p = sizes[0] ** 2, sizes[-1] ** 2, crop ** 2
+            if p2 == p:
+                seconds, memory = s2, m2
+            elif p2 > p1 and s2 > s1 and m2 > m1:
+                seconds, memory = s2 + (s2 - s1) / (p2 - p1) * (p - p2), m2 + (m2 - m1) / (p2 - p1) * (p - p2)
+            else:
+                seconds, memory = s2 * p / p2, m2 * p / p2
+            how = (f"CPU seconds of one thread / {threads} threads, median of 3 steps after a warm-up; rise "
+                   "of peak RSS (VmHWM)")
+    finally:
+        hook.remove()
+        if device == "cpu":
+            torch.set_num_threads(threads)
+    layout = [w.is_contiguous(memory_format=torch.channels_last) for w in model.parameters() if w.dim() == 4]
+    params = sum(w.numel() for w in model.parameters())
+    return {"device": device, "seconds": seconds * full / clips, "memory_mb": memory * full / clips,
+            "how": how, "crop": crop, "measured_crops": sizes, "batch": full, "measured_batch": clips,
+            "clip_len": clip_len, "precision": precision,
+            "observed": {"calls": list(seen), "channels_last": bool(layout) and all(layout)},
+            "params": params, "state_mb": params * 16 / 2**20}
 
 
 def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[str, Any]:
@@ -284,17 +330,14 @@ def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[
     gpu_measured = pilot["variant"].startswith("cuda")
     gpu_sps = (here, here) if gpu_measured else GPU_S_PER_SAMPLE
     ratio = here / float(np.mean(GPU_S_PER_SAMPLE))  # times faster the reference GPU renders (per sample)
-    cpu_step = step["seconds"] * wk["batch"]  # batch 1 measured; a step of `batch` crops
+    cpu_step = step["seconds"]  # one optimiser step of the batch
     gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
-    if step.get("batch_seconds") is not None:  # measured at the batch on the GPU
-        gpu_step = step["batch_seconds"]
     steps = wk["run_steps"]
     out = {
         "render_hours_here": tuple(s * here / HOUR for s in wk["samples"]),
         "render_gpu_hours": (wk["samples"][0] * gpu_sps[0] / HOUR, wk["samples"][1] * gpu_sps[1] / HOUR),
         "gpu_measured": gpu_measured, "ratio": ratio, "gpu_step_s": gpu_step,
-        "step_memory_mb": (step["memory_mb"] * wk["batch"] if step.get("batch_memory_mb") is None
-                           else step["batch_memory_mb"]) + step["state_mb"],
+        "step_memory_mb": step["memory_mb"] + step["state_mb"],
         "train_gpu_hours": None if steps is None else steps * gpu_step / HOUR,
         "need_clips_per_s": wk["batch"] / gpu_step,
     }
