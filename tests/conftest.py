@@ -14,6 +14,8 @@
 - ``unet_run`` (session): ``(run dir, overrides)`` of one ``python -m mcd.run +experiment=unet
   capacity=cpu`` that finished one epoch on ``cbox_store``. Tests must not modify it; copy it
   (``shutil.copytree``) to change.
+- ``report_in_worker(argv, cwd)``: ``python -m mcd.report <argv>`` run in the test's process, with the
+  exit status, stdout and stderr a fresh interpreter gives.
 
 Session fixtures are what keeps the full suite short: each renders or trains once, and every test that reads
 the result shares it (a test that changes files works on its own copy).
@@ -25,6 +27,9 @@ read a shared run or have a costly module fixture run on one worker each group (
 
 from __future__ import annotations
 
+import contextlib
+import io
+import logging
 import os
 import shutil
 import subprocess
@@ -192,6 +197,39 @@ def module_env() -> dict[str, str]:
     if LLVM.is_file():
         env.setdefault("DRJIT_LIBLLVM_PATH", str(LLVM))
     return env
+
+
+def report_in_worker(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    """``python -m mcd.report <argv>`` in `cwd`, run in this process (``mcd.report.main``, what the command
+    calls), without a new interpreter's imports of torch and pandas (about 4 s of CPU each): the exit status
+    as the interpreter would give it (``sys.exit("error: ...")`` is 1 with the message on stderr), and
+    warnings logged by the command on stderr, as a fresh interpreter prints them. An exception the command
+    does not turn into an exit is raised here, so the test fails with its traceback. A test that needs a
+    real process (a wait bounded only by a timeout, a lock held by another process, every line a fresh
+    interpreter writes) starts ``python -m mcd.report`` itself."""
+    from mcd.report import main
+
+    out, err = io.StringIO(), io.StringIO()
+    to_stderr = logging.StreamHandler(err)
+    to_stderr.setLevel(logging.WARNING)
+    root = logging.getLogger()
+    root.addHandler(to_stderr)
+    before = Path.cwd()
+    code: int | str | None = 0
+    try:
+        os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                main(list(argv))
+            except SystemExit as exit_:
+                code = exit_.code
+                if isinstance(code, str):
+                    print(code, file=sys.stderr)
+    finally:
+        os.chdir(before)
+        root.removeHandler(to_stderr)
+    returncode = 1 if isinstance(code, str) else int(code or 0)
+    return subprocess.CompletedProcess(["mcd.report", *argv], returncode, out.getvalue(), err.getvalue())
 
 
 def mcd_run(*args: str) -> subprocess.CompletedProcess:

@@ -27,11 +27,18 @@ from pathlib import Path
 import pytest
 
 from mcd.core.file_lock import exclusive_folder
-from tests.conftest import module_env
+from tests.conftest import module_env, report_in_worker
 from tests.test_run import REPO
 
 
 def _report(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
+    """``python -m mcd.report <args>``, in this process (:func:`tests.conftest.report_in_worker`)."""
+    return report_in_worker(list(args), cwd)
+
+
+def _report_process(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
+    """The same command in a fresh interpreter: for a lock that another process holds, and for a file the
+    command must not read (a FIFO, a device), where a regression would wait until the timeout."""
     return subprocess.run([sys.executable, "-m", "mcd.report", *args], capture_output=True, text=True,
                           cwd=cwd, env=module_env(), timeout=600)
 
@@ -78,8 +85,8 @@ def test_a_report_being_written_is_named_as_such_not_as_a_folder_to_delete(ab_sw
     (out / "x" / "table1.csv").write_text("method\n")  # what the first report has written so far
     with exclusive_folder(out / "x") as held:  # what the first report holds while it writes
         assert held
-        proc = _report(str(ab_sweep / "multirun" / "ablation" / "tiny"), "--out", str(out), "--name", "x",
-                       "--no-viewer")
+        proc = _report_process(str(ab_sweep / "multirun" / "ablation" / "tiny"), "--out", str(out),
+                               "--name", "x", "--no-viewer")
     assert proc.returncode == 1, proc.stderr[-3000:]
     assert "another mcd.report is writing this report now" in proc.stderr, proc.stderr
     assert "delete its folder" not in proc.stderr
@@ -96,7 +103,7 @@ def test_a_readme_that_is_no_text_file_is_named_as_what_it_is(tmp_path, kind):
         os.mkfifo(readme)
     elif kind == "not_utf8":
         readme.write_bytes(b"\xff\xfe not text")
-    proc = _report("--index", "--out", str(tmp_path / "reports"), "--readme", str(readme))
+    proc = _report_process("--index", "--out", str(tmp_path / "reports"), "--readme", str(readme))
     assert proc.returncode == 1, proc.stderr
     why = "is not UTF-8 text" if kind == "not_utf8" else "is not a regular file"
     assert f"{readme} {why}" in proc.stderr, proc.stderr

@@ -7,12 +7,9 @@ file. The session's real ``ab_sweep`` (rows A and F with their samples), copied.
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import pytest
 
-from tests.conftest import copy_sweep, module_env
+from tests.conftest import copy_sweep, report_in_worker
 
 
 @pytest.mark.slow
@@ -23,9 +20,7 @@ def test_a_damaged_sample_is_left_out_and_named_and_the_report_is_whole(ab_sweep
     garbage.write_bytes(bytes(range(256)) * 12)
     cut = jobs / "A_spp4" / "samples" / "cbox" / "0000_output.exr"
     cut.write_bytes(cut.read_bytes()[:100])
-    proc = subprocess.run([sys.executable, "-m", "mcd.report", str(jobs), "--out", str(tmp_path / "reports"),
-                           "--name", "t"], cwd=tmp_path, env=module_env(), capture_output=True, text=True,
-                          timeout=600)
+    proc = report_in_worker([str(jobs), "--out", str(tmp_path / "reports"), "--name", "t"], tmp_path)
     assert proc.returncode == 1, proc.stderr[-3000:]
     assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
     for path in (garbage, cut):

@@ -7,19 +7,15 @@ real."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
 
-from tests.conftest import module_env
+from tests.conftest import report_in_worker
 from tests.reliability.test_report_inputs import _job
 
 
 def _report(tmp_path, *args):
-    return subprocess.run([sys.executable, "-m", "mcd.report", *args, "--out", str(tmp_path / "reports"),
-                           "--no-viewer"], cwd=tmp_path, env=module_env(), capture_output=True, text=True,
-                          timeout=300)
+    return report_in_worker([*args, "--out", str(tmp_path / "reports"), "--no-viewer"], tmp_path)
 
 
 @pytest.mark.parametrize("how", ["--name", "data_profile"])

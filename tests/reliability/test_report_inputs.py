@@ -4,10 +4,7 @@ for real."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
-import logging
 import os
 import re
 import subprocess
@@ -17,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+
+from tests.conftest import report_in_worker
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -31,34 +30,10 @@ def _report_process(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
 
 
 def _report(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
-    """The same command as :func:`_report_process`, run in this process (``mcd.report.main``, what
-    ``python -m mcd.report`` calls), without a new interpreter's imports of torch and pandas: the exit
-    status as the interpreter would give it (``sys.exit("error: ...")`` is 1 with the message on stderr),
-    and warnings logged by the command on stderr, as a fresh interpreter prints them. An exception the
-    command does not turn into an exit is raised here, so the test fails with its traceback."""
-    from mcd.report import main
-
-    out, err = io.StringIO(), io.StringIO()
-    to_stderr = logging.StreamHandler(err)
-    to_stderr.setLevel(logging.WARNING)
-    root = logging.getLogger()
-    root.addHandler(to_stderr)
-    cwd = Path.cwd()
-    code: int | str | None = 0
-    try:
-        os.chdir(tmp_path)
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            try:
-                main([*args, "--out", str(tmp_path / "reports"), "--name", "t", "--no-viewer"])
-            except SystemExit as exit_:
-                code = exit_.code
-                if isinstance(code, str):
-                    print(code, file=sys.stderr)
-    finally:
-        os.chdir(cwd)
-        root.removeHandler(to_stderr)
-    returncode = 1 if isinstance(code, str) else int(code or 0)
-    return subprocess.CompletedProcess(["mcd.report", *args], returncode, out.getvalue(), err.getvalue())
+    """The same command as :func:`_report_process`, run in this process
+    (:func:`tests.conftest.report_in_worker`)."""
+    return report_in_worker([*args, "--out", str(tmp_path / "reports"), "--name", "t", "--no-viewer"],
+                            tmp_path)
 
 
 @pytest.mark.parametrize(("kind", "message"), [

@@ -16,7 +16,7 @@ import pytest
 
 from mcd.config.methods import COMPONENTS
 from mcd.reporting import finding
-from tests.conftest import AB_SWEEP, SWEEP32, copy_sweep, module_env
+from tests.conftest import AB_SWEEP, SWEEP32, copy_sweep, module_env, report_in_worker
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -25,6 +25,13 @@ def _run(args: list[str], cwd: Path, returncode: int = 0) -> subprocess.Complete
         [sys.executable, *args], cwd=cwd, env=module_env(), capture_output=True, text=True, timeout=600
     )
     assert proc.returncode == returncode, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
+    return proc
+
+
+def _report(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    """``python -m mcd.report <args>`` in `cwd`, in this process (:func:`tests.conftest.report_in_worker`)."""
+    proc = report_in_worker(args, cwd)
+    assert proc.returncode == 0, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
     return proc
 
 
@@ -123,10 +130,7 @@ def test_two_job_sweep_failure_rerun_and_report(ab_sweep, tmp_path):
     assert (sweep_dir / "A_spp4" / "edges.json").is_file()  # the other run was measured all the same
     (sweep_dir / "A_spp4" / "edges.json").unlink()
 
-    _run(
-        ["-m", "mcd.report", str(sweep_dir), str(transfer_dir), "--name", "t32", "--bench", str(bench_csv)],
-        tmp_path,
-    )
+    _report([str(sweep_dir), str(transfer_dir), "--name", "t32", "--bench", str(bench_csv)], tmp_path)
     report = tmp_path / "reports" / "t32"
     for name in (
         "findings.json",
@@ -206,7 +210,7 @@ def test_two_job_sweep_failure_rerun_and_report(ab_sweep, tmp_path):
     moved = tmp_path / "elsewhere"
     shutil.copytree(report, moved / "reports" / "t32")
     shutil.rmtree(tmp_path / "multirun")
-    _run(["-m", "mcd.report", "reports/t32/runs", "--name", "t32", "--bench", str(bench_csv)], moved)
+    _report(["reports/t32/runs", "--name", "t32", "--bench", str(bench_csv)], moved)
     again = moved / "reports" / "t32"
     for name in ("components.csv", "table1.csv", "transfer.csv", "spp.csv", "curves.csv"):
         pd.testing.assert_frame_equal(

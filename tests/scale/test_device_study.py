@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import store32_overrides
+from tests.conftest import report_in_worker, store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "scripts" / "device_study.sh"
@@ -60,9 +60,8 @@ def test_device_study_runs_on_cpu_and_its_archive_reports(tmp_path):
         assert not any(n.endswith((".exr", ".png", "last.ckpt")) for n in names)
         tar.extractall(runs, filter="data")
     assert sorted(p.parent.name for p in (runs / "runs").glob("*/metrics.json")) == sorted(methods)
-    report = subprocess.run([sys.executable, "-m", "mcd.report", str(runs / "runs"), "--out",
-                             str(tmp_path / "reports"), "--name", "gpu", "--no-viewer"], cwd=REPO,
-                            capture_output=True, text=True, timeout=300)
+    report = report_in_worker([str(runs / "runs"), "--out", str(tmp_path / "reports"), "--name", "gpu",
+                               "--no-viewer"], REPO)
     assert report.returncode == 0, report.stderr[-3000:]
     table = {r["experiment"]: r for r in csv.DictReader((tmp_path / "reports" / "gpu" / "table1.csv").open())}
     assert all(table[m]["status"] == "ok" and float(table[m]["PSNR"]) > 0 for m in methods), table
