@@ -243,8 +243,10 @@ def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -
                                   "cpu" if device == "cpu" else "gpu")
     half = {"bf16-mixed": torch.bfloat16, "bf16": torch.bfloat16,
             "16-mixed": torch.float16, "16": torch.float16}.get(precision)
-    opt = torch.optim.Adam(model.parameters(), lr=float(cfg.train.lr),
-                           weight_decay=float(cfg.train.weight_decay))
+    # the rate does not change a step's cost, and a rate the job refuses (train.lr=-1) is the job's to
+    # record in its error.json, not the plan's to end the sweep on; weight decay's term is timed when on
+    opt = torch.optim.Adam(model.parameters(), lr=1e-3,
+                           weight_decay=1e-4 if float(cfg.train.weight_decay) != 0 else 0.0)
     seen: list[dict[str, Any]] = []
 
     def look(_: torch.nn.Module, args: tuple) -> None:
