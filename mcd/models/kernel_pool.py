@@ -34,6 +34,7 @@ from torch import Tensor, nn
 
 from mcd.models import fast_paths
 from mcd.models.blocks import BlockFactory, on_parts
+from mcd.models.cpu_fast.layout import memory_format
 from mcd.models.cpu_fast.replicate import padded_conv, replicate_conv, replicate_conv_applies, replicate_pad
 
 
@@ -114,14 +115,6 @@ class PixelKernels(torch.autograd.Function):
                 dy, dx = divmod(t, size)
                 grad_padded[..., dy : dy + h, dx : dx + w] += grad * kernels[:, t : t + 1]
         return grad_padded, grad_kernels
-
-
-def memory_format(x: Tensor) -> torch.memory_format:
-    """``torch.channels_last`` for a 4-D tensor laid out so (and not also plain contiguous), else
-    ``torch.contiguous_format``."""
-    if x.dim() == 4 and x.is_contiguous(memory_format=torch.channels_last) and not x.is_contiguous():
-        return torch.channels_last
-    return torch.contiguous_format
 
 
 def filter_below(image: Tensor, kernels: Tensor, ceiling: float | None, hits: Tensor | None = None) -> Tensor:

@@ -27,6 +27,7 @@ from torch import Tensor, nn
 
 from mcd.models import fast_paths
 from mcd.models.cpu_fast import fused_conv
+from mcd.models.cpu_fast.layout import memory_format
 
 
 def replicate_padded(parts: Sequence[Tensor], padding: Sequence[int], dtype: torch.dtype,
@@ -80,8 +81,7 @@ class ReplicatePad(torch.autograd.Function):
     @staticmethod
     def forward(ctx, x: Tensor, padding: tuple[int, int, int, int]) -> Tensor:  # noqa: ANN001
         ctx.padding, ctx.shape, ctx.dtype, ctx.sum_dtype = list(padding), x.shape, x.dtype, pad_dtype(x)
-        ctx.layout = (torch.channels_last if x.is_contiguous(memory_format=torch.channels_last)
-                      and not x.is_contiguous() else torch.contiguous_format)
+        ctx.layout = memory_format(x)
         with torch.autocast(x.device.type, enabled=False):
             return F.pad(x, padding, mode="replicate")
 

@@ -20,6 +20,7 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from mcd.models import fast_paths
+from mcd.models.cpu_fast.layout import memory_format
 
 
 class BilinearUpsample(torch.autograd.Function):
@@ -29,8 +30,7 @@ class BilinearUpsample(torch.autograd.Function):
     @staticmethod
     def forward(ctx, x: Tensor, size: tuple[int, int]) -> Tensor:  # noqa: ANN001
         ctx.shape = list(x.shape)
-        ctx.layout = (torch.channels_last if x.is_contiguous(memory_format=torch.channels_last)
-                      and not x.is_contiguous() else torch.contiguous_format)
+        ctx.layout = memory_format(x)
         return F.interpolate(x, size=size, mode="bilinear", align_corners=False)
 
     @staticmethod
