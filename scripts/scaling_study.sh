@@ -64,7 +64,7 @@ leg data=small train.max_steps=3000 +experiment=E seed=0,1,2
 leg data=small train.max_steps=10000 +experiment=F,ntasad seed=0
 wait_render medium
 PACKED=data.train_store.format=array  # medium keeps no frames in memory: crops from the packed store, bit for
-# bit the EXR path's (docs/training_store.md), without decoding EXR on every step (a quarter of F's CPU)
+# bit the EXR path's (docs/training_store.md), without decoding EXR on every step (notes/scaling_plan.md)
 leg data=medium "$PACKED" train.max_steps=1000,3000 +experiment=F,ntasad seed=0
 leg data=medium "$PACKED" train.max_steps=10000 +experiment=F,A,ntasad,E seed=0
 leg data=medium "$PACKED" train.max_steps=3000 +experiment=F,ntasad seed=1,2

@@ -28,9 +28,8 @@ SCORED='data.transfer_scenes=[dining-room,veach-ajar,kitchenette,bathroom]'  # h
 export OMP_NUM_THREADS=1
 
 # The trainings read their clips from the packed training store (docs/training_store.md; packed by the first
-# run, float32, the EXR values bit for bit): medium keeps no frames in memory, and decoding a batch of EXR
-# crops cost about 0.4 s of CPU per step of F (python -m mcd.bench loader at 128x128: 9.6 clips/s per worker
-# from EXR against 263 from the store), a quarter of F's step and more than half of the U-Net's.
+# run, float32, the EXR values bit for bit): medium keeps no frames in memory, so the EXR path decodes every
+# clip of every step (measured: notes/scaling_plan.md, "The packed store for medium").
 # The trainings leave the held-out interiors out of their store work ('data.transfer_scenes=[]': mcd.run
 # renders every frame of a profile's transfer scenes); the score stage renders only their test frames.
 train() {
