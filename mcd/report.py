@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 
 from mcd.core.file_lock import exclusive_folder, folder_held_elsewhere
 from mcd.core.paths import UnsafeNameError, check_folder_name
+from mcd.core.provenance import commit_word
 from mcd.reporting.outputs import writes
 
 if TYPE_CHECKING:  # imported where used, so that --help starts fast (docs/architecture.md, "Start-up")
@@ -212,8 +213,7 @@ def mixed_commits_note(runs: list[Run]) -> str | None:
     made: dict[str, list[str]] = {}
     for r in runs:
         if r.metrics is not None:
-            dirty = "+dirty" if r.metrics.get("dirty") else ""
-            code = f"{str(r.metrics.get('commit') or 'unrecorded')[:10]}{dirty}"
+            code = commit_word(r.metrics.get("commit") or "unrecorded", r.metrics.get("dirty"))
             made.setdefault(code, []).append(r.path.name)
     if len(made) < 2:
         return None

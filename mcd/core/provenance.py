@@ -1,7 +1,8 @@
 """The commit of the code a process runs (docs/benchmark.md, "Reports": every record names its commit).
 
 :func:`git_commit` asks git once per process: a sweep's jobs all run the code imported when it started, so a
-later commit must not be recorded as theirs. :func:`short_commit` is the same fact as reports print it.
+later commit must not be recorded as theirs. :func:`short_commit` is the same fact as reports print it, and
+:func:`commit_word` the one way any commit and dirty flag is printed.
 """
 
 from __future__ import annotations
@@ -26,11 +27,15 @@ def git_commit() -> dict[str, object]:
     return {"commit": commit, "dirty": bool(status.strip())}
 
 
+def commit_word(commit: object, dirty: object, length: int | None = 10) -> str:
+    """A recorded commit as one word: its first ``length`` characters (all of them for None), ``+dirty``
+    when its tracked files differed from it."""
+    return str(commit)[:length] + ("+dirty" if dirty else "")
+
+
 def short_commit() -> str:
-    """:func:`git_commit` as one word: a 10-character hash, ``+dirty`` when tracked files differ, or
-    ``unknown``."""
+    """:func:`git_commit` as one word (:func:`commit_word`), or ``unknown``."""
     state = git_commit()
-    commit = str(state["commit"])
-    if commit == "unknown":
-        return commit
-    return commit[:10] + ("+dirty" if state["dirty"] else "")
+    if state["commit"] == "unknown":
+        return "unknown"
+    return commit_word(state["commit"], state["dirty"])

@@ -20,6 +20,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from mcd.core.provenance import commit_word
 from mcd.reporting.markdown_text import escape
 
 #: The current report: the folder under ``reports/`` that README.md's results and the index's "current" mark
@@ -63,7 +64,8 @@ def _first_sentence(text: str, limit: int = 160) -> str:
 def _commits(text: str | None) -> str:
     if not text:
         return "—"
-    commits = [c.strip()[:7] + ("+dirty" if c.strip().endswith("+dirty") else "") for c in text.split(",")]
+    commits = [commit_word(c.strip().removesuffix("+dirty"), c.strip().endswith("+dirty"), 7)
+               for c in text.split(",")]
     if len(commits) > 3:
         return f"{', '.join(commits[:3])} and {len(commits) - 3} more"
     return ", ".join(commits)

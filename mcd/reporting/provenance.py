@@ -10,7 +10,7 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from mcd.core.provenance import short_commit
+from mcd.core.provenance import commit_word, short_commit
 from mcd.reporting.markdown_text import escape as esc
 from mcd.reporting.records import RECORDS_DIR
 from mcd.reporting.runs import Run, Sweep
@@ -26,8 +26,8 @@ def _segment_text(seg: dict) -> str:
     recorded), minutes."""
     steps = ("" if seg.get("start_step") is None or seg.get("end_step") is None
              else f"steps {seg['start_step']}-{seg['end_step']} ")
-    code = (f"at {str(seg['commit'])[:7]}{'+dirty' if seg.get('dirty') else ''}"
-            if seg.get("commit") else "code not recorded")
+    code = (f"at {commit_word(seg['commit'], seg.get('dirty'), 7)}" if seg.get("commit")
+            else "code not recorded")
     precision = f" in {seg['precision']}" if seg.get("precision") else ""
     minutes = "" if seg.get("seconds") is None else f", {float(seg['seconds']) / 60:.0f} min"
     return f"{steps}{code}{precision}{minutes}"
@@ -63,7 +63,7 @@ class Provenance:
         """Every commit that trained or tested a finished run: each run's own and those of the earlier
         processes of a resumed run (``Run.segments``)."""
         seen = [
-            f"{c['commit']}{'+dirty' if c.get('dirty') else ''}"
+            commit_word(c["commit"], c.get("dirty"), None)
             for r in self._ok()
             for c in [r.metrics, *r.segments]
             if c.get("commit")
