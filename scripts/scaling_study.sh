@@ -9,9 +9,10 @@
 #      per-pixel identity channel (F_pixel_switch), there and at 1000 and 3000 steps on small; and F started
 #      from He's initialisation (F_he: why F's sampling map collapses on some seeds, docs/method.md
 #      "Initialisation") at the same point with seeds 0-2;
-#   3. F and NTASAD at 3000 steps (seed 0); then at 10000 steps on tiny, where the fits of 1000 and 3000 steps
-#      cross at about 5000 (reports/scaling): the crossing measured, not extrapolated; then F_paper, C and A at
-#      1000 and 3000 on tiny and small;
+#   3. F and NTASAD at 3000 steps (seed 0), F_pixel_switch beside them on small at 1000 and 3000 (F's default
+#      identity channel waits on it, and the current report on F's defaults); then at 10000 steps on tiny,
+#      where the fits of 1000 and 3000 steps cross at about 5000 (reports/scaling): the crossing measured, not
+#      extrapolated; then F_paper, C and A at 1000 and 3000 on tiny and small;
 #   4. seeds 1-2 of F and NTASAD at 3000 on small, F without SA (row E) at 3000 on small with seeds 0-2 (the
 #      fourth diagnostic, paired with F's seeds), then 10000 steps on small;
 #   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A, NTASAD and row E at 10000 (F, A and
@@ -56,6 +57,7 @@ leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0,1,2 "$GAP"
 leg data=tiny train.max_steps=1000 +experiment=F_he seed=0,1,2 "$GAP"
 leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
+leg data=small train.max_steps=1000,3000 +experiment=F_pixel_switch seed=0  # decides F's identity channel
 leg data=tiny train.max_steps=10000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A,F_pixel_switch seed=0
