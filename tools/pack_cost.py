@@ -115,15 +115,16 @@ def main(argv: list[str] | None = None) -> None:
           f"{args.repeats} runs per checkout, medians; {device_name(torch.device('cpu'))}; load average "
           f"{os.getloadavg()[0]:.1f} at the end")
     print(f"{'checkout':<28} {'commit':<16} {'call':<6} {'user s':>7} {'sys s':>7} {'CPU s':>7} "
-          f"{'faults':>9} {'wall s':>7}  sha256 of the scene file")
+          f"{'faults':>9} {'wall s':>7}  {'CPU s of each run':<20} sha256 of the scene file")
     for checkout in checkouts:
         commit = runs[checkout][0]["commit"]
         for i, what in enumerate(("pack", "check")):
             rows = [r["rows"][i] for r in runs[checkout]]
             med = {k: statistics.median(r[k] for r in rows) for k in ("user", "sys", "faults", "wall")}
             done = {(r["packed"], r["reused"]) for r in rows}
+            each = " ".join(f"{r['user'] + r['sys']:.2f}" for r in rows)
             print(f"{str(checkout)[-28:]:<28} {commit:<16} {what:<6} {med['user']:>7.2f} {med['sys']:>7.2f} "
-                  f"{med['user'] + med['sys']:>7.2f} {med['faults']:>9.0f} {med['wall']:>7.1f}  "
+                  f"{med['user'] + med['sys']:>7.2f} {med['faults']:>9.0f} {med['wall']:>7.1f}  {each:<20} "
                   f"{','.join(d[:16] for d in sorted(digests[checkout])) if what == 'pack' else '':<16}  "
                   f"(packed, reused) {sorted(done)}")
     if len({d for ds in digests.values() for d in ds}) != 1:

@@ -2,9 +2,12 @@
 (:mod:`mcd.data.train_store`, docs/training_store.md); the command is ``python -m mcd.pack`` (mcd/pack.py).
 
 The unit of work is one frame of one scene: its buffers are read through
-:meth:`mcd.data.store.StoreReader.load` (as models see them), written into the scene's array, flushed, read
-back and compared (CRC-32), and only then recorded in the scene's pack record (written atomically,
-:mod:`mcd.core.atomic_write`). A pack killed at any point (kill -9 included) loses nothing: run again, it
+:meth:`mcd.data.store.StoreReader.load` (as models see them) and written into the scene's array one tile row
+at a time (:func:`mcd.data.train_store.tile_row` into one reused buffer, ``os.pwrite``, read back and
+compared, CRC-32 taken), flushed to disk, and only then recorded in the scene's pack record (written
+atomically, :mod:`mcd.core.atomic_write`). Nothing is written through a memory map: its page faults and the
+whole-frame temporaries were most of the pack's system time (docs/training_store.md, "Pack: resumable,
+atomic, verified"). A pack killed at any point (kill -9 included) loses nothing: run again, it
 skips recorded frames whose EXR sources are unchanged and whose bytes still have their recorded CRC-32 (a
 deleted, truncated or overwritten file is packed again), and packs the rest. A store packed with another
 config is refused before any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR
@@ -94,7 +97,7 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
         meta = read_meta(meta_path, command)
         check_meta(meta, settings, cfg.data, buffers, meta_path)
     store = TrainStore(settings.dir, meta, command)
-    check_free_space(store, reader, todo)  # a memory-mapped write past a full disk dies of SIGBUS, unlogged
+    check_free_space(store, reader, todo)  # before the long work, not part-way
     if not meta_path.is_file():
         atomic_write_json(meta_path, meta)
     t0 = time.perf_counter()
@@ -139,8 +142,9 @@ SPACE_MARGIN = 1 << 20
 def check_free_space(store: TrainStore, reader: StoreReader, todo: dict[str, list[int]]) -> None:
     """OSError naming ``data.train_store.dir``, the bytes needed and free, and what to do, when the disk of
     the store holds less free space than the frames of ``todo`` not yet recorded take (:func:`frame_bytes`
-    each, plus :data:`SPACE_MARGIN`). Checked before the first byte is written: the scene arrays are memory
-    maps, and a write into one past a full disk kills the process with SIGBUS and no message."""
+    each, plus :data:`SPACE_MARGIN`). Checked before the first byte is written, so that a pack that cannot
+    finish says so before its long work (a write that fails all the same stops it naming the file and the
+    frame, :func:`_write_checked`)."""
     n_channels = max(end for _, end in store.ranges.values())
     per_frame = frame_bytes(store.height, store.width, n_channels, store.dtype, store.tile)
     count = 0
@@ -289,13 +293,15 @@ def _frame_span(mm: np.memmap, frame: int) -> tuple[int, int]:
 def _write_checked(fd: int, data: np.ndarray, offset: int, back: np.ndarray, path: Path, frame: int) -> None:
     """Write ``data`` at ``offset`` of the open scene file ``fd``, read it back into ``back`` (as long) and
     compare: OSError naming the file and the frame when the write fails (a full disk: ENOSPC here, where a
-    write through a memory map died of SIGBUS), falls short or reads back other bytes."""
+    write through a memory map died of SIGBUS) or the file reads back other bytes."""
+    rest, at = memoryview(data).cast("B"), offset
     try:
-        written = os.pwrite(fd, data, offset)
+        while rest and (n := os.pwrite(fd, rest, at)):  # a short write (the disk filling): the rest again
+            rest, at = rest[n:], at + n
     except OSError as err:
         raise OSError(err.errno, f"{path}: frame {frame} could not be written ({err.strerror}); nothing was "
                                  "recorded for it: free space there and pack again") from err
-    if (written != data.nbytes or os.preadv(fd, [back], offset) != data.nbytes
+    if (rest or os.preadv(fd, [back], offset) != data.nbytes
             or not np.array_equal(back, data.reshape(-1).view(np.uint8))):
         raise OSError(f"{path}: frame {frame} reads back other bytes than were written (disk full or "
                       "failing?); nothing was recorded for it: pack again")
