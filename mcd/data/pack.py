@@ -2,9 +2,12 @@
 (:mod:`mcd.data.train_store`, docs/training_store.md); the command is ``python -m mcd.pack`` (mcd/pack.py).
 
 The unit of work is one frame of one scene: its buffers are read through
-:meth:`mcd.data.store.StoreReader.load` (as models see them), written into the scene's array, flushed, read
-back and compared (CRC-32), and only then recorded in the scene's pack record (written atomically,
-:mod:`mcd.core.atomic_write`). A pack killed at any point (kill -9 included) loses nothing: run again, it
+:meth:`mcd.data.store.StoreReader.load` (as models see them) and written into the scene's array one tile row
+at a time (:func:`mcd.data.train_store.tile_row` into one reused buffer, ``os.pwrite``, read back and
+compared, CRC-32 taken), flushed to disk, and only then recorded in the scene's pack record (written
+atomically, :mod:`mcd.core.atomic_write`). Nothing is written through a memory map: its page faults and the
+whole-frame temporaries were most of the pack's system time (docs/training_store.md, "Pack: resumable,
+atomic, verified"). A pack killed at any point (kill -9 included) loses nothing: run again, it
 skips recorded frames whose EXR sources are unchanged and whose bytes still have their recorded CRC-32 (a
 deleted, truncated or overwritten file is packed again), and packs the rest. A store packed with another
 config is refused before any work, naming the key (:func:`mcd.data.train_store.check_meta`); so is an EXR
@@ -50,7 +53,7 @@ from mcd.data.train_store import (
     read_meta,
     readers_elsewhere,
     tile_grid,
-    to_tiles,
+    tile_row,
 )
 
 log = logging.getLogger("mcd.pack")
@@ -94,7 +97,7 @@ def pack(cfg: DictConfig, reader: StoreReader, buffers: Iterable[str],
         meta = read_meta(meta_path, command)
         check_meta(meta, settings, cfg.data, buffers, meta_path)
     store = TrainStore(settings.dir, meta, command)
-    check_free_space(store, reader, todo)  # a memory-mapped write past a full disk dies of SIGBUS, unlogged
+    check_free_space(store, reader, todo)  # before the long work, not part-way
     if not meta_path.is_file():
         atomic_write_json(meta_path, meta)
     t0 = time.perf_counter()
@@ -139,8 +142,9 @@ SPACE_MARGIN = 1 << 20
 def check_free_space(store: TrainStore, reader: StoreReader, todo: dict[str, list[int]]) -> None:
     """OSError naming ``data.train_store.dir``, the bytes needed and free, and what to do, when the disk of
     the store holds less free space than the frames of ``todo`` not yet recorded take (:func:`frame_bytes`
-    each, plus :data:`SPACE_MARGIN`). Checked before the first byte is written: the scene arrays are memory
-    maps, and a write into one past a full disk kills the process with SIGBUS and no message."""
+    each, plus :data:`SPACE_MARGIN`). Checked before the first byte is written, so that a pack that cannot
+    finish says so before its long work (a write that fails all the same stops it naming the file and the
+    frame, :func:`_write_checked`)."""
     n_channels = max(end for _, end in store.ranges.values())
     per_frame = frame_bytes(store.height, store.width, n_channels, store.dtype, store.tile)
     count = 0
@@ -184,14 +188,17 @@ def _packed_already(store: TrainStore, reader: StoreReader, scene: str, frames: 
         return False
     if mm.shape != _scene_shape(store, reader, scene, size) or mm.dtype != store.dtype:
         return False
+    chunk = bytearray(CHUNK)
     with open(path, "rb") as fh:
-        return all(_bytes_intact(fh, mm, f, done[str(f)].get("crc32")) for f in frames)
+        return all(_bytes_intact(fh.fileno(), mm, f, done[str(f)].get("crc32"), chunk) for f in frames)
 
 
 def _scene_array(store: TrainStore, reader: StoreReader, scene: str, size: tuple[int, int]) -> np.memmap:
-    """The scene's ``.npy`` opened for writing; created (sparse, at a temp name, then renamed) when absent or
-    shaped for another frame count (the EXR store was re-rendered with another sequence: every frame is
-    packed again)."""
+    """The scene's ``.npy`` as an array over its file, for its shape and data offset (frames are written with
+    ``os.pwrite``, :func:`_write_checked`, never through this map: a write through it faulted in every page);
+    mapped ``r+`` so that a file truncated below its shape is extended back to it with zeros. Created (sparse,
+    at a temp name, then renamed) when absent or shaped for another frame count (the EXR store was
+    re-rendered with another sequence: every frame is packed again)."""
     path = store.scene_path(scene)
     shape = _scene_shape(store, reader, scene, size)
     if path.is_file():
@@ -227,36 +234,45 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
             f"from (e.g. frame {stale[0]}): packing them now would change the frames that run reads. Give "
             "this config its own data.train_store.dir (or null, the default below its data folder), or pack "
             "after that run ends")
-    with open(store.scene_path(scene), "rb") as fh:
+    path = store.scene_path(scene)
+    row = np.empty(mm.shape[2:], dtype=np.float32)  # one tile row, reused for every row of every frame
+    out = np.empty(mm.shape[2:], dtype=store.dtype) if fp16 else row
+    back = np.empty(out.nbytes, dtype=np.uint8)
+    chunk = bytearray(CHUNK)
+    with open(path, "r+b") as fh:
+        fd = fh.fileno()
         for f in frames:
             digest = frame_digest(man, f, store.packed)
             if done.get(str(f), {}).get("sources") == digest:
-                if _bytes_intact(fh, mm, f, done[str(f)].get("crc32")):
+                if _bytes_intact(fd, mm, f, done[str(f)].get("crc32"), chunk):
                     got["reused"] += 1
                     continue
                 log.warning("%s: frame %d's bytes differ from those packed (CRC-32; the file was deleted, "
-                            "truncated or written over): packing it again", store.scene_path(scene), f)
-            frame = np.empty((mm.shape[3], *size), dtype=np.float32)
+                            "truncated or written over): packing it again", path, f)
+            parts = []
             for b in store.packed:
-                c0, c1 = store.ranges[b]
-                frame[c0:c1] = reader.load(scene, f, b).transpose(2, 0, 1)
-            clamped = 0
-            if fp16:
-                over = np.abs(frame) > FP16_MAX
-                clamped = int(over.sum())
-                if clamped:
-                    np.clip(frame, -FP16_MAX, FP16_MAX, out=frame)
-                    log.warning("%s frame %d: %d value(s) beyond the float16 range clamped to +-%g "
-                                "(data.train_store.dtype=float16; float32 keeps them)", scene, f, clamped,
-                                FP16_MAX)
-            data = to_tiles(frame.astype(store.dtype) if fp16 else frame, store.tile)
-            mm[f] = data
-            mm.flush()
-            crc = zlib.crc32(data.tobytes())
-            back = os.pread(fh.fileno(), data.nbytes, mm.offset + f * data.nbytes)
-            if zlib.crc32(back) != crc:
-                raise OSError(f"{store.scene_path(scene)}: frame {f} reads back other bytes than were "
-                              "written (disk full or failing?); nothing was recorded for it: pack again")
+                image = reader.load(scene, f, b)
+                if image.shape != (*size, store.ranges[b][1] - store.ranges[b][0]):
+                    raise ValueError(f"{reader.path(scene, f, b)}: {image.shape} (height, width, channels), "
+                                     f"the store packs {size[1]}x{size[0]} frames of {b}: render it again")
+                parts.append((store.ranges[b][0], image))
+            start, _ = _frame_span(mm, f)
+            crc = clamped = 0
+            for ty in range(mm.shape[1]):
+                tile_row(row, parts, ty)
+                if fp16:
+                    over = int(np.count_nonzero(np.abs(row) > FP16_MAX))
+                    if over:
+                        np.clip(row, -FP16_MAX, FP16_MAX, out=row)
+                        clamped += over
+                    out[...] = row
+                _write_checked(fd, out, start + ty * out.nbytes, back, path, f)
+                crc = zlib.crc32(out, crc)
+            if clamped:
+                log.warning("%s frame %d: %d value(s) beyond the float16 range clamped to +-%g "
+                            "(data.train_store.dtype=float16; float32 keeps them)", scene, f, clamped,
+                            FP16_MAX)
+            os.fdatasync(fd)  # on disk before it is recorded
             done[str(f)] = {"sources": digest, "crc32": crc, "clamped": clamped}
             atomic_write_json(store.record_path(scene), record)
             got["packed"] += 1
@@ -264,12 +280,47 @@ def _pack_scene(store: TrainStore, reader: StoreReader, scene: str, frames: list
     return got
 
 
-def _bytes_intact(fh: Any, mm: np.memmap, frame: int, crc: Any) -> bool:
-    """Whether the packed bytes of ``frame`` in the open scene file ``fh`` (its array ``mm``) are whole and
-    have the CRC-32 recorded when they were packed: a frame is reused only then, so a store whose file was
-    deleted, truncated (a memory map zero-fills it again) or written over in place is packed again, never
-    read as zeros or damage (docs/training_store.md, "Pack: resumable, atomic, verified")."""
-    n = mm[frame].nbytes
-    back = os.pread(fh.fileno(), n, mm.offset + frame * n)
-    return isinstance(crc, int) and len(back) == n and zlib.crc32(back) == crc
+#: Bytes read at a time when a packed frame's CRC-32 is checked (one reused buffer, not the whole frame).
+CHUNK = 1 << 20
 
+
+def _frame_span(mm: np.memmap, frame: int) -> tuple[int, int]:
+    """``(offset, bytes)``: where ``frame``'s packed bytes lie in the scene file whose array is ``mm``."""
+    n = mm[0].nbytes
+    return mm.offset + frame * n, n
+
+
+def _write_checked(fd: int, data: np.ndarray, offset: int, back: np.ndarray, path: Path, frame: int) -> None:
+    """Write ``data`` at ``offset`` of the open scene file ``fd``, read it back into ``back`` (as long) and
+    compare: OSError naming the file and the frame when the write fails (a full disk: ENOSPC here, where a
+    write through a memory map died of SIGBUS) or the file reads back other bytes."""
+    rest, at = memoryview(data).cast("B"), offset
+    try:
+        while rest and (n := os.pwrite(fd, rest, at)):  # a short write (the disk filling): the rest again
+            rest, at = rest[n:], at + n
+    except OSError as err:
+        raise OSError(err.errno, f"{path}: frame {frame} could not be written ({err.strerror}); nothing was "
+                                 "recorded for it: free space there and pack again") from err
+    if (rest or os.preadv(fd, [back], offset) != data.nbytes
+            or not np.array_equal(back, data.reshape(-1).view(np.uint8))):
+        raise OSError(f"{path}: frame {frame} reads back other bytes than were written (disk full or "
+                      "failing?); nothing was recorded for it: pack again")
+
+
+def _bytes_intact(fd: int, mm: np.memmap, frame: int, crc: Any, chunk: bytearray) -> bool:
+    """Whether the packed bytes of ``frame`` in the open scene file ``fd`` (its array ``mm``) are whole and
+    have the CRC-32 recorded when they were packed: a frame is reused only then, so a store whose file was
+    deleted, truncated (opening its array zero-fills it again) or written over in place is packed again, never
+    read as zeros or damage (docs/training_store.md, "Pack: resumable, atomic, verified"). Read ``chunk``'s
+    length at a time into it."""
+    if not isinstance(crc, int):
+        return False
+    offset, n = _frame_span(mm, frame)
+    view, value, read = memoryview(chunk), 0, 0
+    while read < n:
+        got = os.preadv(fd, [view[: min(len(view), n - read)]], offset + read)
+        if not got:  # the file ends inside the frame
+            return False
+        value = zlib.crc32(view[:got], value)
+        read += got
+    return value == crc

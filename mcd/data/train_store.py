@@ -93,13 +93,28 @@ def frame_bytes(height: int, width: int, channels: int, dtype: npt.DTypeLike, ti
     return tiles_y * tiles_x * channels * tile * tile * np.dtype(dtype).itemsize
 
 
-def to_tiles(frame: np.ndarray, tile: int = TILE) -> np.ndarray:
-    """A ``(C, H, W)`` frame as ``(ceil(H / tile), ceil(W / tile), C, tile, tile)`` tiles, zero-padded."""
-    c, h, w = frame.shape
-    ty, tx = tile_grid(h, w, tile)
-    padded = np.zeros((c, ty * tile, tx * tile), dtype=frame.dtype)
-    padded[:, :h, :w] = frame
-    return np.ascontiguousarray(padded.reshape(c, ty, tile, tx, tile).transpose(1, 3, 0, 2, 4))
+def tile_row(out: np.ndarray, parts: Iterable[tuple[int, np.ndarray]], row: int) -> np.ndarray:
+    """Tile row ``row`` of a frame, written into ``out`` (``(tiles_x, channels, tile, tile)``) and returned:
+    each ``(first, image)`` of ``parts`` is an ``(H, W, c)`` image of the frame whose channels go to
+    ``first:first + c`` (together they fill every channel), and the padding beyond the frame's last row and
+    column is zero (docs/training_store.md, "Layout"). A packed frame is its :func:`tile_grid` rows one after
+    another, each one contiguous run of the scene's array, so the pack writes a frame row by row through one
+    reused buffer."""
+    parts = list(parts)
+    h, w, _ = parts[0][1].shape
+    tile = out.shape[2]
+    top, full, rest = row * tile, w // tile, w % tile  # full tiles across, pixels of the partial last one
+    rows = min(tile, h - top)
+    for first, image in parts:
+        src, c = image[top : top + rows], image.shape[2]
+        dst = out[:, first : first + c, :rows]
+        dst[:full] = src[:, : full * tile].reshape(rows, full, tile, c).transpose(1, 3, 0, 2)
+        if rest:
+            dst[full, :, :, :rest] = src[:, full * tile :].transpose(2, 0, 1)
+    out[:, :, rows:] = 0  # below the frame's last pixel row
+    if rest:
+        out[full, :, :, rest:] = 0  # right of its last pixel column
+    return out
 
 
 class TrainStoreError(RuntimeError):

@@ -4,11 +4,15 @@ space of ``data.train_store.dir``'s disk before it writes anything, and names th
 
 Two tests: ``python -m mcd.pack`` for real onto a 64 KB tmpfs, mounted in a private mount namespace
 (``unshare -rm``; skipped where the machine cannot make one), and the same check in process with
-``shutil.disk_usage`` reporting a nearly full disk (runs everywhere)."""
+``shutil.disk_usage`` reporting a nearly full disk (runs everywhere). A third: a disk that fills after the
+check, the pack's write failing part-way on a 2 MB tmpfs, names the file and the frame (mcd/data/pack.py
+writes frames with ``os.pwrite``; a write through a memory map died of SIGBUS there too)."""
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -55,3 +59,34 @@ def test_defect8_the_free_space_check_runs_before_anything_is_written(cbox_store
     assert not folder.exists()  # nothing written
     monkeypatch.undo()
     assert pack(cfg, store, BUFFERS)["packed"] == 10  # with room, the same pack goes ahead
+
+
+@pytest.mark.slow
+def test_a_disk_that_fills_after_the_check_stops_the_pack_naming_the_frame_and_records_nothing_of_it(
+        cbox_store, tmp_path):
+    """The free-space check passed (``shutil.disk_usage`` reports a terabyte free: the disk fills after it, as
+    when another process writes there) and the 2 MB tmpfs fills at the fourth of the 10 frames (540 KB each):
+    the write fails with an error naming the file and the frame, exit 1, and the record lists only the frames
+    before it (a write through the memory map died of SIGBUS here)."""
+    if subprocess.run(["unshare", "-rm", "true"], capture_output=True).returncode != 0:
+        pytest.skip("no unprivileged mount namespace here (unshare -rm) to mount a small tmpfs")
+    _, store = cbox_store
+    folder = tmp_path / "ts"
+    folder.mkdir()
+    argv = ["mcd.pack", *store32_overrides(store.data_dir), "data.train_store.format=array",
+            f"data.train_store.dir={folder}", "render.buffers=all"]
+    code = ("import collections, runpy, shutil, sys; "
+            "usage = collections.namedtuple('usage', 'total used free'); "
+            "shutil.disk_usage = lambda path: usage(10**12, 0, 10**12); "
+            f"sys.argv = {argv!r}; runpy.run_module('mcd.pack', run_name='__main__')")
+    q = shlex.quote(str(folder))
+    script = (f"mount -t tmpfs -o size=2m tmpfs {q} && {shlex.join([sys.executable, '-c', code])}; rc=$?; "
+              f"echo RECORD; cat {q}/cbox.json; exit $rc")
+    proc = subprocess.run(["unshare", "-rm", "sh", "-c", script], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=600, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 1, (proc.returncode, proc.stderr[-3000:])  # not -7 / 135 (SIGBUS)
+    found = re.search(rf"{re.escape(str(folder / 'cbox.npy'))}: frame (\d+) could not be written \(No space "
+                      r"left on device\); nothing was recorded for it", proc.stderr)
+    assert found, proc.stderr[-3000:]
+    recorded = sorted(int(f) for f in json.loads(proc.stdout.split("RECORD\n")[-1])["frames"])
+    assert recorded == list(range(2, int(found[1]))) and len(recorded) >= 2
