@@ -16,6 +16,12 @@
   (``shutil.copytree``) to change.
 - ``report_in_worker(argv, cwd)``: ``python -m mcd.report <argv>`` run in the test's process, with the
   exit status, stdout and stderr a fresh interpreter gives.
+- ``command_in_worker(module, argv, cwd, env)``: any ``python -m <module>`` run the same way (``mcd.run``,
+  ``mcd.bundle``, ``mcd.denoise``, ``mcd.bench``), each without a new interpreter's imports (Lightning alone
+  is about 5 s of CPU); ``mcd_run(*args)`` is ``mcd.run`` through it. A test whose claim is about a process
+  (a lock another process holds, a kill, a read-only mount, two commands at once, a fresh interpreter's every
+  line) starts the command itself. A scaling sweep (``+sweep=scaling``) keeps its process: a second one in a
+  process fails in Hydra's instantiation of the planned sweeper plugin (``super(type, obj)``).
 
 Session fixtures are what keeps the full suite short: each renders or trains once, and every test that reads
 the result shares it (a test that changes files works on its own copy).
@@ -232,18 +238,98 @@ def report_in_worker(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(["mcd.report", *argv], returncode, out.getvalue(), err.getvalue())
 
 
+#: The warnings filters of a fresh interpreter (no ``-W``, not in development mode): what a command's
+#: warnings meet in its own process (:func:`command_in_worker`).
+FRESH_WARNING_FILTERS = (("default", DeprecationWarning, "__main__"), ("ignore", DeprecationWarning, ""),
+                         ("ignore", PendingDeprecationWarning, ""), ("ignore", ImportWarning, ""),
+                         ("ignore", ResourceWarning, ""))
+
+
+def command_in_worker(module: str, argv: list[str], cwd: Path, env: dict[str, str] | None = None
+                      ) -> subprocess.CompletedProcess:
+    """``python -m <module> <argv>`` in `cwd` with `env` added to the environment, run in this process (the
+    module's ``main``, what the command calls; an int it returns is the exit status, as ``sys.exit(main())``
+    makes it) without a new interpreter's start and imports (Lightning alone
+    is about 5 s of CPU per ``mcd.run``): the exit status, stdout and stderr a fresh interpreter gives. An
+    exception the command does not turn into an exit is printed with its traceback on stderr, exit status 1,
+    as the interpreter does; its warnings meet a fresh interpreter's filters and are written on stderr. What
+    the command changes in the process is put back after it: the environment, ``sys.argv``, the folder, the
+    root logger's handlers and level (handlers it added are closed), warnings filters, torch's thread count
+    and denormal flushing, and the allocator setting of ``mcd.core.allocator``. A test whose claim needs a
+    real process (another process holding a lock, a signal, a wait bounded only by a timeout, two commands at
+    once) starts the command itself."""
+    import importlib
+    import traceback
+    import warnings
+
+    import torch
+    from hydra.core.global_hydra import GlobalHydra
+
+    from mcd.core import allocator
+
+    command = importlib.import_module(module)
+    if hasattr(command, "__path__"):  # a package: ``python -m`` runs its __main__
+        command = importlib.import_module(f"{module}.__main__")
+    out, err = io.StringIO(), io.StringIO()
+    root = logging.getLogger()
+    handlers, level = list(root.handlers), root.level
+    environ, argv_before, cwd_before = dict(os.environ), list(sys.argv), Path.cwd()
+    threads, policy = torch.get_num_threads(), allocator.policy()
+
+    def to_stderr(message, category, filename, lineno, file=None, line=None) -> None:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+    code: int | str | None = 0
+    try:
+        os.environ.update(env or {})
+        sys.argv = [module, *argv]
+        os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
+            warnings.resetwarnings()
+            for action, category, where in reversed(FRESH_WARNING_FILTERS):
+                warnings.filterwarnings(action, category=category, module=where)
+            warnings.showwarning = to_stderr
+            try:
+                result = command.main()
+                if isinstance(result, int):  # ``sys.exit(main())``
+                    code = result
+            except SystemExit as exit_:
+                code = exit_.code
+                if isinstance(code, str):
+                    print(code, file=sys.stderr)
+            except Exception:  # noqa: BLE001 - what the interpreter does with it: traceback, exit status 1
+                traceback.print_exc()
+                code = 1
+    finally:
+        os.chdir(cwd_before)
+        sys.argv = argv_before
+        os.environ.clear()
+        os.environ.update(environ)
+        for handler in root.handlers:
+            if handler not in handlers:
+                handler.close()
+        root.handlers[:] = handlers
+        root.setLevel(level)
+        torch.set_num_threads(threads)
+        torch.set_flush_denormal(False)  # a fresh interpreter's setting; CPU training turns it on
+        GlobalHydra.instance().clear()
+        if allocator.policy() != policy:  # mcd.run keeps freed memory (mcd.core.allocator); glibc's default
+            allocator.system_default()
+    returncode = 1 if isinstance(code, str) else int(code or 0)
+    return subprocess.CompletedProcess([module, *argv], returncode, out.getvalue(), err.getvalue())
+
+
 def mcd_run(*args: str) -> subprocess.CompletedProcess:
-    """``python -m mcd.run <args>`` from the checkout, one thread (:func:`module_env`), output captured."""
-    env = {**module_env(), "HYDRA_FULL_ERROR": "1"}
-    return subprocess.run([sys.executable, "-m", "mcd.run", *args], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=600)
+    """``python -m mcd.run <args>`` from the checkout, one thread, ``HYDRA_FULL_ERROR=1``, output captured,
+    run in this process (:func:`command_in_worker`)."""
+    return command_in_worker("mcd.run", list(args), REPO, {"HYDRA_FULL_ERROR": "1", "OMP_NUM_THREADS": "1"})
 
 
 @pytest.fixture(scope="session")
 def ab_sweep(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("ab_sweep")
-    proc = subprocess.run([sys.executable, *AB_SWEEP, f"paths.data_dir={folder / 'data'}"], cwd=folder,
-                          env=module_env(), capture_output=True, text=True, timeout=900)
+    proc = command_in_worker(AB_SWEEP[1], [*AB_SWEEP[2:], f"paths.data_dir={folder / 'data'}"], folder,
+                             module_env())
     assert proc.returncode == 0, proc.stderr[-5000:]
     return folder
 

@@ -6,11 +6,7 @@ before any work where it does not apply."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import pytest
 import torch
@@ -21,9 +17,8 @@ from mcd.data import BUFFERS
 from mcd.models import build
 from mcd.models.inputs import compress
 from mcd.models.warp import warp
-from tests.conftest import compose_cfg, store32_overrides
+from tests.conftest import compose_cfg, mcd_run, store32_overrides
 
-REPO = Path(__file__).resolve().parents[1]
 CROPS = ["data.train_crop=32", "data.val_crop=32", "train.batch_size=1"]
 
 
@@ -163,11 +158,8 @@ def test_warp_previous_is_refused_where_the_training_clips_cannot_hold_motion(tm
 
 @pytest.mark.slow
 def test_mcd_run_refuses_warp_previous_with_reversed_clips_before_any_render(tmp_path):
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
-    res = subprocess.run([sys.executable, "-m", "mcd.run", "+experiment=F_warp_previous",
-                          "data.augment.reverse=true", f"paths.data_dir={tmp_path / 'data'}",
-                          f"hydra.run.dir={tmp_path / 'run'}"], cwd=REPO, env=env, capture_output=True,
-                         text=True, timeout=300)
+    res = mcd_run("+experiment=F_warp_previous", "data.augment.reverse=true",
+                  f"paths.data_dir={tmp_path / 'data'}", f"hydra.run.dir={tmp_path / 'run'}")
     assert res.returncode != 0
     assert "data.augment.reverse=true: this method reads the motion buffer" in res.stderr + res.stdout
     assert not any((tmp_path / "data").rglob("*.exr"))

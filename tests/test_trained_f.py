@@ -8,9 +8,6 @@ frame-mean match's bands) and its map spent 2-5x the interior's samples on the t
 (zero padding in ``F_s``). The README's full training is measured in docs/method.md.
 """
 
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -18,9 +15,8 @@ import pytest
 
 from mcd.data.exr import read_exr
 from mcd.data.store import StoreReader
-from tests.conftest import compose_cfg, module_env
+from tests.conftest import compose_cfg, mcd_run
 
-REPO = Path(__file__).resolve().parents[1]
 #: The ``tiny`` profile narrowed to the Cornell box over 16 frames: 3 test frames, 1 validation clip.
 STORE = ["data=tiny", "data.name=test64", "data.frames_per_segment=8", "data.train_scenes=[cbox]",
          "data.test_scenes=[cbox]"]
@@ -47,13 +43,11 @@ def f_run(tmp_path_factory):
     """Row F trained ``STEPS`` steps on the 64x64 Cornell box and tested on its test frames."""
     root = tmp_path_factory.mktemp("trained_f")
     overrides = [*STORE, f"paths.data_dir={root / 'data'}"]
-    # One thread, as every test's command (module_env): two workers each running this with two threads on
-    # CI's two cores spun OpenMP's waits past the timeout
-    env = {**module_env(), "HYDRA_FULL_ERROR": "1"}
-    args = ["+experiment=F", *overrides, f"train.max_steps={STEPS}", "train.max_minutes=null",
-            "train.sample_frames=[0,1,2]", "trainer.enable_progress_bar=false", f"hydra.run.dir={root / 'F'}"]
-    proc = subprocess.run([sys.executable, "-m", "mcd.run", *args], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=900)
+    # One thread, as every test's command (mcd_run): two workers each running this with two threads on CI's
+    # two cores spun OpenMP's waits past the timeout
+    proc = mcd_run("+experiment=F", *overrides, f"train.max_steps={STEPS}", "train.max_minutes=null",
+                   "train.sample_frames=[0,1,2]", "trainer.enable_progress_bar=false",
+                   f"hydra.run.dir={root / 'F'}")
     assert proc.returncode == 0, proc.stderr[-4000:]
     return root / "F", StoreReader.from_cfg(compose_cfg(*overrides))
 

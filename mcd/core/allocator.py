@@ -48,6 +48,19 @@ def keep_freed_memory() -> bool:
     return True
 
 
+def system_default() -> None:
+    """Undo :func:`keep_freed_memory`: glibc's default limits (65536 mmapped blocks, a 128 KiB trim
+    threshold), the freed memory handed back, :data:`SYSTEM` as the setting; for a process that ran a
+    command's ``main`` and goes on (the test suite runs commands in its workers)."""
+    global _policy
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(M_MMAP_MAX, 65536)
+        libc.mallopt(M_TRIM_THRESHOLD, 128 * 1024)
+    hand_back()
+    _policy = SYSTEM
+
+
 def hand_back() -> None:
     """Hand the heap's freed memory back to the OS now (glibc ``malloc_trim``; nothing elsewhere), whatever
     the setting."""

@@ -6,9 +6,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +14,7 @@ import pytest
 
 from mcd.core.metrics import psnr
 from mcd.data import StoreBuilder
-from tests.conftest import compose_cfg
+from tests.conftest import command_in_worker, compose_cfg
 
 REPO = Path(__file__).resolve().parents[2]
 METHODS = ["unet", "rae", "fastdvdnet", "dasr", "ntasad", "noisy", "oidn"]
@@ -37,11 +34,10 @@ def sweep(tmp_path_factory) -> Path:
     """One multirun of every baseline (OIDN only where ``pyoidn`` is installed); its sweep directory."""
     root = tmp_path_factory.mktemp("baselines")
     methods = METHODS if HAS_PYOIDN else METHODS[:-1]
-    cmd = [sys.executable, "-m", "mcd.run", "-m", f"+experiment={','.join(methods)}",
-           f"paths.data_dir={root / 'data'}", f"hydra.sweep.dir={root / 'runs'}",
-           "hydra.sweep.subdir=${experiment}", *DATA, "train.epochs=20", "trainer.enable_progress_bar=false"]
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
-    res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+    args = ["-m", f"+experiment={','.join(methods)}", f"paths.data_dir={root / 'data'}",
+            f"hydra.sweep.dir={root / 'runs'}", "hydra.sweep.subdir=${experiment}", *DATA, "train.epochs=20",
+            "trainer.enable_progress_bar=false"]
+    res = command_in_worker("mcd.run", args, REPO, {"OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)})
     assert res.returncode == 0, res.stderr[-3000:]
     return root
 

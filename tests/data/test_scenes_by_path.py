@@ -5,17 +5,14 @@ scene, never to edit the repository. ``mcd.render`` renders exactly the scenes t
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from mcd.data import StoreBuilder
 from mcd.data.scenes import VENDORED_DIR, SceneNotFoundError, register_paths
-from tests.conftest import compose_cfg, store32_overrides
+from tests.conftest import command_in_worker, compose_cfg, store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]
 SMALL = ["data.segments=1", "data.frames_per_segment=2", "data.ref_spp=16", "data.gbuffer_spp=4"]
@@ -76,9 +73,7 @@ def test_render_of_a_transfer_run_renders_the_transfer_scene_only(tmp_path, my_s
     args = [*store32_overrides(data), *SMALL, f"transfer.init_from={ckpt}",
             f"data.transfer_scenes=[{my_scene}]", "render.buffers=[c4]",
             f"hydra.run.dir={tmp_path / 'hydra'}"]
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, "-m", "mcd.render", *args], capture_output=True, text=True,
-                          env=env, cwd=REPO, timeout=600)
+    done = command_in_worker("mcd.render", args, REPO, {"PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"})
     assert done.returncode == 0, done.stderr[-2000:]
     assert sorted(p.name for p in (data / "test32").iterdir()) == ["mybox"]  # not the training scene
 
@@ -107,9 +102,7 @@ def test_a_run_trains_and_tests_on_a_scene_given_by_path(tmp_path, my_scene):
             "train.epochs=1", "train.max_steps=1",
             "trainer.enable_progress_bar=false", f"paths.data_dir={tmp_path / 'data'}",
             f"hydra.run.dir={tmp_path / 'run'}"]
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, "-m", "mcd.run", *args], capture_output=True, text=True, env=env,
-                          cwd=REPO, timeout=600)
+    done = command_in_worker("mcd.run", args, REPO, {"PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"})
     assert done.returncode == 0, done.stderr[-3000:]
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert metrics["scenes_test"] == ["mybox"] and metrics["test_frames"] == {"mybox": 2}

@@ -8,20 +8,19 @@ real."""
 from __future__ import annotations
 
 import subprocess
-import sys
 
 import pytest
 
-from tests.conftest import module_env
+from tests.conftest import command_in_worker, module_env
 
 EARLIER = "method,profile\nearlier,measurement\n"
 
 
 def _train(tmp_path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mcd.bench", "train", "--steps", "1", "--warmup", "0",
-                           "--threads", "1", "--out", str(tmp_path / "train.csv"), *args,
-                           f"paths.data_dir={tmp_path / 'data'}"], cwd=tmp_path, env=module_env(),
-                          capture_output=True, text=True, timeout=600)
+    """``python -m mcd.bench train``, in this process (:func:`tests.conftest.command_in_worker`)."""
+    argv = ["train", "--steps", "1", "--warmup", "0", "--threads", "1", "--out", str(tmp_path / "train.csv"),
+            *args, f"paths.data_dir={tmp_path / 'data'}"]
+    return command_in_worker("mcd.bench", argv, tmp_path, module_env())
 
 
 @pytest.mark.parametrize(("args", "named"), [

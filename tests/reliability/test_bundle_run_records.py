@@ -10,17 +10,16 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO, module_env
+from tests.conftest import REPO, command_in_worker, module_env
 
 
 def _bundle(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mcd.bundle", *args], capture_output=True, text=True,
-                          cwd=REPO, env=module_env(), timeout=600)
+    """``python -m mcd.bundle <args>``, in this process (:func:`tests.conftest.command_in_worker`)."""
+    return command_in_worker("mcd.bundle", list(args), REPO, module_env())
 
 
 def _runs(ab_sweep: Path, tmp_path: Path) -> tuple[Path, Path]:

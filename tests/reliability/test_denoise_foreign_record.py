@@ -11,12 +11,11 @@ Cornell box at 16x16)."""
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 
 import pytest
 
+from tests.conftest import command_in_worker
 from tests.denoise.helpers import REPO
 from tests.reliability.denoise_helpers import snapshot, write_frames
 
@@ -24,9 +23,9 @@ SCENE = REPO / "scenes" / "cbox" / "scene.xml"
 
 
 def _denoise(out, *given: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    return subprocess.run([sys.executable, "-m", "mcd.denoise", *given, "-o", str(out), "--experiment",
-                           "noisy", "--no-progress"], env=env, capture_output=True, text=True, timeout=600)
+    """``python -m mcd.denoise``, in this process (:func:`tests.conftest.command_in_worker`)."""
+    argv = [*given, "-o", str(out), "--experiment", "noisy", "--no-progress"]
+    return command_in_worker("mcd.denoise", argv, REPO, {"PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"})
 
 
 @pytest.mark.parametrize("mode", ["frames", "scene"])

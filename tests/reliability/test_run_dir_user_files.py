@@ -10,10 +10,7 @@ A run's own directory (finished, interrupted) holds its records and is taken as 
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
-from tests.conftest import REPO, module_env, store32_overrides
+from tests.conftest import REPO, command_in_worker, module_env, store32_overrides
 
 
 def test_a_users_folder_with_files_named_like_a_runs_is_refused_and_kept(tmp_path):
@@ -23,11 +20,9 @@ def test_a_users_folder_with_files_named_like_a_runs_is_refused_and_kept(tmp_pat
             "logs/metrics.csv": "x\n", "README.md": "# mine\n"}
     for name, text in mine.items():
         (folder / name).write_text(text)
-    proc = subprocess.run([sys.executable, "-m", "mcd.run", "+experiment=unet", "capacity=cpu",
-                           *store32_overrides(tmp_path / "data"), "train.max_steps=1",
-                           "train.sample_frames=[]",
-                           f"hydra.run.dir={folder}"], cwd=REPO, env=module_env(), capture_output=True,
-                          text=True, timeout=600)
+    args = ["+experiment=unet", "capacity=cpu", *store32_overrides(tmp_path / "data"), "train.max_steps=1",
+            "train.sample_frames=[]", f"hydra.run.dir={folder}"]
+    proc = command_in_worker("mcd.run", args, REPO, module_env())
     assert proc.returncode == 2, proc.stderr[-3000:]
     assert "error: hydra.run.dir=" in proc.stderr and "frames.csv" in proc.stderr
     assert "Traceback" not in proc.stderr

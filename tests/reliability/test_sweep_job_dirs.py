@@ -17,16 +17,19 @@ import sys
 
 import pytest
 
-from tests.conftest import module_env, store32_overrides
+from tests.conftest import command_in_worker, module_env, store32_overrides
 
 NOISY = ["-m", "mcd.run", "-m", "+sweep=baselines", "+experiment=noisy", "trainer.enable_progress_bar=false"]
 
 
 def _sweep(tmp_path, *overrides: str, wrap=None) -> subprocess.CompletedProcess:
-    argv = [sys.executable, *NOISY, *store32_overrides(tmp_path / "data"), *overrides]
-    if wrap is not None:
-        argv = wrap(argv)
-    return subprocess.run(argv, cwd=tmp_path, env=module_env(), capture_output=True, text=True, timeout=600)
+    """The sweep in this process (:func:`tests.conftest.command_in_worker`); in its own process under `wrap`
+    (the read-only mount)."""
+    argv = [*NOISY, *store32_overrides(tmp_path / "data"), *overrides]
+    if wrap is None:
+        return command_in_worker(argv[1], argv[2:], tmp_path, module_env())
+    return subprocess.run(wrap([sys.executable, *argv]), cwd=tmp_path, env=module_env(), capture_output=True,
+                          text=True, timeout=600)
 
 
 @pytest.mark.parametrize("grid, key, values", [("train.lr=0.001,0.002", "train.lr", "0.001 / 0.002"),

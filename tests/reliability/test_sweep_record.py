@@ -11,17 +11,17 @@ exit 2, nothing written; a sweep run again into its own folder goes on (its reco
 from __future__ import annotations
 
 import subprocess
-import sys
 
 import pytest
 
-from tests.conftest import module_env, store32_overrides
+from tests.conftest import command_in_worker, module_env, store32_overrides
 
 
 def _sweep(cwd, sweep_dir) -> subprocess.CompletedProcess:
-    argv = [sys.executable, "-m", "mcd.run", "-m", *store32_overrides(cwd / "data"), "+experiment=noisy",
-            "seed=0", "trainer.enable_progress_bar=false", f"hydra.sweep.dir={sweep_dir}"]
-    return subprocess.run(argv, cwd=cwd, env=module_env(), capture_output=True, text=True, timeout=600)
+    """The sweep, in this process (:func:`tests.conftest.command_in_worker`)."""
+    argv = ["-m", *store32_overrides(cwd / "data"), "+experiment=noisy", "seed=0",
+            "trainer.enable_progress_bar=false", f"hydra.sweep.dir={sweep_dir}"]
+    return command_in_worker("mcd.run", argv, cwd, module_env())
 
 
 @pytest.mark.slow

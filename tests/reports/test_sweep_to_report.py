@@ -8,7 +8,6 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -16,14 +15,15 @@ import pytest
 
 from mcd.config.methods import COMPONENTS
 from mcd.reporting import finding
-from tests.conftest import AB_SWEEP, SWEEP32, copy_sweep, module_env, report_in_worker
+from tests.conftest import AB_SWEEP, SWEEP32, command_in_worker, copy_sweep, module_env, report_in_worker
 
 REPO = Path(__file__).resolve().parents[2]
 
 def _run(args: list[str], cwd: Path, returncode: int = 0) -> subprocess.CompletedProcess:
-    proc = subprocess.run(
-        [sys.executable, *args], cwd=cwd, env=module_env(), capture_output=True, text=True, timeout=600
-    )
+    """``python -m <module> <rest>`` (`args` is ``["-m", module, *rest]``) in `cwd`, in this process
+    (:func:`tests.conftest.command_in_worker`), with the environment of a test's command."""
+    assert args[0] == "-m", args
+    proc = command_in_worker(args[1], args[2:], cwd, module_env())
     assert proc.returncode == returncode, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
     return proc
 
