@@ -255,8 +255,9 @@ def command_in_worker(module: str, argv: list[str], cwd: Path, env: dict[str, st
     as the interpreter does; its warnings meet a fresh interpreter's filters and are written on stderr. What
     the command changes in the process is put back after it: the environment, ``sys.argv``, the folder, the
     root logger's handlers and level (it starts with none and WARNING, as in a fresh interpreter; handlers it
-    added are closed), warnings filters, torch's thread count and denormal flushing, and the allocator setting of ``mcd.core.allocator``. A test whose claim needs a
-    real process (another process holding a lock, a signal, a wait bounded only by a timeout, two commands at
+    added are closed), warnings filters, torch's thread count and denormal flushing, and the allocator
+    setting of ``mcd.core.allocator``. A test whose claim needs a real process (another process holding a
+    lock, a signal, a wait bounded only by a timeout, two commands at
     once) starts the command itself."""
     import importlib
     import traceback
