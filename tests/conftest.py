@@ -254,9 +254,10 @@ def command_in_worker(module: str, argv: list[str], cwd: Path, env: dict[str, st
     exception the command does not turn into an exit is printed with its traceback on stderr, exit status 1,
     as the interpreter does; its warnings meet a fresh interpreter's filters and are written on stderr. What
     the command changes in the process is put back after it: the environment, ``sys.argv``, the folder, the
-    root logger's handlers and level (handlers it added are closed), warnings filters, torch's thread count
-    and denormal flushing, and the allocator setting of ``mcd.core.allocator``. A test whose claim needs a
-    real process (another process holding a lock, a signal, a wait bounded only by a timeout, two commands at
+    root logger's handlers and level (it starts with none and WARNING, as in a fresh interpreter; handlers it
+    added are closed), warnings filters, torch's thread count and denormal flushing, and the allocator
+    setting of ``mcd.core.allocator``. A test whose claim needs a real process (another process holding a
+    lock, a signal, a wait bounded only by a timeout, two commands at
     once) starts the command itself."""
     import importlib
     import traceback
@@ -284,6 +285,10 @@ def command_in_worker(module: str, argv: list[str], cwd: Path, env: dict[str, st
         os.environ.update(env or {})
         sys.argv = [module, *argv]
         os.chdir(cwd)
+        # a fresh interpreter's root logger: no handler (pytest's capture adds its own), level WARNING, so
+        # that the command's own ``logging.basicConfig`` takes effect and its log lines reach its stderr
+        root.handlers[:] = []
+        root.setLevel(logging.WARNING)
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
             warnings.resetwarnings()
             for action, category, where in reversed(FRESH_WARNING_FILTERS):

@@ -4,10 +4,8 @@ its CPU-hour limit without ``sweep_plan.allow_large=true``, through the real ``p
 
 from __future__ import annotations
 
-import os
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -15,8 +13,8 @@ from omegaconf import OmegaConf
 
 from mcd.core.paths import CONF_DIR
 from mcd.lit.sweep_plan import STEP_KEYS, job_values, keep, plan_lines, plan_rows
+from tests.conftest import command_in_worker
 
-REPO = Path(__file__).resolve().parents[1]
 SWEEP = OmegaConf.load(CONF_DIR / "sweep" / "scaling.yaml")
 
 
@@ -89,10 +87,10 @@ def test_jobs_whose_step_differs_are_measured_apart():
 
 
 def mcd_run(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
-    cmd = [sys.executable, "-m", "mcd.run", "-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000,3000",
-           "+experiment=A", f"paths.data_dir={tmp_path / 'data'}", f"hydra.sweep.dir={tmp_path / 'sweep'}"]
-    return subprocess.run([*cmd, *args], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    """The sweep in the worker (:func:`tests.conftest.command_in_worker`)."""
+    cmd = ["-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000,3000", "+experiment=A",
+           f"paths.data_dir={tmp_path / 'data'}", f"hydra.sweep.dir={tmp_path / 'sweep'}"]
+    return command_in_worker("mcd.run", [*cmd, *args], tmp_path, {"OMP_NUM_THREADS": "1"})
 
 
 @pytest.mark.slow

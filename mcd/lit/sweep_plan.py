@@ -110,8 +110,16 @@ def measured_step_seconds(cfg: DictConfig) -> float:
     return float(train_step(cfg, int(cfg.plan.step_crop))["seconds"])
 
 
-class PlannedSweeper(BasicSweeper):
-    """Hydra's basic sweeper with the job rule, the printed plan and its limit (module docstring)."""
+class PlannedSweeper:
+    """The job rule, the printed plan and its limit (module docstring), over Hydra's basic sweeper: the class
+    Hydra instantiates, :class:`hydra_plugins.mcd_sweep_plan.planned_sweeper.PlannedSweeper`, is this and
+    ``BasicSweeper``. Not a subclass of ``BasicSweeper`` here: Hydra's plugin scan runs the basic sweeper's
+    module again in every new scan (a second command in one process), and its ``__init__`` calls
+    ``super(BasicSweeper, self)`` with the module's new class, which a class built on the first one is not."""
+
+    config: DictConfig | None
+    hydra_context: Any
+    max_batch_size: int | None
 
     def sweep(self, arguments: list[str]) -> Any:
         """Hydra's sweep; a dry run (``sweep_plan.dry_run=true``) prints the plan and writes nothing: Hydra's

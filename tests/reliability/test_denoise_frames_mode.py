@@ -6,21 +6,18 @@ on real EXR files."""
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
-import sys
+from pathlib import Path
 
 import pytest
 
-from tests.denoise.helpers import REPO
+from tests.conftest import command_in_worker
 from tests.reliability.denoise_helpers import write_frames
 
 
 def _denoise(*argv: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    return subprocess.run([sys.executable, "-m", "mcd.denoise", *argv, "--no-progress"], env=env,
-                          capture_output=True, text=True, timeout=300)
+    return command_in_worker("mcd.denoise", [*argv, "--no-progress"], Path.cwd(), {"OMP_NUM_THREADS": "1"})
 
 
 @pytest.mark.slow

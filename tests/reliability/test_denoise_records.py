@@ -14,14 +14,15 @@ import sys
 
 import pytest
 
+from tests.conftest import command_in_worker
 from tests.denoise.helpers import REPO
 from tests.reliability.denoise_helpers import snapshot, write_frames
 
 
 def _denoise(frames, out):
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    return subprocess.run([sys.executable, "-m", "mcd.denoise", str(frames), "-o", str(out), "--experiment",
-                           "noisy", "--no-progress"], env=env, capture_output=True, text=True, timeout=300)
+    """In the worker (the FIFO and ``/dev/zero`` checks below keep a process: a regression would wait)."""
+    return command_in_worker("mcd.denoise", [str(frames), "-o", str(out), "--experiment", "noisy",
+                                             "--no-progress"], REPO, {"OMP_NUM_THREADS": "1"})
 
 
 @pytest.fixture(scope="module")

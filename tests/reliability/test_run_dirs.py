@@ -17,7 +17,7 @@ import pandas as pd
 import pytest
 
 from mcd.run import train_and_test
-from tests.conftest import compose_cfg, store32_overrides
+from tests.conftest import compose_cfg, mcd_run, store32_overrides
 from tests.reliability.conftest import FROZEN, interrupted_run
 
 REPO = Path(__file__).resolve().parents[2]
@@ -87,13 +87,13 @@ def test_an_auto_resume_of_a_directory_in_use_is_refused_naming_the_owner(interr
     shutil.copytree(source, run)
     last = run / "checkpoints" / "last.ckpt"
     before = last.stat().st_mtime_ns
-    args = [sys.executable, "-m", "mcd.run", *overrides, "train.epochs=3", "ckpt_path=auto",
-            f"hydra.run.dir={run}"]
+    # the command in the worker (:func:`tests.conftest.mcd_run`): the other run is the owner's process
+    args = [*overrides, "train.epochs=3", "ckpt_path=auto", f"hydra.run.dir={run}"]
     owner = subprocess.Popen([sys.executable, "-c", OWNER, str(run)], cwd=REPO, env=_env(),
                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         assert owner.stdout.readline().strip() == "held"
-        refused = subprocess.run(args, cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+        refused = mcd_run(*args)
     finally:
         owner.communicate(input="", timeout=60)  # closing stdin lets the owner go
     log = refused.stdout + refused.stderr
@@ -103,7 +103,7 @@ def test_an_auto_resume_of_a_directory_in_use_is_refused_naming_the_owner(interr
     assert last.stat().st_mtime_ns == before
     assert not (run / "metrics.json").exists() and not (run / "error.json").exists()
     # once the owner is gone the same command resumes the run to its end
-    done = subprocess.run(args, cwd=REPO, env=_env(), capture_output=True, text=True, timeout=600)
+    done = mcd_run(*args)
     assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
     assert json.loads((run / "metrics.json").read_text())["train_steps"] == 3
     assert pd.read_csv(run / "curve.csv")["step"].is_unique

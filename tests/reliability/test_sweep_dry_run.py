@@ -5,13 +5,9 @@ that ran no job."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-
 import pytest
 
-from tests.conftest import REPO
+from tests.conftest import command_in_worker
 
 
 @pytest.mark.slow
@@ -22,11 +18,10 @@ def test_a_dry_run_prints_the_plan_and_leaves_the_sweeps_record(tmp_path):
     # an earlier sweep's record, as Hydra writes it (its mode, its overrides)
     record.write_text("hydra:\n  mode: MULTIRUN\n  overrides:\n    task: [data=tiny, +experiment=A]\n")
     before = record.read_bytes()
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
-    cmd = [sys.executable, "-m", "mcd.run", "-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000",
-           "+experiment=A", "sweep_plan.dry_run=true", f"paths.data_dir={tmp_path / 'data'}",
-           f"hydra.sweep.dir={sweep}"]
-    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    env = {"OMP_NUM_THREADS": "1"}
+    cmd = ["-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000", "+experiment=A",
+           "sweep_plan.dry_run=true", f"paths.data_dir={tmp_path / 'data'}", f"hydra.sweep.dir={sweep}"]
+    proc = command_in_worker("mcd.run", cmd, tmp_path, env)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
     assert "plan: 1 jobs" in out
@@ -34,6 +29,5 @@ def test_a_dry_run_prints_the_plan_and_leaves_the_sweeps_record(tmp_path):
     assert sorted(p.name for p in sweep.iterdir()) == ["multirun.yaml"]
 
     fresh = tmp_path / "fresh"
-    proc = subprocess.run([*cmd[:-1], f"hydra.sweep.dir={fresh}"], cwd=tmp_path, env=env,
-                          capture_output=True, text=True, timeout=600)
+    proc = command_in_worker("mcd.run", [*cmd[:-1], f"hydra.sweep.dir={fresh}"], tmp_path, env)
     assert proc.returncode == 0 and not fresh.exists()

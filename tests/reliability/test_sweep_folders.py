@@ -16,13 +16,18 @@ import sys
 
 import pytest
 
-from tests.conftest import module_env, store32_overrides
+from tests.conftest import command_in_worker, module_env, store32_overrides
 
 
-def _mcd_run(cwd, *overrides: str) -> subprocess.CompletedProcess:
-    argv = [sys.executable, "-m", "mcd.run", "-m", *store32_overrides(cwd / "data"),
-            "trainer.enable_progress_bar=false", *overrides]
-    return subprocess.run(argv, cwd=cwd, env=module_env(), capture_output=True, text=True, timeout=600)
+def _mcd_run(cwd, *overrides: str, in_worker: bool = False) -> subprocess.CompletedProcess:
+    """The sweep in its own process (a refusal before the heavy imports: under a second of CPU), or in the
+    worker (:func:`tests.conftest.command_in_worker`) where it measures a training step first."""
+    argv = ["-m", "mcd.run", "-m", *store32_overrides(cwd / "data"), "trainer.enable_progress_bar=false",
+            *overrides]
+    if in_worker:
+        return command_in_worker(argv[1], argv[2:], cwd, module_env())
+    return subprocess.run([sys.executable, *argv], cwd=cwd, env=module_env(), capture_output=True, text=True,
+                          timeout=600)
 
 
 @pytest.mark.parametrize("override, key", [("sweep_tag=/../../../../x", "sweep_tag='/../../../../x'"),
@@ -41,7 +46,8 @@ def test_a_sweep_folder_outside_its_root_is_refused_naming_the_key(tmp_path, ove
 @pytest.mark.slow
 def test_a_plan_above_its_limit_is_one_error_line(tmp_path):
     proc = _mcd_run(tmp_path, "+sweep=scaling", "+experiment=A", "train.max_steps=1000",
-                    "sweep_plan.cpu_hours_limit=0.000001", f"hydra.sweep.dir={tmp_path / 'sweep'}")
+                    "sweep_plan.cpu_hours_limit=0.000001", f"hydra.sweep.dir={tmp_path / 'sweep'}",
+                    in_worker=True)
     assert proc.returncode == 2, (proc.stdout + proc.stderr)[-4000:]
     assert "error: the sweep's plan is" in proc.stderr and "sweep_plan.allow_large=true" in proc.stderr
     assert "Traceback" not in proc.stderr and not (tmp_path / "sweep").exists()

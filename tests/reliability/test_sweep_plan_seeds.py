@@ -6,22 +6,17 @@ them."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-
 import pytest
 
-from tests.conftest import REPO
+from tests.conftest import command_in_worker
 
 
 @pytest.mark.slow
 def test_the_plan_says_how_many_jobs_the_seed_rule_leaves_out(tmp_path):
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
-    cmd = [sys.executable, "-m", "mcd.run", "-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000",
-           "+experiment=A", "seed=0,1,2", "sweep_plan.dry_run=true", f"paths.data_dir={tmp_path / 'data'}",
+    cmd = ["-m", "+sweep=scaling", "data=tiny", "train.max_steps=1000", "+experiment=A", "seed=0,1,2",
+           "sweep_plan.dry_run=true", f"paths.data_dir={tmp_path / 'data'}",
            f"hydra.sweep.dir={tmp_path / 'sweep'}"]
-    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    proc = command_in_worker("mcd.run", cmd, tmp_path, {"OMP_NUM_THREADS": "1"})
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out[-3000:]
     assert "leaves out 2 of the grid's 3 jobs" in out and "sweep_plan.seeds_only_where=null runs them" in out

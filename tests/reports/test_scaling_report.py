@@ -7,10 +7,8 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -23,7 +21,7 @@ from mcd.reporting.scaling import gaps as scaling_gaps
 from mcd.reporting.scaling.fit import HORIZON, crossing, fit_log_steps
 from mcd.reporting.scaling.gaps import difference
 from mcd.reporting.scaling.grid import Grid
-from tests.conftest import store32_overrides
+from tests.conftest import command_in_worker, store32_overrides
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -168,9 +166,9 @@ def test_the_plan_is_the_sweeps_grid_less_the_seeds_it_drops():
 
 
 def _run(args: list[str], cwd: Path, returncode: int = 0) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    proc = subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True, text=True,
-                          timeout=900)
+    """``python -m <module> <args>`` (``args`` starting ``-m <module>``) in the worker."""
+    assert args[0] == "-m", args
+    proc = command_in_worker(args[1], args[2:], cwd, {"OMP_NUM_THREADS": "1"})
     assert proc.returncode == returncode, f"{args}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"
     return proc
 
