@@ -14,14 +14,12 @@
 - ``unet_run`` (session): ``(run dir, overrides)`` of one ``python -m mcd.run +experiment=unet
   capacity=cpu`` that finished one epoch on ``cbox_store``. Tests must not modify it; copy it
   (``shutil.copytree``) to change.
-- ``report_in_worker(argv, cwd)``: ``python -m mcd.report <argv>`` run in the test's process, with the
-  exit status, stdout and stderr a fresh interpreter gives.
 - ``command_in_worker(module, argv, cwd, env)``: any ``python -m <module>`` run the same way (``mcd.run``,
   ``mcd.bundle``, ``mcd.denoise``, ``mcd.bench``), each without a new interpreter's imports (Lightning alone
   is about 5 s of CPU); ``mcd_run(*args)`` is ``mcd.run`` through it. A test whose claim is about a process
   (a lock another process holds, a kill, a read-only mount, two commands at once, a fresh interpreter's every
-  line) starts the command itself. A scaling sweep (``+sweep=scaling``) keeps its process: a second one in a
-  process fails in Hydra's instantiation of the planned sweeper plugin (``super(type, obj)``).
+  line) starts the command itself. ``report_in_worker(argv, cwd)`` is ``mcd.report`` through it, an
+  exception it does not turn into an exit raised in the test.
 
 Session fixtures are what keeps the full suite short: each renders or trains once, and every test that reads
 the result shares it (a test that changes files works on its own copy).
@@ -206,36 +204,12 @@ def module_env() -> dict[str, str]:
 
 
 def report_in_worker(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    """``python -m mcd.report <argv>`` in `cwd`, run in this process (``mcd.report.main``, what the command
-    calls), without a new interpreter's imports of torch and pandas (about 4 s of CPU each): the exit status
-    as the interpreter would give it (``sys.exit("error: ...")`` is 1 with the message on stderr), and
-    warnings logged by the command on stderr, as a fresh interpreter prints them. An exception the command
-    does not turn into an exit is raised here, so the test fails with its traceback. A test that needs a
-    real process (a wait bounded only by a timeout, a lock held by another process, every line a fresh
+    """``python -m mcd.report <argv>`` in `cwd`, run in this process through :func:`command_in_worker`,
+    without a new interpreter's imports of torch and pandas (about 4 s of CPU each), except that an exception
+    the command does not turn into an exit is raised here, so the test fails with its traceback. A test that
+    needs a real process (a wait bounded only by a timeout, a lock held by another process, every line a fresh
     interpreter writes) starts ``python -m mcd.report`` itself."""
-    from mcd.report import main
-
-    out, err = io.StringIO(), io.StringIO()
-    to_stderr = logging.StreamHandler(err)
-    to_stderr.setLevel(logging.WARNING)
-    root = logging.getLogger()
-    root.addHandler(to_stderr)
-    before = Path.cwd()
-    code: int | str | None = 0
-    try:
-        os.chdir(cwd)
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            try:
-                main(list(argv))
-            except SystemExit as exit_:
-                code = exit_.code
-                if isinstance(code, str):
-                    print(code, file=sys.stderr)
-    finally:
-        os.chdir(before)
-        root.removeHandler(to_stderr)
-    returncode = 1 if isinstance(code, str) else int(code or 0)
-    return subprocess.CompletedProcess(["mcd.report", *argv], returncode, out.getvalue(), err.getvalue())
+    return command_in_worker("mcd.report", argv, cwd, raise_uncaught=True)
 
 
 #: The warnings filters of a fresh interpreter (no ``-W``, not in development mode): what a command's
@@ -245,20 +219,20 @@ FRESH_WARNING_FILTERS = (("default", DeprecationWarning, "__main__"), ("ignore",
                          ("ignore", ResourceWarning, ""))
 
 
-def command_in_worker(module: str, argv: list[str], cwd: Path, env: dict[str, str] | None = None
-                      ) -> subprocess.CompletedProcess:
+def command_in_worker(module: str, argv: list[str], cwd: Path, env: dict[str, str] | None = None,
+                      raise_uncaught: bool = False) -> subprocess.CompletedProcess:
     """``python -m <module> <argv>`` in `cwd` with `env` added to the environment, run in this process (the
     module's ``main``, what the command calls; an int it returns is the exit status, as ``sys.exit(main())``
     makes it) without a new interpreter's start and imports (Lightning alone
     is about 5 s of CPU per ``mcd.run``): the exit status, stdout and stderr a fresh interpreter gives. An
     exception the command does not turn into an exit is printed with its traceback on stderr, exit status 1,
-    as the interpreter does; its warnings meet a fresh interpreter's filters and are written on stderr. What
-    the command changes in the process is put back after it: the environment, ``sys.argv``, the folder, the
-    root logger's handlers and level (it starts with none and WARNING, as in a fresh interpreter; handlers it
-    added are closed), warnings filters, torch's thread count and denormal flushing, and the allocator
-    setting of ``mcd.core.allocator``. A test whose claim needs a real process (another process holding a
-    lock, a signal, a wait bounded only by a timeout, two commands at
-    once) starts the command itself."""
+    as the interpreter does (raised here instead with `raise_uncaught`); its warnings meet a fresh
+    interpreter's filters and are written on stderr. What the command changes in the process is put back after
+    it: the environment, ``sys.argv``, the folder, the root logger's handlers and level (it starts with none
+    and WARNING, as in a fresh interpreter; handlers it added are closed), warnings filters, torch's thread
+    count and denormal flushing, and the allocator setting of ``mcd.core.allocator``. A test whose claim needs
+    a real process (another process holding a lock, a signal, a wait bounded only by a timeout, two commands
+    at once) starts the command itself."""
     import importlib
     import traceback
     import warnings
@@ -303,6 +277,8 @@ def command_in_worker(module: str, argv: list[str], cwd: Path, env: dict[str, st
                 if isinstance(code, str):
                     print(code, file=sys.stderr)
             except Exception:  # noqa: BLE001 - what the interpreter does with it: traceback, exit status 1
+                if raise_uncaught:
+                    raise
                 traceback.print_exc()
                 code = 1
     finally:
