@@ -12,7 +12,8 @@
 #   3. F and NTASAD at 3000 steps (seed 0), F_pixel_switch beside them on small at 1000 and 3000 (F's default
 #      identity channel waits on it, and the current report on F's defaults); then at 10000 steps on tiny,
 #      where the fits of 1000 and 3000 steps cross at about 5000 (reports/scaling): the crossing measured, not
-#      extrapolated; then F_paper, C and A at 1000 and 3000 on tiny and small;
+#      extrapolated; seeds 1-2 of F and F_pixel_switch at 3000 on small (the identity channel's decision:
+#      one seed each way so far); then F_paper, C and A at 1000 and 3000 on tiny and small;
 #   4. seeds 1-2 of F and NTASAD at 3000 on small, F without SA (row E) at 3000 on small with seeds 0-2 (the
 #      fourth diagnostic, paired with F's seeds), then 10000 steps on small;
 #   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A, NTASAD and row E at 10000 (F, A and
@@ -59,6 +60,7 @@ leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_pixel_switch seed=0  # decides F's identity channel
 leg data=tiny train.max_steps=10000 +experiment=F,ntasad seed=0
+leg data=small train.max_steps=3000 +experiment=F,F_pixel_switch seed=1,2  # seeds for F's identity channel
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A,F_pixel_switch seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=1,2
