@@ -32,6 +32,7 @@ def group_file(group: str, name: str) -> dict:
     return OmegaConf.to_container(cfg[group], resolve=False)  # type: ignore[return-value]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("experiment", EXPERIMENTS)
 def test_experiment_composes_to_its_method_and_loss_files(experiment: str) -> None:
     cfg = compose_cfg(f"+experiment={experiment}")
@@ -76,6 +77,7 @@ def test_the_default_method_builds_row_f_as_documented_and_unet_is_row_a() -> No
         torch.testing.assert_close(unet(x)["output"], row_a(x)["output"])
 
 
+@pytest.mark.slow
 def test_every_group_file_names_a_registered_entry() -> None:
     methods = sorted(p.stem for p in (CONF / "method").glob("*.yaml"))
     assert methods == METHODS.names()

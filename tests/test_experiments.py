@@ -30,6 +30,7 @@ def test_a_row_file_without_exactly_its_six_switches_is_named(text, tmp_path, mo
         row_switches("C")
 
 
+@pytest.mark.slow
 def test_the_rows_come_first_and_are_the_default_config_with_their_switches():
     """``+experiment=<row>`` composes to the default config (row F) with ``experiment`` and the six switches
     set, byte for byte as ``--cfg job`` prints it: rows share row F's everything but switches."""

@@ -44,6 +44,7 @@ def wheel(tmp_path_factory) -> Path:
     return built
 
 
+@pytest.mark.slow
 def test_the_wheel_carries_conf_scenes_and_bundles(wheel):
     """The wheel's files against the package's data folders."""
     names = set(zipfile.ZipFile(wheel).namelist())

@@ -66,6 +66,7 @@ def test_the_training_store_bytes_are_what_the_pack_writes(cbox_store, tmp_path,
     assert wk["train_store_bytes"][dtype] == report["packed"] * on_disk_per_frame
 
 
+@pytest.mark.slow
 def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):
     """The whole plan on a 32x32 Cornell box profile: a real pilot render, training step and loader rate."""
     main(compose_cfg(*store32_overrides(tmp_path), "plan.pilot_scale=1", "plan.pilot_frames=2"))

@@ -33,6 +33,7 @@ def _copy(c: dict) -> dict:
     return {k: v.clone() if isinstance(v, torch.Tensor) else v for k, v in c.items()}
 
 
+@pytest.mark.slow
 def test_channel_permutation_moves_radiance_target_and_albedo_together(clip):
     before = _copy(clip)
     # the Cornell box's red and green walls make every channel of ref and albedo distinct

@@ -79,6 +79,7 @@ def test_force_rerenders(tmp_path):
     assert forced["rendered"] == {"ref": 12, "c1": 12}
 
 
+@pytest.mark.slow
 def test_interrupted_render_resumes(tmp_path, monkeypatch):
     store = _store(tmp_path)
     calls = {"n": 0}
@@ -108,6 +109,7 @@ def test_interrupted_render_resumes(tmp_path, monkeypatch):
     ("data.gbuffer_spp=4", {"depth": 12, "motion": 12}),     # G-buffers, and motion through depth
     ("data.seed=1", {"ref": 12, "c4": 12, "depth": 12, "motion": 12}),  # every image's seed
 ])
+@pytest.mark.slow
 def test_a_changed_setting_rerenders_exactly_what_depends_on_it(tmp_path, change, again):
     first = _store(tmp_path).ensure({"c4", "motion"}, progress=False)
     assert first["rendered"] == {"ref": 12, "c4": 12, "depth": 12, "motion": 12}

@@ -7,6 +7,7 @@ from mcd.core.metrics import psnr
 from mcd.data.reference_quality import estimate_psnr, spp_for_target
 
 
+@pytest.mark.slow
 def test_estimate_from_two_halves_matches_the_error_against_a_converged_render(cbox32):
     """Real renders: two 64-spp halves estimate the PSNR of their 128-spp mean against a 4096-spp render."""
     _, renderer = cbox32
@@ -51,6 +52,7 @@ def _store(tmp_path, *extra):
     return StoreBuilder.from_cfg(compose_cfg(*overrides, "data.ref_spp=16", *extra))
 
 
+@pytest.mark.slow
 def test_test_frames_get_the_spp_their_scene_needs_and_training_frames_keep_ref_spp(tmp_path):
     """Real 32x32 Cornell-box renders: a 16-spp pilot (~25-30 dB) asks for more samples than the 256 cap, so
     the two test frames' references are rendered at 256 spp as two halves, each with its estimate; the rest

@@ -117,6 +117,7 @@ def _simulate(stacks: np.ndarray, m: np.ndarray) -> np.ndarray:
     return simulated_render(mt, stack).permute(0, 2, 3, 1).numpy()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", [3, 12])
 def test_simulated_constant_map_matches_direct_render(realisations, k):
     stacks, direct, _ = realisations

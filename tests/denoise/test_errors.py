@@ -143,6 +143,7 @@ def test_unknown_checkpoint_lists_the_bundled_ones(tmp_path, capsys, frames):
     assert "--checkpoint=no-such-model: no such file or folder, and not a bundled checkpoint" in err
 
 
+@pytest.mark.slow
 def test_scene_that_does_not_load(tmp_path, capsys):
     f = untrained_bundle(tmp_path, "f", "+experiment=F", "capacity=cpu")
     bad = tmp_path / "broken" / "scene.xml"

@@ -51,6 +51,7 @@ def test_bf16_frames_run_under_autocast_channels_last_and_match_fp32(tmp_path, m
         assert psnr(b, a) > 45  # bf16 rounding (about 64 dB here), not a different result
 
 
+@pytest.mark.slow
 @needs_bf16
 def test_bf16_denoises_a_rendered_scene_as_well_as_fp32(tmp_path):
     """F-cpu-small renders adaptively; in bf16 its sampling map may round differently, so the two runs are

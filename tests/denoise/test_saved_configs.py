@@ -18,6 +18,7 @@ from mcd.models import build
 from tests.conftest import compose_cfg
 
 
+@pytest.mark.slow
 def test_every_bundled_checkpoint_builds_and_loads_through_the_registry():
     assert bundled_names()
     for name in bundled_names():

@@ -81,6 +81,7 @@ def test_ntasad_reads_a_uniform_render_on_its_first_frame_only(tmp_path, monkeyp
     assert all(row["samples"] == n * s for row in report["frames"])
 
 
+@pytest.mark.slow
 def test_scores_of_two_methods_share_exposure_uniform_input_and_reference(tmp_path, capsys):
     """A uniform method and F scored on one scene: the same exposure, the same uniform input's score, F's
     adaptive input as its own column; the reference is written beside the outputs and raised to its target."""

@@ -133,6 +133,7 @@ def test_kernel_map_identity_share():
 
 
 
+@pytest.mark.slow
 def test_learning_rate_warms_up_linearly_then_follows_the_cosine(tiny_store, tmp_path):
     """``train.warmup_steps`` (mcd/lit/module.py, docs/training.md "Budgets"): the logged learning rate of a
     real 8-step run rises linearly over the first 4 steps, then follows the cosine of the budget."""

@@ -28,6 +28,7 @@ def test_a_share_that_leaves_the_band_is_named():
     assert abs(rae["ratio_to_F"] - 1) > SHARE_BAND
 
 
+@pytest.mark.slow
 def test_the_command_prints_the_shares_and_their_ratio_to_f(tmp_path, capsys):
     out = tmp_path / "shares.csv"
     main(["--experiments", "F", "--height", "64", "--width", "64", "--shares-out", str(out)])

@@ -41,6 +41,7 @@ def test_paper_profile_matches_the_paper_within_10_percent(row):
     assert gmacs == pytest.approx(paper["gmacs"], rel=0.10)
 
 
+@pytest.mark.slow
 def test_command_writes_the_csv(tmp_path, capsys):
     out = tmp_path / "complexity.csv"
     main(["--experiments", "A", "F", "--out", str(out), "--height", "64", "--width", "64"])

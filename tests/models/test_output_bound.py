@@ -145,6 +145,7 @@ def test_a_lone_firefly_sets_no_bound_but_a_two_pixel_light_does():
     assert clamped[0, 0, 6, 6] == pytest.approx(3.0) and clamped[0, 2, 6, 6] == 0.0
 
 
+@pytest.mark.slow
 def test_the_bound_is_off_in_training_and_a_bad_value_is_refused():
     """In training the output is the network's own, bound or not (a clamp would zero its pixels'
     gradients); a value that is not a boolean is refused naming the key; OIDN and the noisy input, without

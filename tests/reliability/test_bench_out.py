@@ -25,6 +25,7 @@ def test_a_users_readme_beside_the_csv_is_refused_and_kept(tmp_path, capsys):
     assert not (tmp_path / "bench.csv").exists()
 
 
+@pytest.mark.slow
 def test_the_benchs_own_readme_is_replaced(tmp_path):
     _bench(tmp_path / "bench.csv")
     first = (tmp_path / "README.md").read_text()
@@ -33,6 +34,7 @@ def test_the_benchs_own_readme_is_replaced(tmp_path):
     assert (tmp_path / "README.md").read_text().startswith(speed.README_TITLE + "\n")
 
 
+@pytest.mark.slow
 def test_a_users_file_named_as_out_is_refused_and_kept(tmp_path, capsys):
     """Campaign 13: ``--out <folder>/mine.csv``, a user's own file (``mine,1``), was replaced by the bench's
     CSV, exit 0 (``mcd.bench.speed.check_csv``); a bench CSV there is replaced as before."""

@@ -16,6 +16,7 @@ from tests.conftest import module_env
 from tests.reliability.test_bench_out_file import QUICK
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["speed", "train", "profile"])
 def test_an_out_that_is_a_fifo_is_refused_before_measuring(tmp_path, mode):
     fifo = tmp_path / "b.csv"

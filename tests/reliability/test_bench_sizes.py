@@ -23,6 +23,7 @@ from tests.conftest import module_env
     ("profile", ["--method", "A", "--size", "16x16", "--synthetic", "--dtype", "fp32", "--tolerance", "-1"],
      "--tolerance=-1.0: give a fraction of at least 0"),
 ])
+@pytest.mark.slow
 def test_a_size_or_tolerance_out_of_range_is_refused_before_measuring(tmp_path, mode, args, named):
     out = tmp_path / "bench.csv"
     proc = subprocess.run([sys.executable, "-m", "mcd.bench", mode, *args, "--out", str(out), "capacity=cpu"],

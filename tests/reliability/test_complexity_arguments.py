@@ -19,6 +19,7 @@ from tests.conftest import REPO
     (["--capacity", "../../x"], "--capacity ../../x: no such capacity profile (conf/capacity: cpu, paper)"),
     (["--shares", "big"], "--shares big: no such capacity profile"),
 ])
+@pytest.mark.slow
 def test_a_bad_argument_is_named_before_any_model_is_built(tmp_path, args, named):
     out = tmp_path / "c.csv"
     proc = subprocess.run([sys.executable, "-m", "mcd.complexity", *args, "-o", str(out)], cwd=REPO,

@@ -14,6 +14,7 @@ from tests.conftest import module_env
 from tests.reliability.denoise_helpers import write_frames
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("given", ["folder", "file"])
 def test_a_fifo_named_like_a_frame_is_refused_instead_of_waited_on(tmp_path, given):
     frames = tmp_path / "in"

@@ -49,6 +49,7 @@ def _bundle(*args: str) -> subprocess.CompletedProcess:
                           cwd=REPO, env=module_env(), timeout=600)
 
 
+@pytest.mark.slow
 def test_a_run_whose_checkpoint_holds_inf_is_neither_bundled_nor_denoised_with(ab_sweep, tmp_path, capsys):
     run = tmp_path / "A_spp4"
     shutil.copytree(ab_sweep / "multirun" / "ablation" / "tiny" / "A_spp4", run)

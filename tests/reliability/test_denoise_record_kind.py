@@ -7,6 +7,8 @@ record kept; a rerun of the same kind goes on as before. ``mcd-denoise`` runs fo
 
 from __future__ import annotations
 
+import pytest
+
 from mcd.data.scenes import VENDORED_DIR
 from mcd.denoise.cli import run
 from tests.reliability.denoise_helpers import refused, write_frames
@@ -14,6 +16,7 @@ from tests.reliability.denoise_helpers import refused, write_frames
 SCENE = ["--scene", str(VENDORED_DIR / "cbox" / "scene.xml"), "--width", "16", "--height", "16"]
 
 
+@pytest.mark.slow
 def test_a_run_of_the_other_kind_is_refused_and_the_earlier_record_kept(tmp_path, capsys):
     write_frames(tmp_path / "frames", n=2, size=(16, 16))
     scene_out, frames_out = tmp_path / "scene_out", tmp_path / "frames_out"

@@ -14,6 +14,7 @@ from mcd.data.scenes import VENDORED_DIR
 from mcd.denoise.cli import run
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("checkpoint", ["unet-cpu-small", "F-cpu-small"])
 def test_scoring_a_scene_does_not_change_its_outputs(tmp_path, checkpoint):
     common = ["--scene", str(VENDORED_DIR / "cbox" / "scene.xml"), "--width", "32", "--height", "32",

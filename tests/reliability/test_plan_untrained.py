@@ -9,9 +9,12 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import module_env, store32_overrides
 
 
+@pytest.mark.slow
 def test_the_plan_of_an_untrained_method_gives_its_counts_and_says_why(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "mcd.plan", "+experiment=noisy",
                            *store32_overrides(tmp_path / "data"), f"hydra.run.dir={tmp_path / 'plan'}"],

@@ -22,6 +22,7 @@ from tests.reliability.test_report_inputs import _job, _report
     ("metrics.json", {"per_scene": {"cbox": {"rmse": 1e39}}}, "per_scene.cbox.rmse=1e+39"),
     ("edges.json", {"edge_effect": 1e300}, "edge_effect=1e+300"),
 ])
+@pytest.mark.slow
 def test_a_number_no_run_records_fails_that_run_naming_the_key(tmp_path, file, fields, named):
     sweep = tmp_path / "multirun"
     _job(sweep, "F_spp4", {"psnr": 30.5, "ssim": 0.9, "experiment": "F", "budget": 4})

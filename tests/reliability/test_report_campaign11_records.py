@@ -79,6 +79,7 @@ def test_two_runs_that_would_share_a_record_folder_are_one_error_line(ab_sweep, 
     assert "runs from different places would share the record folder(s) a/b/A" in proc.stderr
 
 
+@pytest.mark.slow
 def test_a_report_being_written_is_named_as_such_not_as_a_folder_to_delete(ab_sweep, tmp_path):
     out = tmp_path / "reports"
     (out / "x").mkdir(parents=True)

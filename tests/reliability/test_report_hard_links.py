@@ -13,6 +13,7 @@ import pytest
 from tests.reliability.test_report_inputs import _job, _report
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["table1.csv", "per_frame/cbox_psnr.png"])
 def test_a_hard_link_where_the_report_writes_is_refused_and_the_users_file_kept(tmp_path, name):
     sweep = tmp_path / "multirun"

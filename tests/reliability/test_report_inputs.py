@@ -41,6 +41,7 @@ def _report(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
     ("missing", "no such directory"),
     ("a_file", "no run directories (metrics.json / error.json / .hydra) under"),
 ])
+@pytest.mark.slow
 def test_defect17_an_empty_or_missing_folder_is_one_line_without_a_traceback(tmp_path, kind, message):
     given = tmp_path / kind
     if kind == "empty":

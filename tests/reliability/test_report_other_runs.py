@@ -29,6 +29,7 @@ def _sweep(root: Path) -> tuple[Path, Path]:
     return sweep, _job(sweep, "unet_spp4", {"psnr": 29.0, "ssim": 0.8, "experiment": "unet", "budget": 4})
 
 
+@pytest.mark.slow
 def test_a_report_of_other_runs_under_a_used_name_keeps_no_earlier_viewer_or_strips(tmp_path):
     sweep, unet = _sweep(tmp_path)
     alone = tmp_path / "alone" / "unet_spp4"

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import shutil
 
+import pytest
+
 from mcd.report import main
 from tests.reliability.denoise_helpers import snapshot
 from tests.reliability.test_report_paths import real_run  # noqa: F401  (a fixture)
@@ -41,6 +43,7 @@ def test_a_users_readme_at_the_output_root_is_refused_and_kept(real_run, tmp_pat
     assert (thesis / "tiny" / "README.md").read_text() == "# chapter 3\n"
 
 
+@pytest.mark.slow
 def test_a_report_into_a_run_or_sweep_it_reads_is_refused_and_a_regenerated_one_is_not(real_run,  # noqa: F811
                                                                                        tmp_path):
     sweep = tmp_path / "multirun" / "sw"

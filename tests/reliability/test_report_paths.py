@@ -72,6 +72,7 @@ def test_a_name_with_a_slash_or_dots_is_refused(real_run, tmp_path, name):
                    "leading '.'); the report is written to <out>/<name>/, so a name must not hold '/' or '..'"
 
 
+@pytest.mark.slow
 def test_a_plain_profile_still_names_the_report(real_run, tmp_path):
     sweep = tmp_path / "multirun"
     shutil.copytree(real_run, sweep / "0")

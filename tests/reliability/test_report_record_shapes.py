@@ -29,6 +29,7 @@ def _sweep(tmp_path: Path) -> tuple[Path, Path]:
     return sweep, _job(sweep, "unet_spp4", {"psnr": 29.0, "ssim": 0.8, "experiment": "unet", "budget": 4})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", ["../../../outside/pwn", "/ABS/pwn"])
 def test_a_scene_name_from_frames_csv_never_writes_outside_the_report(tmp_path, scene):
     sweep, bad = _sweep(tmp_path)
@@ -60,6 +61,7 @@ def test_a_scene_name_from_frames_csv_never_writes_outside_the_report(tmp_path, 
     ("frames.csv", "scene,frame,psnr,ssim\ncbox,0,30.0,zz\ncbox,1,31.0,0.9\n",
      "(a ssim that is not a number)"),
 ])
+@pytest.mark.slow
 def test_a_record_field_of_another_type_fails_that_run_and_the_report_goes_on(tmp_path, file, text, why):
     sweep, bad = _sweep(tmp_path)
     (sweep / "multirun.yaml").write_text("hydra:\n  overrides:\n    task: [+experiment=F,unet]\n")
@@ -119,6 +121,7 @@ def _samples(run: Path, size: int, names: tuple[str, ...]) -> None:
         write_exr(run / "samples" / "cbox" / f"0000_{name}.exr", image)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("differ", ["data_settings", "capacity_profile", "nothing", "transfer_scenes"])
 def test_runs_of_other_data_or_capacity_under_one_profile_make_no_finding_and_no_crash(tmp_path, differ):
     sweep, unet = _sweep(tmp_path)
@@ -150,6 +153,7 @@ def test_runs_of_other_data_or_capacity_under_one_profile_make_no_finding_and_no
         in findings
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("file", ["metrics.json", "frames.csv", ".hydra/overrides.yaml"])
 def test_a_record_that_is_a_fifo_fails_that_run_instead_of_waiting_for_ever(tmp_path, file):
     sweep, bad = _sweep(tmp_path)
@@ -162,6 +166,7 @@ def test_a_record_that_is_a_fifo_fails_that_run_instead_of_waiting_for_ever(tmp_
     assert "2 found, 1 finished, 1 failed" in (tmp_path / "reports" / "t" / "README.md").read_text()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("how", ["profile", "--name"])
 def test_a_current_report_without_readme_markers_is_refused_before_anything_is_written(tmp_path, how):
     sweep, unet = _sweep(tmp_path)
@@ -189,6 +194,7 @@ def test_a_current_report_without_readme_markers_is_refused_before_anything_is_w
     ("method,device,height,width,ms_median\nF,cpu,abc,16,5.0\n", "a height that is not a whole number"),
     ("method,device,ms_median\nF,cpu,5.0\n", "no column height, width"),
 ])
+@pytest.mark.slow
 def test_a_damaged_bench_csv_is_named_before_anything_is_written(tmp_path, text, why):
     sweep, _ = _sweep(tmp_path)
     bench = tmp_path / "bench.csv"

@@ -14,6 +14,7 @@ from mcd.run import train_and_test
 from tests.conftest import compose_cfg
 
 
+@pytest.mark.slow
 def test_defect12_an_interrupted_run_resumed_on_other_data_is_refused_naming_the_keys(own_interrupted):
     run, overrides, store = own_interrupted
     last = run / "checkpoints" / "last.ckpt"

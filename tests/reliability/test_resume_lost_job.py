@@ -67,6 +67,7 @@ def test_a_resume_after_job_json_is_lost_is_checked_against_the_checkpoint(own_i
     assert labels == {"`tiny` (scenes.cbox.path.dolly=0.45)": 1, "`tiny` (scenes.cbox.path.dolly=0.9)": 1}
 
 
+@pytest.mark.slow
 def test_a_checkpoint_of_another_run_is_not_resumed_under_another_seed(own_store, tmp_path):
     """``mcd.run -m seed=0,1 ckpt_path=<run>/checkpoints/last.ckpt`` (or a single run from another
     directory's checkpoint with ``data.ref_spp=64``) trained every job on from the one checkpoint, exit 0: the

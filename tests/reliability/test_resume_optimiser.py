@@ -20,6 +20,7 @@ from mcd.run import train_and_test
 from tests.conftest import compose_cfg
 
 
+@pytest.mark.slow
 def test_a_resume_with_another_learning_rate_is_refused_naming_it(own_interrupted):
     run, overrides, _ = own_interrupted
     last = run / "checkpoints" / "last.ckpt"

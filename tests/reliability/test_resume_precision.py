@@ -14,6 +14,7 @@ import json
 import logging
 import time
 
+import pytest
 import torch
 
 from mcd.run import train_and_test
@@ -22,6 +23,7 @@ from tests.conftest import compose_cfg
 CHOICES = {"data": "tiny"}
 
 
+@pytest.mark.slow
 def test_a_resume_in_another_precision_is_named_per_segment(own_interrupted, caplog):
     run, overrides, _ = own_interrupted  # row A killed after its checkpoint (one epoch)
 

@@ -30,6 +30,7 @@ from tests.reliability.test_resume import FROZEN
 CHOICES = {"data": "tiny"}
 
 
+@pytest.mark.slow
 def test_a_resume_on_other_scenes_or_values_is_refused_and_a_rerun_not_skipped(own_interrupted):
     run, overrides, store = own_interrupted  # row A killed after its checkpoint
     last = run / "checkpoints" / "last.ckpt"

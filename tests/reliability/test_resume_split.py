@@ -22,6 +22,7 @@ from tests.conftest import compose_cfg
 from tests.reliability.conftest import CHOICES
 
 
+@pytest.mark.slow
 def test_another_split_is_neither_resumed_nor_skipped_as_finished(own_interrupted):
     run, overrides, _ = own_interrupted
     last = run / "checkpoints" / "last.ckpt"

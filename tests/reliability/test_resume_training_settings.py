@@ -21,6 +21,7 @@ from tests.conftest import compose_cfg
 CHOICES = {"data": "tiny"}
 
 
+@pytest.mark.slow
 def test_a_resume_under_other_training_settings_is_refused_naming_the_keys(own_interrupted):
     run, overrides, store = own_interrupted  # row A killed after its checkpoint
     last = run / "checkpoints" / "last.ckpt"

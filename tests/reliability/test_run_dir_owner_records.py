@@ -22,6 +22,7 @@ from tests.conftest import compose_cfg
 from tests.reliability.test_run_dirs import OWNER, REPO, _env, interrupted  # noqa: F401  (a fixture)
 
 
+@pytest.mark.slow
 def test_a_fresh_start_over_an_interrupted_run_is_refused_and_auto_resumes_it(interrupted, tmp_path):  # noqa: F811
     source, overrides = interrupted
     run = tmp_path / "run"

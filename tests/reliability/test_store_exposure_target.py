@@ -29,6 +29,7 @@ def _store(data_dir, *overrides: str) -> StoreBuilder:
     return StoreBuilder.from_cfg(compose_cfg(*store32_overrides(data_dir), *overrides))
 
 
+@pytest.mark.slow
 def test_another_exposure_target_sets_the_exposure_again_without_rendering(own_store):
     _, store = own_store
     before = _manifest(store)
@@ -49,6 +50,7 @@ def test_another_exposure_target_sets_the_exposure_again_without_rendering(own_s
     assert _manifest(back)["exposure"] == e0
 
 
+@pytest.mark.slow
 def test_a_fixed_exposure_gives_way_to_auto_again(own_store):
     _, store = own_store
     e0 = _manifest(store)["exposure"]

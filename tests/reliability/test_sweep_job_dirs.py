@@ -55,6 +55,7 @@ def test_the_advice_gives_each_job_its_own_directory(tmp_path):
     assert all((sweep / f"noisy_spp4_seed{s}" / "metrics.json").is_file() for s in (0, 1))
 
 
+@pytest.mark.slow
 def test_a_read_only_sweep_dir_is_one_error_line_naming_the_key(tmp_path, read_only_dir):
     ro, read_only = read_only_dir
     for sweep, words in ((ro, "is not writable"),

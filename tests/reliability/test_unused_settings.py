@@ -37,6 +37,7 @@ def test_sample_positions_beyond_the_test_sequence_are_named(tmp_path):
     assert samples_left_out(compose_cfg(*overrides, "train.sample_frames=[0,1]")) is None
 
 
+@pytest.mark.slow
 def test_an_empty_buffer_list_is_refused_before_rendering(tmp_path):
     with pytest.raises(ValueError, match=r"render\.buffers=\[\]: an empty list asks for no buffer"):
         requested_buffers(compose_cfg(*store32_overrides(tmp_path / "data"), "render.buffers=[]"))

@@ -59,6 +59,7 @@ def test_bench_cpu_writes_the_interface_columns(tmp_path):
 
 
 
+@pytest.mark.slow
 def test_bench_without_out_writes_under_outputs_not_reports(tmp_path, monkeypatch):
     """A measurement changes no tracked file unless asked: without ``--out`` the CSV and
     its README go to ``outputs/bench/`` under the working directory."""
@@ -90,6 +91,7 @@ def test_store_frames_are_read_through_the_store_and_tiled(cbox_store):
     assert (buffers["c1"][32:40, 32:64] == loaded[:8]).all()
 
 
+@pytest.mark.slow
 def test_rows_carry_macs_throughput_memory_and_threads(cbox_store):
     _, store = cbox_store
     rows = bench.run(["F", "unet"], ["32x32"], ["cpu"], ["capacity=cpu"], 1, 1, 1, 1, False,
@@ -136,6 +138,7 @@ def test_ratio_line_compares_f_with_oidn():
     assert "dense matmul here: fp16 300.0 GMAC/s" in split and "99.0" not in split
 
 
+@pytest.mark.slow
 def test_matmul_ceiling_is_a_measured_rate():
     ceilings = bench.matmul_ceilings(["cpu"])
     assert set(ceilings) == {f"cpu {p.dtype_name}" for p in bench.inference_paths(torch.device("cpu"), False)}
@@ -188,6 +191,7 @@ def test_bench_gpu_paths(tmp_path):
     assert all(r["status"] == "ok" for r in rows), rows
 
 
+@pytest.mark.slow
 def test_profile_prints_every_stage_of_row_f(tmp_path, capsys):
     """`python -m mcd.bench profile`: a real profiled forward of row
     F; each stage label has a time in the exclusive table, whose rows add up to its frame, and the labels

@@ -37,6 +37,7 @@ def test_loader_bench_json_reports_both_paths_in_one_run(tmp_path):
     assert (tmp_path / "exr" / "loaderbench" / "synthetic" / "manifest.json").is_file()  # --dir keeps stores
 
 
+@pytest.mark.slow
 def test_the_measurement_core_imports_neither_lightning_nor_hydra():
     code = ("import sys, mcd.data.loader_rate; bad = {'lightning', 'hydra'} & set(sys.modules); "
             "assert not bad, bad")

@@ -463,6 +463,7 @@ def _speed_job(root, name, experiment, capacity, size):
     return cfg
 
 
+@pytest.mark.slow
 def test_speed_against_error_times_each_runs_own_model_at_its_test_resolution(tmp_path, monkeypatch):
     """A point's latency and error come from one model: the run's architecture and capacity, at
     its test frames' resolution (not the bench's paper-capacity 256x256)."""

@@ -41,6 +41,7 @@ def _readme(path: Path, body: str = f"{index.BEGIN}\nold\n{index.END}\n") -> Pat
     return path
 
 
+@pytest.mark.slow
 def test_the_index_has_one_row_per_report_folder_and_marks_the_current_one(tmp_path):
     _readme(tmp_path / "README.md")
     _report(tmp_path, "older", 25.0)
@@ -66,6 +67,7 @@ def test_the_index_has_one_row_per_report_folder_and_marks_the_current_one(tmp_p
     assert "The current report is `current`" in text
 
 
+@pytest.mark.slow
 def test_the_results_block_comes_from_the_current_report_and_regenerates_to_the_same_text(tmp_path):
     readme = _readme(tmp_path / "README.md")
     current = _report(tmp_path, "current", 28.0)  # the current report: README.md's block is written
