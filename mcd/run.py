@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
 import logging
 import math
 import time
@@ -37,6 +36,7 @@ from omegaconf import DictConfig, OmegaConf
 from mcd.config.compose import hydra_main
 from mcd.config.preflight import check_augment, check_motion, check_run, check_train_store, samples_left_out
 from mcd.core import allocator, links
+from mcd.core.atomic_write import atomic_write_json
 from mcd.core.machine import device_name
 from mcd.core.provenance import git_commit
 from mcd.lit import run_dir
@@ -59,15 +59,16 @@ log = logging.getLogger("mcd.run")
 
 
 def write_error(out_dir: Path, cfg: DictConfig, overrides: list[str], err: BaseException) -> Path:
-    """``error.json``: the job's overrides, its config and the traceback."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+    """``error.json``: the job's overrides, its config and the traceback, written atomically (a new file
+    each time: :class:`mcd.lit.hydra_callbacks.FailedJobs` tells this sweep's failures from earlier ones by
+    it)."""
     path = out_dir / "error.json"
-    path.write_text(json.dumps({
+    atomic_write_json(path, {
         "error": f"{type(err).__name__}: {err}",
         "overrides": overrides,
         "config": OmegaConf.to_container(cfg, resolve=False),
         "traceback": traceback.format_exception(err),
-    }, indent=2))
+    }, indent=2)
     return path
 
 

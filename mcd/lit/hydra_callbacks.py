@@ -10,9 +10,9 @@ share a directory (:mod:`mcd.lit.sweep_dirs`); otherwise one ``error:`` line, ex
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
@@ -44,19 +44,35 @@ class SweepDirs(Callback):
 
 
 class FailedJobs(Callback):
-    """Exit non-zero after a multirun in which a job wrote ``error.json``."""
+    """Exit non-zero after a multirun in which a job wrote ``error.json``.
+
+    This sweep's failures are the ``error.json`` files under ``hydra.sweep.dir`` that are new or rewritten
+    since the sweep started: each is written atomically (:func:`mcd.run.write_error`), so a rewrite is a new
+    file (another inode). An earlier sweep's failure in the same folder, even one written the moment before,
+    is not this sweep's (a clock comparison would count it where the file system's timestamps are coarse or
+    the two commands follow each other within their slack)."""
 
     def __init__(self) -> None:
-        self.started = time.time()
+        self.before: dict[Path, tuple[int, int, int]] = {}
+
+    @staticmethod
+    def _errors(sweep: Path) -> dict[Path, tuple[int, int, int]]:
+        """Each ``error.json`` under ``sweep`` and its identity (inode, mtime in ns, size)."""
+        found = {}
+        for p in sweep.rglob("error.json"):
+            with contextlib.suppress(FileNotFoundError):  # removed meanwhile (a retried job that passed)
+                st = p.stat()
+                found[p] = (st.st_ino, st.st_mtime_ns, st.st_size)
+        return found
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
-        """Remember when the sweep started: an older ``error.json`` belongs to an earlier sweep."""
-        self.started = time.time()
+        """Remember the ``error.json`` files already there: they belong to earlier sweeps."""
+        self.before = self._errors(Path(config.hydra.sweep.dir))
 
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
-        """Count this sweep's ``error.json`` files; exit 1 naming them if there are any."""
+        """Count this sweep's ``error.json`` files (class docstring); exit 1 naming them if there are any."""
         sweep = Path(config.hydra.sweep.dir)
-        failed = sorted(p.parent for p in sweep.rglob("error.json") if p.stat().st_mtime >= self.started - 1)
+        failed = sorted(p.parent for p, ident in self._errors(sweep).items() if self.before.get(p) != ident)
         if failed:
             log.error("%d job(s) of the sweep in %s failed (each has an error.json): %s; fix them and rerun "
                       "the same command (finished jobs are skipped)", len(failed), sweep,

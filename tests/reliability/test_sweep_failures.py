@@ -50,3 +50,28 @@ def test_a_run_dir_of_another_experiment_is_not_skipped(tmp_path):
     assert (f"{tmp_path / 'run'} holds a finished run of another job (experiment: 'F' there, 'A' here; "
             "switches: '111111' there, '100000' here)") in proc.stderr
     assert done.read_text() == before and not (tmp_path / "data").exists()
+
+
+def test_only_this_sweeps_failures_fail_it_however_close_an_earlier_one_was(tmp_path):
+    """:class:`mcd.lit.hydra_callbacks.FailedJobs` counts the ``error.json`` files written during the sweep:
+    an earlier sweep's failure in the same folder, written the moment before this one started (the same second:
+    a clock with one second of slack counted it, and a rerun of the finished jobs exited 1 naming it), is
+    not this sweep's; a job of this sweep that fails again (its error.json rewritten) or newly is."""
+    from omegaconf import OmegaConf
+
+    from mcd.lit.hydra_callbacks import FailedJobs
+    from mcd.run import write_error
+
+    sweep = tmp_path / "sweep"
+    config = OmegaConf.create({"hydra": {"sweep": {"dir": str(sweep)}}})
+    cfg = OmegaConf.create({"x": 1})
+    write_error(sweep / "C_spp4", cfg, ["+experiment=C"], ValueError("needs method.AS"))  # an earlier sweep's
+    callback = FailedJobs()
+    callback.on_multirun_start(config)
+    callback.on_multirun_end(config)  # nothing of this sweep failed: no exit
+    for job in ("C_spp4", "A_spp4"):  # the same job failing again, then a new one
+        callback.on_multirun_start(config)
+        write_error(sweep / job, cfg, [f"+experiment={job[0]}"], ValueError("broken"))
+        with pytest.raises(SystemExit) as exit_:
+            callback.on_multirun_end(config)
+        assert exit_.value.code == 1
