@@ -41,7 +41,8 @@ COMMON=("paths.data_dir=$(realpath -m "${DATA_DIR:-data}")" "hydra.sweep.dir=$(r
 leg() {  # leg <overrides...>: one multirun; a failed job leaves its error.json and the next leg still runs
   echo "=== $(date -u +%FT%TZ) leg: $* (commit $(git rev-parse --short HEAD))"
   "$PY" -m mcd.run -m +sweep=scaling "$@" "${COMMON[@]}"
-  echo "=== $(date -u +%FT%TZ) leg done: exit $?"
+  local rc=$?  # before the date's command substitution, which resets $?
+  echo "=== $(date -u +%FT%TZ) leg done: exit $rc"
 }
 wait_render() {  # a profile's store is complete once its render command has finished
   while pgrep -f "mcd.render data=$1( |$)" >/dev/null; do sleep 60; done

@@ -71,8 +71,10 @@ def test_mcd_render_refuses_a_bad_shard_before_any_work(tmp_path):
     assert not (tmp_path / "test32").exists()
 
 
-def _overrides(data_dir: Path) -> list[str]:
-    return [*[a for a in store32_overrides(data_dir) if a != "data.ref_spp=256"], "data.ref_spp=1024",
+def _overrides(data_dir: Path, ref_spp: int = 1024) -> list[str]:
+    """The 32x32 Cornell box store's overrides with ``ref_spp`` reference samples: 1024 by default, so that a
+    shard renders long enough to be killed mid-run; bit-identity does not depend on it."""
+    return [*[a for a in store32_overrides(data_dir) if a != "data.ref_spp=256"], f"data.ref_spp={ref_spp}",
             f"render.buffers={BUFFERS}"]
 
 
@@ -93,11 +95,11 @@ def test_three_shards_two_processes_at_once_equal_a_one_process_render(tmp_path)
     sharded, single = tmp_path / "sharded", tmp_path / "single"
     sweep = tmp_path / "sweep"
     proc = subprocess.run(
-        [sys.executable, "-m", "mcd.render", "-m", *_overrides(sharded), "render.shard=0/3,1/3,2/3",
+        [sys.executable, "-m", "mcd.render", "-m", *_overrides(sharded, 256), "render.shard=0/3,1/3,2/3",
          "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={sweep}"],
         cwd=REPO, env=_env(), capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    StoreBuilder.from_cfg(compose_cfg(*_overrides(single))).ensure(ASKED, progress=False)
+    StoreBuilder.from_cfg(compose_cfg(*_overrides(single, 256))).ensure(ASKED, progress=False)
 
     one = json.loads((single / "test32" / "cbox" / "manifest.json").read_text())
     many = json.loads((sharded / "test32" / "cbox" / "manifest.json").read_text())

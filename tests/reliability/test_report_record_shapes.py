@@ -10,15 +10,13 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from mcd.data.exr import write_exr
-from tests.conftest import module_env
+from tests.conftest import report_in_worker
 from tests.reliability.test_report_inputs import GARBAGE, _job, _report, _report_process
 
 
@@ -179,8 +177,7 @@ def test_a_current_report_without_readme_markers_is_refused_before_anything_is_w
     (top / "README.md").write_text("# my README, without the results markers\n")
     name = ["--name", "small_current"] if how == "--name" else []
     argv = [str(sweep), "--out", str(top / "reports"), *name, "--no-viewer", "--current", "small_current"]
-    proc = subprocess.run([sys.executable, "-m", "mcd.report", *argv], cwd=tmp_path, env=module_env(),
-                          capture_output=True, text=True, timeout=300)
+    proc = report_in_worker(argv, tmp_path)
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr, proc.stderr
     readme = top / "README.md"
@@ -199,9 +196,8 @@ def test_a_damaged_bench_csv_is_named_before_anything_is_written(tmp_path, text,
     sweep, _ = _sweep(tmp_path)
     bench = tmp_path / "bench.csv"
     bench.write_text(text)
-    proc = subprocess.run([sys.executable, "-m", "mcd.report", str(sweep), "--out", str(tmp_path / "reports"),
-                           "--name", "t", "--no-viewer", "--bench", str(bench)], cwd=tmp_path,
-                          env=module_env(), capture_output=True, text=True, timeout=300)
+    proc = report_in_worker([str(sweep), "--out", str(tmp_path / "reports"), "--name", "t", "--no-viewer",
+                             "--bench", str(bench)], tmp_path)
     assert proc.returncode == 1, proc.stderr
     assert proc.stderr.strip() == (f"error: --bench {bench}: {why}; give a CSV of python -m mcd.bench speed "
                                    "as --bench"), proc.stderr
