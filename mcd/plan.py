@@ -132,10 +132,14 @@ def lines(p: dict[str, Any]) -> list[str]:
     pi, st = p["pilot"], p["train_step"]
     out += [
         f"pilot render: {pi['scene']} at {pi['width']}x{pi['height']}, {pi['frames']} frame(s) x "
-        f"{pi['spp']} spp in {pi['seconds']:.2f} s on {pi['variant']}: {pi['s_per_sample'] * 1e9:.1f} ns "
-        "per sample" + ("" if pi["frames"] < 2 else
-                        f" (frames: {', '.join(f'{t:.2f}' for t in pi['frame_seconds'])} s)"),
-        f"render time here: {_range(*wk['samples'])} samples x {pi['s_per_sample'] * 1e9:.1f} ns = "
+        f"{pi['spp']} and {pi['spp_hi']} spp in {sum(pi['frame_seconds']):.2f} and "
+        f"{sum(pi['frame_seconds_hi']):.2f} s on {pi['variant']}: {pi['s_per_sample'] * 1e9:.1f} ns per "
+        "sample (the difference of the two over the difference of their samples) and "
+        f"{pi['s_per_call'] * 1e3:.0f} ms per renderer call (the rest of the smaller)"
+        + ("" if pi["frames"] < 2 else
+           f" (frames: {', '.join(f'{t:.2f}' for t in pi['frame_seconds'])} s at {pi['spp']} spp)"),
+        f"render time here: {_range(*wk['samples'])} samples x {pi['s_per_sample'] * 1e9:.1f} ns + "
+        f"{wk['render_calls']} calls x {pi['s_per_call'] * 1e3:.0f} ms = "
         f"{_range(*p['render_hours_here'], ' h')}",
         ("render on this GPU (measured): " if p["gpu_measured"] else
          f"render on the reference GPU (derived from its {_range(*(s * 1e9 for s in GPU_S_PER_SAMPLE))} ns "

@@ -214,3 +214,31 @@ def test_render_prints_a_progress_line_per_scene_and_frame(tmp_path, caplog):
     assert frames[-1].startswith("render 1/1 scene cbox: frame 11 done (12/12)")
     assert frames[-1].endswith("ETA 0:00:00")
     assert not any("\r" in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.parametrize("quality", [True, False])
+def test_the_planned_renderer_calls_are_the_calls_a_render_makes(tmp_path, monkeypatch, quality):
+    """The plan's time here is its samples at the pilot's marginal cost plus its renderer calls at the
+    pilot's fixed cost per call (:func:`mcd.lit.workload.pilot_render`); the calls it counts are those a real
+    render of the 32x32 Cornell box makes (with and without the reference quality target, whose test frames'
+    references render in two halves)."""
+    from mcd.data.renderer import SceneRenderer
+    from mcd.lit.workload import counts, requested_buffers
+
+    made = []
+    for name in ("color", "gbuffer"):
+        real = getattr(SceneRenderer, name)
+        def counted(self, *a, _real=real, _name=name, **k):  # noqa: ANN001, ANN002, ANN003, ANN202
+            made.append(_name)
+            return _real(self, *a, **k)
+
+        monkeypatch.setattr(SceneRenderer, name, counted)
+    cfg = compose_cfg(*store32_overrides(tmp_path), *([] if quality else ["data.ref_quality.target_db=null"]))
+    buffers = requested_buffers(cfg)
+    StoreBuilder.from_cfg(cfg).ensure(sorted(buffers), progress=False)
+    wk = counts(cfg, buffers, buffers)
+    assert len(made) == wk["render_calls"], (len(made), wk["render_calls"])
+    step = {"device": "cpu", "seconds": 1.0, "memory_mb": 1.0, "state_mb": 0.0}
+    hours = derive(wk, {"s_per_sample": 2e-6, "s_per_call": 0.1, "variant": "llvm_ad_rgb"}, step,
+                   None)["render_hours_here"]
+    assert hours == pytest.approx(tuple((s * 2e-6 + wk["render_calls"] * 0.1) / 3600 for s in wk["samples"]))

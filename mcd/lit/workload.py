@@ -94,6 +94,12 @@ def counts(cfg: DictConfig, render_buffers: Iterable[str], train_buffers: Iterab
     if any(b in GBUFFERS for b in render):
         lo += n * int(d.gbuffer_spp)
         hi += n * int(d.gbuffer_spp)
+    # renderer calls of one scene (each has a fixed cost beside its samples, :func:`pilot_render`): one per
+    # colour buffer and frame, the test frames' references in two halves (at most), one G-buffer pass per
+    # frame, and the reference quality's pilot of two halves
+    colour = [b for b in render if b in COLOUR_BUFFERS]
+    calls = n * len(colour) + (n_test if "ref" in colour and quality else 0) + (2 if quality else 0)
+    calls += n if any(b in GBUFFERS for b in render) else 0
     clip_stride(int(d.clip_len), d.get("train_clip_stride"))  # a bad key is an error, not "too short"
     try:  # a profile too short to train on still renders and tests (e.g. a transfer run's held-out scenes)
         split, train_error = split_of(n, d), None
@@ -125,6 +131,7 @@ def counts(cfg: DictConfig, render_buffers: Iterable[str], train_buffers: Iterab
         "train_store_frame_bytes": packed,
         "train_store_bytes": {dt: packed_frames * b for dt, b in packed.items()},
         "samples": (lo * w * h * len(scenes), hi * w * h * len(scenes)),
+        "render_calls": calls * len(scenes),
         "spp_per_scene": (lo, hi),
         "train_clips": clips, "batch": batch, "ranks": ranks, "steps_per_epoch": steps,
         "run_steps": run_steps, "run_steps_how": how, "train_error": train_error,
@@ -136,6 +143,8 @@ def counts(cfg: DictConfig, render_buffers: Iterable[str], train_buffers: Iterab
 #: The most pixels of the pilot render: seconds per sample need no more, and a huge profile (or
 #: ``plan.pilot_scale=1``) must not make the plan itself the long work.
 PILOT_MAX_PIXELS = 512 * 512
+#: The pilot's second spp, as a multiple of its first (:func:`pilot_render`).
+PILOT_SPP_FACTOR = 16
 
 
 def pilot_size(width: int, height: int, scale: int) -> tuple[int, int]:
@@ -149,9 +158,15 @@ def pilot_size(width: int, height: int, scale: int) -> tuple[int, int]:
 
 
 def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1) -> dict[str, Any]:
-    """Seconds per sample here (:mod:`mcd.plan`): one real scene of the profile at 1/`scale` of
-    the size (at most :data:`PILOT_MAX_PIXELS`, :func:`pilot_size`), `frames` frames of `spp` spp after a
-    warm-up frame (JIT compilation not timed)."""
+    """Seconds per sample and per renderer call here (:mod:`mcd.plan`): one real scene of the profile at
+    1/`scale` of the size (at most :data:`PILOT_MAX_PIXELS`, :func:`pilot_size`), `frames` frames, each
+    rendered at `spp` and at ``PILOT_SPP_FACTOR x spp`` after a warm-up frame (JIT compilation not timed).
+
+    A call costs a fixed part (the kernel's launch, the film's development: about 0.1 s on the 2-core
+    machine, whatever the samples) plus its samples; at a pilot's few thousand samples the fixed part is
+    nearly all of the time, and one time over the samples overstated a 128x128 profile's render about
+    25-fold (docs/scale.md "Plan"). The two spp give both: ``s_per_sample`` is the difference of the two
+    times over the difference of their samples, ``s_per_call`` what is left of the smaller call."""
     from mcd.data.camera import interpolate_path
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
@@ -173,15 +188,22 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
         r = SceneRenderer(loaded.scene, w, h, loaded.fov)
         r.set_camera(np.asarray(cams[0], dtype=np.float64))
         r.color(spp, 0)  # warm-up: the JIT compiles the kernels
-        each = []
+        spp_hi = PILOT_SPP_FACTOR * spp
+        low, high = [], []
         for k in range(frames):
             r.set_camera(np.asarray(cams[(k + 1) * len(cams) // (frames + 1)], dtype=np.float64))
-            t0 = time.perf_counter()
-            r.color(spp, k + 1)
-            each.append(time.perf_counter() - t0)
-        seconds = sum(each)
-        return {"scene": name, "variant": variant, "width": w, "height": h, "spp": spp, "frames": frames,
-                "seconds": seconds, "frame_seconds": each, "s_per_sample": seconds / (w * h * spp * frames)}
+            for n_spp, times in ((spp, low), (spp_hi, high)):
+                t0 = time.perf_counter()
+                r.color(n_spp, k + 1)
+                times.append(time.perf_counter() - t0)
+        seconds = sum(low) + sum(high)
+        per_sample = (sum(high) - sum(low)) / (w * h * (spp_hi - spp) * frames)
+        if per_sample <= 0:  # the machine's noise above the samples' cost: all of it counted per sample
+            per_sample = sum(high) / (w * h * spp_hi * frames)
+        per_call = max(0.0, sum(low) / frames - per_sample * w * h * spp)
+        return {"scene": name, "variant": variant, "width": w, "height": h, "spp": spp, "spp_hi": spp_hi,
+                "frames": frames, "seconds": seconds, "frame_seconds": low, "frame_seconds_hi": high,
+                "s_per_sample": per_sample, "s_per_call": per_call}
     raise FileNotFoundError(f"plan: no scene of profile {reader.profile} could be loaded for the pilot "
                             f"render: {'; '.join(tried)}. Set paths.scenes_dir (docs/scenes.md), or "
                             "plan.measure=false")
@@ -336,7 +358,8 @@ def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[
     gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
     steps = wk["run_steps"]
     out = {
-        "render_hours_here": tuple(s * here / HOUR for s in wk["samples"]),
+        "render_hours_here": tuple((s * here + wk["render_calls"] * pilot.get("s_per_call", 0.0)) / HOUR
+                                   for s in wk["samples"]),
         "render_gpu_hours": (wk["samples"][0] * gpu_sps[0] / HOUR, wk["samples"][1] * gpu_sps[1] / HOUR),
         "gpu_measured": gpu_measured, "ratio": ratio, "gpu_step_s": gpu_step,
         "step_memory_mb": step["memory_mb"] + step["state_mb"],
