@@ -55,9 +55,9 @@ def f_run(tmp_path_factory):
     overrides = [*STORE, f"paths.data_dir={root / 'data'}"]
     # One thread, as every test's command (mcd_run): two workers each running this with two threads on CI's
     # two cores spun OpenMP's waits past the timeout
-    proc = mcd_run("+experiment=F", "method.init=he", *overrides, f"train.max_steps={STEPS}", "train.max_minutes=null",
-                   "train.sample_frames=[0,1,2]", "trainer.enable_progress_bar=false",
-                   f"hydra.run.dir={root / 'F'}")
+    proc = mcd_run("+experiment=F", "method.init=he", *overrides, f"train.max_steps={STEPS}",
+                   "train.max_minutes=null", "train.sample_frames=[0,1,2]",
+                   "trainer.enable_progress_bar=false", f"hydra.run.dir={root / 'F'}")
     assert proc.returncode == 0, proc.stderr[-4000:]
     return root / "F", StoreReader.from_cfg(compose_cfg(*overrides))
 

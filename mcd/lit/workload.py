@@ -162,11 +162,11 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
     1/`scale` of the size (at most :data:`PILOT_MAX_PIXELS`, :func:`pilot_size`), `frames` frames, each
     rendered at `spp` and at ``PILOT_SPP_FACTOR x spp`` after a warm-up frame (JIT compilation not timed).
 
-    A call costs a fixed part (the kernel's launch, the film's development: about 0.1 s on the 2-core
-    machine, whatever the samples) plus its samples; at a pilot's few thousand samples the fixed part is
-    nearly all of the time, and one time over the samples overstated a 128x128 profile's render about
-    25-fold (docs/scale.md "Plan"). The two spp give both: ``s_per_sample`` is the difference of the two
-    times over the difference of their samples, ``s_per_call`` what is left of the smaller call."""
+    A call costs a fixed part (the kernel's launch, the film's development, whatever the samples) plus its
+    samples; at a pilot's few thousand samples the fixed part is nearly all of the time, so one time over
+    the samples overstates a small profile's render many-fold (docs/scale.md "Plan"). The two spp give
+    both: ``s_per_sample`` is the difference of the two times over the difference of their samples,
+    ``s_per_call`` what is left of the smaller call."""
     from mcd.data.camera import interpolate_path
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer

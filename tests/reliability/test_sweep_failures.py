@@ -53,10 +53,11 @@ def test_a_run_dir_of_another_experiment_is_not_skipped(tmp_path):
 
 
 def test_only_this_sweeps_failures_fail_it_however_close_an_earlier_one_was(tmp_path):
-    """:class:`mcd.lit.hydra_callbacks.FailedJobs` counts the ``error.json`` files written during the sweep:
-    an earlier sweep's failure in the same folder, written the moment before this one started (the same second:
-    a clock with one second of slack counted it, and a rerun of the finished jobs exited 1 naming it), is
-    not this sweep's; a job of this sweep that fails again (its error.json rewritten) or newly is."""
+    """:class:`mcd.lit.hydra_callbacks.FailedJobs` counts the ``error.json`` files written during the
+    sweep: an earlier sweep's failure in the same folder, written the moment before this one started (the
+    same second: a clock with one second of slack counted it, and a rerun of the finished jobs exited 1
+    naming it), is not this sweep's; a job of this sweep that fails again (its error.json rewritten) or
+    newly is."""
     from omegaconf import OmegaConf
 
     from mcd.lit.hydra_callbacks import FailedJobs
