@@ -85,12 +85,13 @@ def test_the_step_time_and_memory_are_the_measured_batchs(tmp_path):
     """The step's figures are those of one optimiser step of the whole batch as measured: on a GPU its
     seconds are the GPU step; on CPU they are divided by the render ratio; the memory adds the state's."""
     wk = work(compose_cfg("data=paper", "capacity=paper", "train=paper", f"paths.data_dir={tmp_path}"))
-    pilot = {"s_per_sample": 3e-8, "variant": "cuda_ad_rgb"}
+    pilot = {"s_per_sample": 3e-8, "s_per_call": 0.0, "variant": "cuda_ad_rgb"}
     step = {"device": "cuda", "seconds": 0.9, "memory_mb": 6000.0, "state_mb": 20.0}
     measured = derive(wk, pilot, step, None)
     assert measured["gpu_step_s"] == 0.9 and measured["step_memory_mb"] == 6020.0
     assert measured["train_gpu_hours"] == pytest.approx(wk["run_steps"] * 0.9 / 3600)
-    cpu = derive(wk, {"s_per_sample": 3e-7, "variant": "llvm_ad_rgb"}, {**step, "device": "cpu"}, None)
+    cpu = derive(wk, {"s_per_sample": 3e-7, "s_per_call": 0.0, "variant": "llvm_ad_rgb"},
+                 {**step, "device": "cpu"}, None)
     assert cpu["gpu_step_s"] == pytest.approx(0.9 / cpu["ratio"]) and cpu["step_memory_mb"] == 6020.0
 
 

@@ -196,13 +196,12 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
                 t0 = time.perf_counter()
                 r.color(n_spp, k + 1)
                 times.append(time.perf_counter() - t0)
-        seconds = sum(low) + sum(high)
         per_sample = (sum(high) - sum(low)) / (w * h * (spp_hi - spp) * frames)
         if per_sample <= 0:  # the machine's noise above the samples' cost: all of it counted per sample
             per_sample = sum(high) / (w * h * spp_hi * frames)
         per_call = max(0.0, sum(low) / frames - per_sample * w * h * spp)
         return {"scene": name, "variant": variant, "width": w, "height": h, "spp": spp, "spp_hi": spp_hi,
-                "frames": frames, "seconds": seconds, "frame_seconds": low, "frame_seconds_hi": high,
+                "frames": frames, "frame_seconds": low, "frame_seconds_hi": high,
                 "s_per_sample": per_sample, "s_per_call": per_call}
     raise FileNotFoundError(f"plan: no scene of profile {reader.profile} could be loaded for the pilot "
                             f"render: {'; '.join(tried)}. Set paths.scenes_dir (docs/scenes.md), or "
@@ -358,7 +357,7 @@ def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[
     gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
     steps = wk["run_steps"]
     out = {
-        "render_hours_here": tuple((s * here + wk["render_calls"] * pilot.get("s_per_call", 0.0)) / HOUR
+        "render_hours_here": tuple((s * here + wk["render_calls"] * pilot["s_per_call"]) / HOUR
                                    for s in wk["samples"]),
         "render_gpu_hours": (wk["samples"][0] * gpu_sps[0] / HOUR, wk["samples"][1] * gpu_sps[1] / HOUR),
         "gpu_measured": gpu_measured, "ratio": ratio, "gpu_step_s": gpu_step,
