@@ -12,7 +12,8 @@
 #   3. F and NTASAD at 3000 steps (seed 0), F_pixel_switch beside them on small at 1000 and 3000 (F's default
 #      identity channel waits on it, and the current report on F's defaults); then at 10000 steps on tiny,
 #      where the fits of 1000 and 3000 steps cross at about 5000 (reports/scaling): the crossing measured, not
-#      extrapolated; seeds 1-2 of F and F_pixel_switch at 3000 on small (the identity channel's decision:
+#      extrapolated; F with each of its additions back to the paper's text (F_paper_<part>) at tiny x 1000,
+#      and seeds 1-2 of F and NTASAD at tiny x 3000; seeds 1-2 of F and F_pixel_switch at 3000 on small (the identity channel's decision:
 #      one seed each way so far); then F_paper, C and A at 1000 and 3000 on tiny and small;
 #   4. seeds 1-2 of F and NTASAD at 3000 on small, F without SA (row E) at 3000 on small with seeds 0-2 (the
 #      fourth diagnostic, paired with F's seeds), then 10000 steps on small;
@@ -51,6 +52,10 @@ wait_render() {  # a profile's store is complete once its render command has fin
 if [ -n "${WAIT_PID:-}" ]; then while kill -0 "$WAIT_PID" 2>/dev/null; do sleep 30; done; fi
 GAP='sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[1000]}'  # seeds 0-2 at the diagnostics' point
 DIAGNOSTICS=+experiment=F,ntasad,ntasad_no_warp,ntasad_no_previous,F_warp_previous,F_pixel_switch
+# F with one of its additions back to the paper's text each (docs/method.md "F against the paper")
+DEVIATIONS=+experiment=F_paper_output,F_paper_mean,F_paper_bound,F_paper_misses,F_paper_edge,F_paper_map_input,\
+F_paper_padding,F_paper_head,F_paper_range,F_paper_flips,F_paper_reverse
+SEEDS_3000='sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[3000]}'
 leg data=tiny train.max_steps=1000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0  # while `small` renders
 wait_render small
@@ -61,6 +66,8 @@ leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_pixel_switch seed=0  # decides F's identity channel
 leg data=tiny train.max_steps=10000 +experiment=F,ntasad seed=0
+leg data=tiny train.max_steps=1000 "$DEVIATIONS" seed=0  # what each of F's additions to the paper is worth
+leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=1,2 "$SEEDS_3000"  # F's 3000-step point, settled
 leg data=small train.max_steps=3000 +experiment=F,F_pixel_switch seed=1,2  # seeds for F's identity channel
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A,F_pixel_switch seed=0

@@ -66,6 +66,44 @@ def test_every_listed_deviation_is_off_in_f_paper():
     assert paper.method.colour == ours.method.colour
 
 
+
+def flat(cfg) -> dict[str, object]:
+    """A composed config as ``{dotted key: value}`` (interpolations left as written)."""
+    out: dict[str, object] = {}
+
+    def walk(node, prefix: str) -> None:
+        if isinstance(node, dict) and node:
+            for k, v in node.items():
+                walk(v, f"{prefix}{k}.")
+        else:
+            out[prefix[:-1]] = node
+    walk(OmegaConf.to_container(cfg, resolve=False), "")
+    return out
+
+
+def test_each_of_fs_additions_has_one_experiment_that_puts_back_the_papers_setting():
+    """``F_paper_<part>``: F with one row of the table back to the paper's text and nothing else, one
+    experiment per row where F differs from the paper, each a variant of F (the scaling report shows
+    ``F_paper_<part> - F``, minus what the addition is worth)."""
+    ours = flat(compose(["+experiment=F"]))
+    rows = {what: dict((k, value(t)) for k, t in pairs) for what, f_column, pairs in deviation_rows()
+            if "(default)" not in f_column and not f_column.startswith("off")}
+    found: dict[str, str] = {}
+    for path in sorted((REPO / "conf" / "experiment").glob("F_paper_*.yaml")):
+        experiment = path.stem
+        theirs = flat(compose([f"+experiment={experiment}"]))
+        changed = {k: theirs.get(k) for k in set(ours) | set(theirs)
+                   if k != "experiment" and ours.get(k) != theirs.get(k)}
+        (what,) = [w for w, switch in rows.items() if switch == changed] or [None]
+        assert what, f"{experiment} changes {changed}: no single row of docs/method.md's table"
+        assert what not in found, f"{experiment} and {found[what]} both put back {what!r}"
+        found[what] = experiment
+        assert theirs["experiment"] == experiment
+        assert BY_EXPERIMENT[experiment].variant_of == "F" and BY_EXPERIMENT[experiment].diagnostic
+    assert sorted(found) == sorted(rows), f"rows without an experiment: {sorted(set(rows) - set(found))}"
+    study = (REPO / "scripts" / "scaling_study.sh").read_text()
+    assert all(e in study for e in found.values()), "scripts/scaling_study.sh runs every F_paper_<part>"
+
 def test_f_paper_sits_beside_f_in_table1():
     entry = BY_EXPERIMENT["F_paper"]
     assert entry.variant_of == "F" and entry.trainable and not entry.table1
