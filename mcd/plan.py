@@ -19,11 +19,12 @@ The plan counts, from the config alone:
 
 and it measures, on the machine it runs on, in this process (``plan.measure=false`` skips them):
 
-- render speed: a pilot render of one real scene of the profile (the first whose file is found),
-  ``plan.pilot_frames`` frames at 1/``plan.pilot_scale`` of the size (at most 512x512 pixels,
-  :func:`mcd.lit.workload.pilot_size`) and ``plan.pilot_spp`` spp after one
-  warm-up frame; seconds per sample
-  = seconds / (pixels x spp x frames), times the profile's samples gives the render time here;
+- render speed: a pilot render of every real scene of the profile whose file is found (scenes differ by an
+  order of magnitude), ``plan.pilot_frames`` frames at 1/``plan.pilot_scale`` of the size (at most 512x512
+  pixels, :func:`mcd.lit.workload.pilot_size`) at ``plan.pilot_spp`` spp and 16 times that, after its load
+  and one warm-up frame (:func:`mcd.lit.workload.pilot_render`): per scene, seconds per sample, per renderer
+  call and per scene; the render time here is each scene's samples, calls and load at its own costs
+  (:func:`mcd.lit.workload.render_seconds`), summed;
 - training memory and time per step: one real optimiser step as the run trains it
   (:func:`mcd.lit.workload.train_step`): the training module's own step
   (:meth:`mcd.lit.module.DenoiseModule.training_step`: the clip's frames as the run computes them, those
@@ -131,15 +132,18 @@ def lines(p: dict[str, Any]) -> list[str]:
         return [*out, p.get("not_measured", "(not measured: plan.measure=false)")]
     pi, st = p["pilot"], p["train_step"]
     out += [
-        f"pilot render: {pi['scene']} at {pi['width']}x{pi['height']}, {pi['frames']} frame(s) x "
-        f"{pi['spp']} and {pi['spp_hi']} spp in {sum(pi['frame_seconds']):.2f} and "
-        f"{sum(pi['frame_seconds_hi']):.2f} s on {pi['variant']}: {pi['s_per_sample'] * 1e9:.1f} ns per "
-        "sample (the difference of the two over the difference of their samples) and "
-        f"{pi['s_per_call'] * 1e3:.0f} ms per renderer call (the rest of the smaller)"
-        + ("" if pi["frames"] < 2 else
-           f" (frames: {', '.join(f'{t:.2f}' for t in pi['frame_seconds'])} s at {pi['spp']} spp)"),
-        f"render time here: {_range(*wk['samples'])} samples x {pi['s_per_sample'] * 1e9:.1f} ns + "
-        f"{wk['render_calls']} calls x {pi['s_per_call'] * 1e3:.0f} ms = "
+        f"pilot render: {len(pi['scenes'])} scene(s) at {pi['width']}x{pi['height']}, {pi['frames']} "
+        f"frame(s) x {pi['spp']} and {pi['spp_hi']} spp on {pi['variant']}, each after its load and a "
+        "warm-up frame: ns per sample (the difference of the two times over the difference of their "
+        "samples), ms per renderer call (the rest of the smaller), s per scene (load and warm-up)"
+        + ("" if not pi["skipped"] else f"; not loaded (their cost: the measured scenes' mean): "
+           f"{'; '.join(pi['skipped'])}"),
+        *(f"  {name}: {c['s_per_sample'] * 1e9:.1f} ns/sample, {c['s_per_call'] * 1e3:.0f} ms/call, "
+          f"{c['s_per_scene']:.1f} s/scene"
+          + ("" if pi["frames"] < 2 else f" (frames: {', '.join(f'{t:.2f}' for t in c['frame_seconds'])} s "
+             f"at {pi['spp']} spp)") for name, c in pi["scenes"].items()),
+        f"render time here: per scene, {_range(*wk['spp_per_scene'])} spp x {w * h} pixels x its ns/sample "
+        f"+ {wk['render_calls'] // ns} calls x its ms/call + its s/scene, over {ns} scenes = "
         f"{_range(*p['render_hours_here'], ' h')}",
         ("render on this GPU (measured): " if p["gpu_measured"] else
          f"render on the reference GPU (derived from its {_range(*(s * 1e9 for s in GPU_S_PER_SAMPLE))} ns "

@@ -72,25 +72,51 @@ def test_plan_prints_every_figure_on_a_tiny_profile(tmp_path, capsys):
     main(compose_cfg(*store32_overrides(tmp_path), "plan.pilot_scale=1", "plan.pilot_frames=2"))
     out = capsys.readouterr().out
     pilot = next(line for line in out.splitlines() if line.startswith("pilot render"))
-    assert "2 frame(s)" in pilot and "(frames: " in pilot  # each frame's seconds: a recompile would show
+    cbox = next(line for line in out.splitlines() if line.startswith("  cbox: "))
+    assert "2 frame(s)" in pilot and "(frames: " in cbox  # each frame's seconds: a recompile would show
     for start in ("plan for profile test32", "EXR store", "training store", "samples:", "training:",
-                  "pilot render: cbox at 32x32", "render time here", "render on the reference GPU",
+                  "pilot render: 1 scene(s) at 32x32", "  cbox: ", "render time here",
+                  "render on the reference GPU",
                   "training step memory", "training step time", "loader: a GPU needs", "total: plan test32",
                   "(measured here"):
         assert any(line.startswith(start) for line in out.splitlines()), (start, out)
     assert not (tmp_path / "test32").exists()  # nothing rendered into the store
 
 
+
+def made_pilot(wk: dict, per_sample: float, per_call: float, variant: str, per_scene: float = 0.0) -> dict:
+    """A pilot as :func:`mcd.lit.workload.pilot_render` returns it: every scene of ``wk`` at these costs."""
+    c = {"s_per_sample": per_sample, "s_per_call": per_call, "s_per_scene": per_scene}
+    return {"scene": wk["scenes"][0], "variant": variant, "scenes": dict.fromkeys(wk["scenes"], c),
+            "skipped": []}
+
+
+def test_each_scene_costs_its_own_samples_calls_and_load_and_a_missing_one_the_mean():
+    """The render time sums the scenes at their own costs: a scene ten times dearer per sample weighs ten
+    times, its load counts once, and a scene the pilot could not load costs the mean of those it did."""
+    from mcd.lit.workload import render_seconds
+
+    wk = {"scenes": ["cheap", "dear", "absent"], "spp_per_scene": (100, 200), "width": 10, "height": 10,
+          "render_calls": 30}
+    pilot = {"scenes": {"cheap": {"s_per_sample": 1e-6, "s_per_call": 0.1, "s_per_scene": 2.0},
+                        "dear": {"s_per_sample": 1e-5, "s_per_call": 0.3, "s_per_scene": 4.0}}}
+    # per scene: spp x 100 pixels x s/sample + 10 calls x s/call + s/scene, at 100 and at 200 spp
+    cheap, dear, mean = (0.01 + 1.0 + 2.0, 0.02 + 1.0 + 2.0), (0.1 + 3.0 + 4.0, 0.2 + 3.0 + 4.0), \
+        (0.055 + 2.0 + 3.0, 0.11 + 2.0 + 3.0)
+    want = tuple(c + d + m for c, d, m in zip(cheap, dear, mean, strict=True))
+    assert render_seconds(wk, pilot) == pytest.approx(want)
+
+
 def test_the_step_time_and_memory_are_the_measured_batchs(tmp_path):
     """The step's figures are those of one optimiser step of the whole batch as measured: on a GPU its
     seconds are the GPU step; on CPU they are divided by the render ratio; the memory adds the state's."""
     wk = work(compose_cfg("data=paper", "capacity=paper", "train=paper", f"paths.data_dir={tmp_path}"))
-    pilot = {"s_per_sample": 3e-8, "s_per_call": 0.0, "variant": "cuda_ad_rgb"}
+    pilot = made_pilot(wk, 3e-8, 0.0, "cuda_ad_rgb")
     step = {"device": "cuda", "seconds": 0.9, "memory_mb": 6000.0, "state_mb": 20.0}
     measured = derive(wk, pilot, step, None)
     assert measured["gpu_step_s"] == 0.9 and measured["step_memory_mb"] == 6020.0
     assert measured["train_gpu_hours"] == pytest.approx(wk["run_steps"] * 0.9 / 3600)
-    cpu = derive(wk, {"s_per_sample": 3e-7, "s_per_call": 0.0, "variant": "llvm_ad_rgb"},
+    cpu = derive(wk, made_pilot(wk, 3e-7, 0.0, "llvm_ad_rgb"),
                  {**step, "device": "cpu"}, None)
     assert cpu["gpu_step_s"] == pytest.approx(0.9 / cpu["ratio"]) and cpu["step_memory_mb"] == 6020.0
 
@@ -240,6 +266,5 @@ def test_the_planned_renderer_calls_are_the_calls_a_render_makes(tmp_path, monke
     wk = counts(cfg, buffers, buffers)
     assert len(made) == wk["render_calls"], (len(made), wk["render_calls"])
     step = {"device": "cpu", "seconds": 1.0, "memory_mb": 1.0, "state_mb": 0.0}
-    hours = derive(wk, {"s_per_sample": 2e-6, "s_per_call": 0.1, "variant": "llvm_ad_rgb"}, step,
-                   None)["render_hours_here"]
+    hours = derive(wk, made_pilot(wk, 2e-6, 0.1, "llvm_ad_rgb"), step, None)["render_hours_here"]
     assert hours == pytest.approx(tuple((s * 2e-6 + wk["render_calls"] * 0.1) / 3600 for s in wk["samples"]))

@@ -147,10 +147,16 @@ PILOT_MAX_PIXELS = 512 * 512
 PILOT_SPP_FACTOR = 16
 
 
+#: The fewest pixels a side of the pilot render (the frame's own where it is smaller): a pilot of a few
+#: pixels a side times the renderer's launch, not its samples, and puts a sample's cost several times too
+#: low (docs/scale.md "Plan").
+PILOT_MIN_SIDE = 64
+
+
 def pilot_size(width: int, height: int, scale: int) -> tuple[int, int]:
-    """The pilot's frame size: 1/`scale` of ``width x height``, at least 8 pixels a side, shrunk (keeping
-    the aspect) to at most :data:`PILOT_MAX_PIXELS`."""
-    w, h = max(8, width // scale), max(8, height // scale)
+    """The pilot's frame size: 1/`scale` of ``width x height``, at least :data:`PILOT_MIN_SIDE` pixels a side
+    (at most the frame's), shrunk (keeping the aspect) to at most :data:`PILOT_MAX_PIXELS`."""
+    w, h = (max(min(PILOT_MIN_SIDE, side), side // scale) for side in (width, height))
     shrink = math.sqrt(w * h / PILOT_MAX_PIXELS)
     if shrink > 1:
         w, h = max(8, int(w / shrink)), max(8, int(h / shrink))
@@ -158,15 +164,19 @@ def pilot_size(width: int, height: int, scale: int) -> tuple[int, int]:
 
 
 def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1) -> dict[str, Any]:
-    """Seconds per sample and per renderer call here (:mod:`mcd.plan`): one real scene of the profile at
-    1/`scale` of the size (at most :data:`PILOT_MAX_PIXELS`, :func:`pilot_size`), `frames` frames, each
-    rendered at `spp` and at ``PILOT_SPP_FACTOR x spp`` after a warm-up frame (JIT compilation not timed).
+    """Seconds per sample, per renderer call and per scene here (:mod:`mcd.plan`), for every scene of the
+    profile whose file is found: each at 1/`scale` of the size (at most :data:`PILOT_MAX_PIXELS`,
+    :func:`pilot_size`), `frames` frames, each rendered at `spp` and at ``PILOT_SPP_FACTOR x spp`` after a
+    warm-up frame.
 
     A call costs a fixed part (the kernel's launch, the film's development, whatever the samples) plus its
     samples; at a pilot's few thousand samples the fixed part is nearly all of the time, so one time over
     the samples overstates a small profile's render many-fold (docs/scale.md "Plan"). The two spp give
     both: ``s_per_sample`` is the difference of the two times over the difference of their samples,
-    ``s_per_call`` what is left of the smaller call."""
+    ``s_per_call`` what is left of the smaller call; ``s_per_scene`` is the scene's load and its warm-up
+    frame (the JIT compiles each scene's kernels once). Scenes differ by an order of magnitude in each, so
+    every scene is measured (``scenes``; those not found are listed in ``skipped``); ``scene`` is the first
+    measured, the one the reference GPU's figure is compared with (:func:`derive`)."""
     from mcd.data.camera import interpolate_path
     from mcd.data.mitsuba_env import select_variant
     from mcd.data.renderer import SceneRenderer
@@ -175,7 +185,8 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
     variant = select_variant(str(cfg.render.get("variant", "auto")))
     reader = StoreReader.from_cfg(cfg, overrides=[])  # registers scenes given by path
     w, h = pilot_size(int(d.width), int(d.height), scale)
-    tried = []
+    spp_hi = PILOT_SPP_FACTOR * spp
+    tried, scenes = [], {}
     for name in reader.scene_names:
         spec = reader.specs[name]
         try:
@@ -183,12 +194,13 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
         except (FileNotFoundError, ValueError) as err:
             tried.append(f"{name} ({str(err).splitlines()[0][:80]})")
             continue
+        t0 = time.perf_counter()
         loaded = spec.load(w, h, None if d.get("max_depth") is None else int(d.max_depth), int(d.segments))
         cams = interpolate_path(loaded.nodes, int(d.frames_per_segment))
         r = SceneRenderer(loaded.scene, w, h, loaded.fov)
         r.set_camera(np.asarray(cams[0], dtype=np.float64))
         r.color(spp, 0)  # warm-up: the JIT compiles the kernels
-        spp_hi = PILOT_SPP_FACTOR * spp
+        setup = time.perf_counter() - t0
         low, high = [], []
         for k in range(frames):
             r.set_camera(np.asarray(cams[(k + 1) * len(cams) // (frames + 1)], dtype=np.float64))
@@ -200,12 +212,31 @@ def pilot_render(cfg: DictConfig, scale: int = 8, spp: int = 8, frames: int = 1)
         if per_sample <= 0:  # the machine's noise above the samples' cost: all of it counted per sample
             per_sample = sum(high) / (w * h * spp_hi * frames)
         per_call = max(0.0, sum(low) / frames - per_sample * w * h * spp)
-        return {"scene": name, "variant": variant, "width": w, "height": h, "spp": spp, "spp_hi": spp_hi,
-                "frames": frames, "frame_seconds": low, "frame_seconds_hi": high,
-                "s_per_sample": per_sample, "s_per_call": per_call}
-    raise FileNotFoundError(f"plan: no scene of profile {reader.profile} could be loaded for the pilot "
-                            f"render: {'; '.join(tried)}. Set paths.scenes_dir (docs/scenes.md), or "
-                            "plan.measure=false")
+        scenes[name] = {"s_per_sample": per_sample, "s_per_call": per_call, "s_per_scene": setup,
+                        "frame_seconds": low, "frame_seconds_hi": high}
+    if not scenes:
+        raise FileNotFoundError(f"plan: no scene of profile {reader.profile} could be loaded for the pilot "
+                                f"render: {'; '.join(tried)}. Set paths.scenes_dir (docs/scenes.md), or "
+                                "plan.measure=false")
+    return {"scene": next(iter(scenes)), "variant": variant, "width": w, "height": h, "spp": spp,
+            "spp_hi": spp_hi, "frames": frames, "scenes": scenes, "skipped": tried}
+
+
+def render_seconds(wk: dict, pilot: dict) -> tuple[float, float]:
+    """The profile's render here, seconds (fewest and most samples, :func:`counts`): per scene its samples
+    at the scene's cost per sample, its renderer calls at its cost per call and its load and compile once
+    (:func:`pilot_render`); a scene the pilot could not load costs the measured scenes' mean."""
+    measured = pilot["scenes"]
+    mean = {k: float(np.mean([m[k] for m in measured.values()]))
+            for k in ("s_per_sample", "s_per_call", "s_per_scene")}
+    calls = wk["render_calls"] / len(wk["scenes"])
+    total = [0.0, 0.0]
+    for name in wk["scenes"]:
+        c = measured.get(name, mean)
+        for i, spp in enumerate(wk["spp_per_scene"]):
+            total[i] += spp * wk["width"] * wk["height"] * c["s_per_sample"] + calls * c["s_per_call"] \
+                + c["s_per_scene"]
+    return total[0], total[1]
 
 
 def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -> dict[str, Any]:
@@ -349,7 +380,7 @@ def train_step(cfg: DictConfig, step_crop: int = 96, batch: int | None = None) -
 
 def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[str, Any]:
     """Times, GPU-hours and the loader's need from the counts and the measurements (:mod:`mcd.plan`)."""
-    here = pilot["s_per_sample"]
+    here = pilot["scenes"][pilot["scene"]]["s_per_sample"]  # the first scene's (the GPU's is staircase2's)
     gpu_measured = pilot["variant"].startswith("cuda")
     gpu_sps = (here, here) if gpu_measured else GPU_S_PER_SAMPLE
     ratio = here / float(np.mean(GPU_S_PER_SAMPLE))  # times faster the reference GPU renders (per sample)
@@ -357,8 +388,7 @@ def derive(wk: dict, pilot: dict, step: dict, loader_rate: dict | None) -> dict[
     gpu_step = cpu_step if step["device"] == "cuda" else cpu_step / ratio
     steps = wk["run_steps"]
     out = {
-        "render_hours_here": tuple((s * here + wk["render_calls"] * pilot["s_per_call"]) / HOUR
-                                   for s in wk["samples"]),
+        "render_hours_here": tuple(t / HOUR for t in render_seconds(wk, pilot)),
         "render_gpu_hours": (wk["samples"][0] * gpu_sps[0] / HOUR, wk["samples"][1] * gpu_sps[1] / HOUR),
         "gpu_measured": gpu_measured, "ratio": ratio, "gpu_step_s": gpu_step,
         "step_memory_mb": step["memory_mb"] + step["state_mb"],
