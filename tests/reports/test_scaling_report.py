@@ -14,6 +14,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from mcd.config.methods import display_name
 from mcd.reporting import finding, outputs
 from mcd.reporting.finding import Finding
 from mcd.reporting.scaling import coverage, notes
@@ -157,6 +158,28 @@ def test_the_notes_name_the_input_that_carries_ntasads_lead():
     assert "costliest" not in shaky and "none of the inputs switched off is shown to carry" in shaky
     assert notes.lead(found[:1]) == []
 
+
+
+def test_the_notes_say_what_each_of_fs_additions_is_worth():
+    """notes.additions: at a scale point where F_paper_<part> ran, each addition's worth to F (minus
+    ``F_paper_<part> - F``) from the most to the least, all put back at once beside them, the resolved gains
+    and losses named, a one-seed part called a lead; no paragraph where no part ran."""
+    point = ("tiny", 2, 1000)
+    found = [_gap(("F_paper_output", "F"), *point, -0.9), _gap(("F_paper_head", "F"), *point, 0.6),
+             _gap(("F_paper_edge", "F"), *point, -0.1, se=math.nan), _gap(("F_paper", "F"), *point, -1.6),
+             _gap(("F_paper", "F"), "small", 5, 1000, -1.0)]
+    (text,) = notes.additions(found)  # small has F_paper only: no paragraph
+    worth = text[text.index("worth to F"):]
+    out, edge, head = (worth.index(display_name(e)) for e in ("F_paper_output", "F_paper_edge",
+                                                                "F_paper_head"))
+    assert out < edge < head  # from the most to the least worth
+    assert f"{display_name('F_paper_output')}: +0.90 ± 0.20 dB" in text
+    assert f"{display_name('F_paper_head')}: -0.60 ± 0.20 dB" in text
+    assert f"{display_name('F_paper_edge')}: +0.10 dB (not resolved)" in text
+    assert "All put back at once (Ours (F, paper's text) - F): -1.60 ± 0.20 dB" in text
+    assert f"Resolved gains (2 standard errors): {display_name('F_paper_output')}; resolved losses: " \
+           f"{display_name('F_paper_head')}; the rest are leads" in text
+    assert notes.additions(found[3:]) == []
 
 def test_the_plan_is_the_sweeps_grid_less_the_seeds_it_drops():
     plan = coverage.planned()

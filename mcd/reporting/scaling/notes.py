@@ -49,6 +49,10 @@ ANALYSIS = "analysis.md"
 
 #: F's variants that give F an input of NTASAD's: whether the input that carries NTASAD's lead helps F too.
 GIVEN_TO_F = ("F_warp_previous",)
+#: F with one of its additions put back to the paper's text (``conf/experiment/F_paper_<part>.yaml``;
+#: docs/method.md "F against the paper"), and F with all of them put back.
+PAPER_PARTS = tuple(e for e in BY_EXPERIMENT if e.startswith("F_paper_"))
+PAPER_ALL = "F_paper"
 
 
 def _point(f: Finding) -> tuple[int, str, int]:
@@ -126,6 +130,32 @@ def lead(found: list[Finding]) -> list[str]:
         given = [f for f in here if f.subjects[1] == main and f.subjects[0] in GIVEN_TO_F]
         text += [f"Given to F: {display_name(f.subjects[0])} - {display_name(main)} = {_gap(f)}."
                  for f in given]
+        out.append(" ".join(text))
+    return out
+
+
+def additions(found: list[Finding]) -> list[str]:
+    """One paragraph per scale point where an ``F_paper_<part>`` ran: what each of F's additions to the
+    paper's text is worth there (minus ``F_paper_<part> - F``), from the most to the least, each with its
+    standard error, and beside them ``F_paper - F``, all of them put back at once (the parts need not add up
+    to it: each is put back alone into the whole F)."""
+    gaps = [f for f in found if f.kind == "scaling_gap" and f.subjects[1] == "F"]
+    out = []
+    for point in sorted({_point(f) for f in gaps if f.subjects[0] in PAPER_PARTS}):
+        here = {f.subjects[0]: f for f in gaps if _point(f) == point}
+        parts = sorted((here[e] for e in PAPER_PARTS if e in here), key=lambda f: f.values["mean"])
+        worth = [f"{display_name(f.subjects[0])}: {-f.values['mean']:+.2f}"
+                 + ("" if math.isnan(f.values["se"]) else f" ± {f.values['se']:.2f}") + " dB"
+                 + ("" if _is_resolved(f) else " (not resolved)") for f in parts]
+        helps = [display_name(f.subjects[0]) for f in parts if f.values["mean"] < 0 and _is_resolved(f)]
+        hurts = [display_name(f.subjects[0]) for f in parts if f.values["mean"] > 0 and _is_resolved(f)]
+        text = [f"At {_where(point)}, what each addition is worth to F (F minus F with it put back, "
+                f"{parts[0].detail['rule']} for the first): " + "; ".join(worth) + "."]
+        if PAPER_ALL in here:
+            text.append(f"All put back at once ({display_name(PAPER_ALL)} - F): {_gap(here[PAPER_ALL])}.")
+        rest = "." if all(_is_resolved(f) for f in parts) else "; the rest are leads, not results."
+        text.append(f"Resolved gains ({RESOLVED_SE:g} standard errors): {', '.join(helps) or 'none'}; "
+                    f"resolved losses: {', '.join(hurts) or 'none'}{rest}")
         out.append(" ".join(text))
     return out
 
@@ -266,6 +296,11 @@ def write(found: list[Finding], out_dir: Path, regenerate: str) -> Path:
         *([esc(p) + "\n" for p in lead(found)] or
           [f"No scale point has F - {display_name(MAIN[0][1])} beside a diagnostic of "
            f"{display_name(MAIN[0][1])}'s yet.", ""]),
+        "## What F's additions to the paper's text are worth",
+        "",
+        *([esc(p) + "\n" for p in additions(found)] or
+          ["No scale point has F beside an F_paper_<part> (docs/method.md \"F against the paper\") yet.",
+           ""]),
         "## Fits of PSNR against log10(steps), and crossings",
         "",
         *(listed("scaling_fit") + listed("scaling_crossing") or ["- none: no method ran two budgets"]),
