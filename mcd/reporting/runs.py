@@ -197,6 +197,18 @@ class Run:
         return [{"commit": None, "dirty": None, "start_step": 0, "end_step": None, "seconds": earlier}, last]
 
     @property
+    def code(self) -> str:
+        """The code that trained the run: the short commit of each of its :attr:`segments`, oldest first,
+        ``+``-joined without repeats (``*`` after a dirty tree's, ``?`` for one not recorded), or the record's
+        ``commit`` where it has no segments; ``?`` where nothing says. Two runs of different code may differ
+        by more than their seeds do: a change of numerics gives another trajectory from the same seed."""
+        def short(commit: Any, dirty: Any) -> str:
+            return "?" if not commit else str(commit)[:7] + ("*" if dirty else "")
+        names = [short(s.get("commit"), s.get("dirty")) for s in self.segments] or (
+            [short(self.metrics.get("commit"), self.metrics.get("dirty"))] if self.metrics else ["?"])
+        return "+".join(dict.fromkeys(names))
+
+    @property
     def corrupt(self) -> str | None:
         """What is damaged in the run's records (a corrupt ``metrics.json``), else None."""
         return None if self.error is None else self.error.get("corrupt")

@@ -435,8 +435,17 @@ def test_a_resumed_run_from_before_the_segment_records_is_found_by_its_curve_clo
     assert last["commit"] == "c" * 40 and last["seconds"] == 400.0
     prov = Provenance.gather([], list(runs.values()), command="test")
     assert prov.resumed == "`resumed` (code not recorded, 26 min; at ccccccc, 7 min)"
+    assert runs["one_go"].code == "ccccccc" and runs["resumed"].code == "?+ccccccc"
     assert prov.wall_s == pytest.approx(510.0 + 410.0 + 1530.0)
 
+
+
+def test_a_runs_code_is_each_segments_commit_once_a_dirty_tree_starred(tmp_path):
+    segs = [{"commit": c, "dirty": d, "start_step": i * 100, "end_step": i * 100 + 100, "seconds": 1.0}
+            for i, (c, d) in enumerate([("a" * 40, False), ("a" * 40, False), ("b" * 40, True)])]
+    _job(tmp_path, "run", metrics={"psnr": 30.0, "experiment": "F", "budget": 4, "segments": segs})
+    (run,) = find_runs([tmp_path])
+    assert run.code == "aaaaaaa+bbbbbbb*"
 
 def test_runs_that_would_share_a_record_folder_are_refused_before_anything_is_written(tmp_path):
     for machine in ("first", "second"):

@@ -105,6 +105,27 @@ def test_f_without_sa_is_measured_against_f_where_row_e_ran():
     assert found.verdict == "measured"
 
 
+
+def test_a_difference_says_when_its_two_sides_ran_different_code():
+    """The gaps table's ``code``: ``same`` where one commit trained every run of both cells; else each side's
+    commits (a cell resumed under a second commit, or of two commits, shows them), so a difference across code
+    is not read as the methods' alone. The cells table has the same column."""
+    from mcd.reporting.scaling.grid import cells
+
+    rows = [("F", 0, "954f1b4", 27.06), ("F", 1, "75caca1", 26.79), ("ntasad", 0, "954f1b4", 29.42),
+            ("ntasad", 1, "75caca1+f3b1d0d", 29.34), ("A", 0, "4eb66cd", 25.65), ("A", 1, "4eb66cd", 25.5),
+            ("C", 0, "4eb66cd", 26.7), ("C", 1, "4eb66cd", 26.6)]
+    points = pd.DataFrame([{"data": "tiny", "train_scenes": 2, "steps": 1000, "experiment": e, "seed": s,
+                            "psnr": v, "flip": 0.1, "psnr_train": v, "train_steps": 1000,
+                            "stop_reason": "max_steps", "code": c} for e, s, c, v in rows])
+    table = scaling_gaps.table(Grid(points), [("tiny", 1000)]).set_index("difference")["code"]
+    assert table[f"{display_name('F')} - {display_name('ntasad')}"] == \
+        f"{display_name('F')}: 954f1b4; 75caca1, {display_name('ntasad')}: 954f1b4; 75caca1+f3b1d0d"
+    assert scaling_gaps.code_pair(Grid(points), "tiny", 1000, "A", "C") == "same"
+    assert scaling_gaps.code_pair(Grid(points), "tiny", 1000, "A", "E") == ""  # no runs of E
+    assert dict(zip(cells(Grid(points))["experiment"], cells(Grid(points))["code"], strict=True))["F"] == \
+        "954f1b4; 75caca1"
+
 @pytest.mark.parametrize("signs, words", [
     ((-1, -1, +1, +1), "It appears as the work grows"),
     ((+1, +1, +1, +1), "Yes: the paper's ordering"),

@@ -13,6 +13,11 @@ The rule for a difference of PSNR (and FLIP) between two cells, :func:`differenc
   ``sqrt(s_a^2/n_a + s_b^2/n_b)`` (*unpaired*);
 - one seed on a side: the difference of the means, no standard error.
 
+Each difference says which code trained each side (``code``: ``same`` where every run of both cells ran
+one code, else each side's commits, :func:`mcd.reporting.scaling.grid.code_of`): the same seed under other
+numerics takes another trajectory, so a difference across code mixes the methods' difference with the
+code's, which the seeds' standard error does not hold.
+
 A seed value gives two methods no randomness in common but their test frames (their weights and crops are
 drawn in different orders), so pairing changes the estimate's spread little; it is the rule because it is the
 exact one where seeds match.
@@ -26,7 +31,7 @@ import pandas as pd
 
 from mcd.config.methods import BY_EXPERIMENT, display_name
 from mcd.reporting.finding import Finding
-from mcd.reporting.scaling.grid import Grid, by_seed
+from mcd.reporting.scaling.grid import Grid, by_seed, code_at
 from mcd.reporting.tables import TABLE1_BUDGET
 
 #: The paper's ordering, checked at every scale point: (subject, the method it should be above).
@@ -81,9 +86,21 @@ def table(grid: Grid, scale_points: list[tuple[str, int]]) -> pd.DataFrame:
                          "rule": rule + stopped_early(grid, data, steps, (a, b)) if pa and pb
                          else "no runs of " + " or ".join(
                              display_name(e) for e, cell in ((a, pa), (b, pb)) if not cell),
+                         "code": code_pair(grid, data, steps, a, b),
                          "PSNR dB": psnr, "PSNR se": psnr_se, "FLIP": flip, "FLIP se": flip_se})
     return pd.DataFrame(rows, columns=["data", "train scenes", "steps", "difference", "a", "b", "a seeds",
-                                       "b seeds", "rule", "PSNR dB", "PSNR se", "FLIP", "FLIP se"])
+                                       "b seeds", "rule", "code", "PSNR dB", "PSNR se", "FLIP", "FLIP se"])
+
+
+def code_pair(grid: Grid, data: str, steps: int, a: str, b: str) -> str:
+    """``same`` where both cells' runs ran one code, else ``<a>: <its code>, <b>: <its code>`` (module
+    docstring); empty where a cell has no runs."""
+    ca, cb = code_at(grid, data, steps, a), code_at(grid, data, steps, b)
+    if not ca or not cb:
+        return ""
+    if ca == cb and "; " not in ca:
+        return "same"
+    return f"{display_name(a)}: {ca}, {display_name(b)}: {cb}"
 
 
 def stopped_early(grid: Grid, data: str, steps: int, experiments: tuple[str, str]) -> str:
@@ -118,7 +135,7 @@ def findings(gaps: pd.DataFrame) -> list[Finding]:
             {"mean": mean, "se": float(row["PSNR se"]), "flip mean": float(row["FLIP"]),
              "flip se": float(row["FLIP se"])}, TABLE1_BUDGET,
             detail={"data": row["data"], "train_scenes": int(row["train scenes"]), "steps": int(row["steps"]),
-                    "rule": row["rule"],
+                    "rule": row["rule"], "code": row["code"],
                     "seeds": {a: row["a seeds"], b: row["b seeds"]},
                     **({"claim": f"{a} above {b}"} if (a, b) in MAIN else {})}))
     return found

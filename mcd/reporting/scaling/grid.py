@@ -129,9 +129,9 @@ def read(runs: list[Run]) -> Grid:
                      "psnr": metric(r, "psnr"), "flip": metric(r, "flip"),
                      "psnr_train": train_scene_metric(r),
                      "ssim": metric(r, "ssim"), "train_steps": r.metrics.get("train_steps"),
-                     "stop_reason": r.metrics.get("stop_reason"), "path": str(r.path)})
+                     "stop_reason": r.metrics.get("stop_reason"), "code": r.code, "path": str(r.path)})
     columns = ["data", "train_scenes", "steps", "experiment", "method", "seed", *SCORES, "ssim",
-               "train_steps", "stop_reason", "path"]
+               "train_steps", "stop_reason", "code", "path"]
     return Grid(pd.DataFrame(rows, columns=columns), left_out)
 
 
@@ -182,6 +182,7 @@ def cells(grid: Grid) -> pd.DataFrame:
         row["stopped early"] = "; ".join(f"seed {s} at step {int(t)} ({why})" for s, t, why in
                                          zip(early["seed"], early["train_steps"], early["stop_reason"],
                                              strict=True))
+        row["code"] = code_of(df)
         rows.append(row)
     out = pd.DataFrame(rows)
     if out.empty:
@@ -190,6 +191,21 @@ def cells(grid: Grid) -> pd.DataFrame:
     exp_rank = {e: i for i, e in enumerate(order(set(out["experiment"])))}
     return out.sort_values(["data", "steps", "experiment"], key=lambda c: c.map(data_rank) if c.name == "data"
                            else c.map(exp_rank) if c.name == "experiment" else c).reset_index(drop=True)
+
+
+def code_of(runs: pd.DataFrame) -> str:
+    """The code of a cell's runs (``Run.code``), each once in seed order, ``; ``-joined; ``?`` where the
+    points have no ``code`` (a grid built without it)."""
+    if "code" not in runs:
+        return "?"
+    return "; ".join(dict.fromkeys(str(c) for c in runs.sort_values("seed")["code"]))
+
+
+def code_at(grid: Grid, data: str, steps: int, experiment: str) -> str:
+    """:func:`code_of` one cell's runs (empty where it has none)."""
+    p = grid.points
+    df = p[(p["data"] == data) & (p["steps"] == steps) & (p["experiment"] == experiment)]
+    return code_of(df) if len(df) else ""
 
 
 def by_seed(grid: Grid, data: str, steps: int, experiment: str, score: str = "psnr") -> dict[int, float]:

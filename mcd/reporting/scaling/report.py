@@ -73,12 +73,12 @@ def _cells_markdown(df: pd.DataFrame) -> str:
     cols = {"data": "data", "steps": "steps", "experiment": "experiment", "n": "n", "seeds": "seeds",
             "band": "band", "psnr mean": "PSNR", "psnr se": "PSNR se", "psnr min": "PSNR min",
             "psnr max": "PSNR max", "flip mean": "FLIP x1e2", "flip se": "FLIP se x1e2",
-            "psnr_train mean": "PSNR train scenes", "stopped early": "stopped early"}
+            "psnr_train mean": "PSNR train scenes", "stopped early": "stopped early", "code": "code"}
     shown = df[[c for c in cols if c in df.columns]].rename(columns=cols)
     for c in ("FLIP x1e2", "FLIP se x1e2"):
         if c in shown:
             shown[c] = shown[c] * FLIP_SCALE
-    return to_markdown(shown.fillna({"stopped early": ""}) if "stopped early" in shown else shown)
+    return to_markdown(shown.fillna({c: "" for c in ("stopped early", "code") if c in shown}))
 
 
 def _gaps_markdown(df: pd.DataFrame) -> str:
@@ -146,14 +146,19 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
                           "`n`: seeds with a finished run (0: no runs yet); `band`: what the figure's band "
                           "shows (mean ± standard error from 3 seeds, the range with 2, none with 1); `se`: "
                           "sample standard deviation over sqrt(n); FLIP x1e2 (lower is better); `PSNR train "
-                          "scenes`: over the training scenes' test frames only (the paper's protocol).",
+                          "scenes`: over the training scenes' test frames only (the paper's protocol); "
+                          "`code`: the commits that trained the cell's runs (each run's, `+` where it was "
+                          "resumed under another).",
                           _cells_markdown(shown_cells) if not shown_cells.empty else "No cells.\n"),
         "scaling_gaps": ("Differences at each scale point",
                          "PSNR in dB, FLIP x1e2 (a negative FLIP difference favours the first method). "
                          "`rule`: paired by seed where both cells have the same seeds (at least two), else "
                          "the difference of the means, with the standard error sqrt(s_a^2/n_a + s_b^2/n_b) "
                          "where both have two or more seeds and none otherwise; `none`: the cell has no "
-                         "runs.",
+                         "runs. `code`: `same` where one commit trained every run of both cells, else each "
+                         "side's commits: the same seed under other numerics takes another trajectory, so a "
+                         "difference across code holds the code's difference too, which no standard error "
+                         "here counts.",
                          _gaps_markdown(gap_table)),
         "scaling_fits": ("Fits of PSNR against log10(steps), per method and data profile",
                          "PSNR = a + b log10(steps) by least squares through the cell means (one point per "
