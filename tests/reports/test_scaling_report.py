@@ -194,9 +194,9 @@ def test_the_notes_say_what_each_of_fs_additions_is_worth():
     out, edge, head = (worth.index(display_name(e)) for e in ("F_paper_output", "F_paper_edge",
                                                                 "F_paper_head"))
     assert out < edge < head  # from the most to the least worth
-    assert f"{display_name('F_paper_output')}: +0.90 ± 0.20 dB" in text
-    assert f"{display_name('F_paper_head')}: -0.60 ± 0.20 dB" in text
-    assert f"{display_name('F_paper_edge')}: +0.10 dB (not resolved)" in text
+    assert f"{display_name('F_paper_output')}: +0.90 ± 0.20 dB (paired, 3 seeds; 4.5 standard errors" in text
+    assert f"{display_name('F_paper_head')}: -0.60 ± 0.20 dB (paired, 3 seeds; 3.0 standard errors" in text
+    assert f"{display_name('F_paper_edge')}: +0.10 dB (paired, 3 seeds)" in text
     assert "All put back at once (Ours (F, paper's text) - F): -1.60 ± 0.20 dB" in text
     assert f"Resolved gains (2 standard errors): {display_name('F_paper_output')}; resolved losses: " \
            f"{display_name('F_paper_head')}; the rest are leads" in text

@@ -134,6 +134,14 @@ def lead(found: list[Finding]) -> list[str]:
     return out
 
 
+def _worth(f: Finding) -> str:
+    """Minus a ``F_paper_<part> - F`` finding, as :func:`_gap` writes a difference."""
+    m, se = -f.values["mean"], f.values["se"]
+    if math.isnan(se):
+        return f"{m:+.2f} dB ({f.detail['rule']})"
+    return f"{m:+.2f} ± {se:.2f} dB ({f.detail['rule']}; {resolved(m, se)})"
+
+
 def additions(found: list[Finding]) -> list[str]:
     """One paragraph per scale point where an ``F_paper_<part>`` ran: what each of F's additions to the
     paper's text is worth there (minus ``F_paper_<part> - F``), from the most to the least, each with its
@@ -144,13 +152,11 @@ def additions(found: list[Finding]) -> list[str]:
     for point in sorted({_point(f) for f in gaps if f.subjects[0] in PAPER_PARTS}):
         here = {f.subjects[0]: f for f in gaps if _point(f) == point}
         parts = sorted((here[e] for e in PAPER_PARTS if e in here), key=lambda f: f.values["mean"])
-        worth = [f"{display_name(f.subjects[0])}: {-f.values['mean']:+.2f}"
-                 + ("" if math.isnan(f.values["se"]) else f" ± {f.values['se']:.2f}") + " dB"
-                 + ("" if _is_resolved(f) else " (not resolved)") for f in parts]
+        worth = [f"{display_name(f.subjects[0])}: {_worth(f)}" for f in parts]
         helps = [display_name(f.subjects[0]) for f in parts if f.values["mean"] < 0 and _is_resolved(f)]
         hurts = [display_name(f.subjects[0]) for f in parts if f.values["mean"] > 0 and _is_resolved(f)]
-        text = [f"At {_where(point)}, what each addition is worth to F (F minus F with it put back, "
-                f"{parts[0].detail['rule']} for the first): " + "; ".join(worth) + "."]
+        text = [f"At {_where(point)}, what each addition is worth to F (F minus F with it put back): "
+                + "; ".join(worth) + "."]
         if PAPER_ALL in here:
             text.append(f"All put back at once ({display_name(PAPER_ALL)} - F): {_gap(here[PAPER_ALL])}.")
         rest = "." if all(_is_resolved(f) for f in parts) else "; the rest are leads, not results."
