@@ -74,8 +74,13 @@ def test_a_difference_is_paired_by_seed_where_the_seeds_match():
     assert rule == "paired, 3 seeds"
     mean, se, rule = difference({0: 30.0, 1: 32.0}, {0: 29.0, 3: 31.0, 4: 30.0})
     assert (mean, se) == pytest.approx((1.0, math.sqrt(2.0 / 2 + 1.0 / 3))) and rule == "unpaired, 2/3 seeds"
-    mean, se, rule = difference({0: 30.0, 1: 32.0}, {0: 29.0})
-    assert mean == pytest.approx(2.0) and math.isnan(se) and "no standard error" in rule
+    mean, se, rule = difference({0: 30.0, 1: 32.0}, {0: 29.0})  # one seed on a side: that seed's pair
+    assert mean == pytest.approx(1.0) and math.isnan(se)
+    assert rule == "paired on seed 0 of 2/1: no standard error"
+    mean, se, rule = difference({0: 30.0, 1: 32.0}, {2: 29.0})  # no common seed: the means
+    assert mean == pytest.approx(2.0) and math.isnan(se) and rule == "2/1 seeds: no standard error"
+    mean, se, rule = difference({0: 30.0, 1: 31.0, 2: 35.0}, {0: 29.0, 1: 29.5})  # the common seeds, paired
+    assert (mean, se) == pytest.approx((1.25, 0.25)) and rule == "paired, 2 seeds of 3/2"
     assert math.isnan(difference({}, {0: 29.0})[0])
 
 

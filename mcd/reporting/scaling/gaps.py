@@ -7,11 +7,15 @@ against F (row E, :data:`COMPONENT_DIAGNOSTICS`) follow where the first of the t
 
 The rule for a difference of PSNR (and FLIP) between two cells, :func:`difference`:
 
-- both cells have the same seeds, at least two: *paired* by seed, the mean of the per-seed differences and
-  its standard error (their sample standard deviation over ``sqrt(n)``);
-- other seeds, at least two on each side: the difference of the means, standard error
+- the cells share at least two seeds: *paired* by seed over the seeds they share, the mean of the per-seed
+  differences and its standard error (their sample standard deviation over ``sqrt(n)``); a seed only one
+  side has is left out (the rule says how many each side has);
+- one side has a single seed and the other has it too: that seed's difference, no standard error (a variant
+  that changes only the test, such as F without its output steps, follows F's training exactly, so the
+  same seed is the exact comparison, and another seed's mean would add the seeds' spread to it);
+- else, at least two seeds on each side: the difference of the means, standard error
   ``sqrt(s_a^2/n_a + s_b^2/n_b)`` (*unpaired*);
-- one seed on a side: the difference of the means, no standard error.
+- else the difference of the means, no standard error.
 
 Each difference says which code trained each side (``code``: ``same`` where every run of both cells ran
 one code, else each side's commits, :func:`mcd.reporting.scaling.grid.code_of`): the same seed under other
@@ -47,12 +51,17 @@ EXTRA = (*((m.experiment, str(m.variant_of)) for m in BY_EXPERIMENT.values()
 
 def difference(a: dict[int, float], b: dict[int, float]) -> tuple[float, float, str]:
     """``a - b`` of two cells' ``{seed: score}``: mean, standard error (NaN where the rule gives none) and
-    the rule applied (module docstring); NaN and ``no runs of ...`` when a side is empty."""
+    the rule applied (module docstring); NaN and ``no runs`` when a side is empty."""
     if not a or not b:
         return math.nan, math.nan, "no runs"
-    if set(a) == set(b) and len(a) >= 2:
-        d = pd.Series([a[s] - b[s] for s in sorted(a)])
-        return float(d.mean()), float(d.std(ddof=1) / math.sqrt(len(d))), f"paired, {len(d)} seeds"
+    common = sorted(set(a) & set(b))
+    of = "" if set(a) == set(b) else f" of {len(a)}/{len(b)}"
+    if len(common) >= 2:
+        d = pd.Series([a[s] - b[s] for s in common])
+        return float(d.mean()), float(d.std(ddof=1) / math.sqrt(len(d))), f"paired, {len(d)} seeds{of}"
+    if common and min(len(a), len(b)) == 1:
+        s = common[0]
+        return a[s] - b[s], math.nan, f"paired on seed {s}{of}: no standard error"
     mean = sum(a.values()) / len(a) - sum(b.values()) / len(b)
     if len(a) >= 2 and len(b) >= 2:
         va, vb = pd.Series(list(a.values())).var(ddof=1), pd.Series(list(b.values())).var(ddof=1)

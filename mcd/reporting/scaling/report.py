@@ -152,7 +152,8 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
                           _cells_markdown(shown_cells) if not shown_cells.empty else "No cells.\n"),
         "scaling_gaps": ("Differences at each scale point",
                          "PSNR in dB, FLIP x1e2 (a negative FLIP difference favours the first method). "
-                         "`rule`: paired by seed where both cells have the same seeds (at least two), else "
+                         "`rule`: paired by seed over the seeds both cells have where they share two or "
+                         "more; that seed's difference where a side has one seed the other has too; else "
                          "the difference of the means, with the standard error sqrt(s_a^2/n_a + s_b^2/n_b) "
                          "where both have two or more seeds and none otherwise; `none`: the cell has no "
                          "runs. `code`: `same` where one commit trained every run of both cells, else each "
