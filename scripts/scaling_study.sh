@@ -67,6 +67,7 @@ leg data=small train.max_steps=3000 +experiment=F,ntasad seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_pixel_switch seed=0  # decides F's identity channel
 leg data=tiny train.max_steps=10000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000 "$DEVIATIONS" seed=0  # what each of F's additions to the paper is worth
+leg data=tiny train.max_steps=1000 "$DEVIATIONS" seed=1,2 "$GAP"  # the same, seeds paired with F's
 leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=1,2 "$SEEDS_3000"  # F's 3000-step point, settled
 leg data=small train.max_steps=3000 +experiment=F,F_pixel_switch seed=1,2  # seeds for F's identity channel
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
