@@ -13,8 +13,9 @@
 #      identity channel waits on it, and the current report on F's defaults); then at 10000 steps on tiny,
 #      where the fits of 1000 and 3000 steps cross at about 5000 (reports/scaling): the crossing measured, not
 #      extrapolated; F with each of its additions back to the paper's text (F_paper_<part>) at tiny x 1000,
-#      and seeds 1-2 of F and NTASAD at tiny x 3000; seeds 1-2 of F and F_pixel_switch at 3000 on small (the identity channel's decision:
-#      one seed each way so far); then F_paper, C and A at 1000 and 3000 on tiny and small;
+#      and seeds 1-2 of F and NTASAD at tiny x 3000; seeds 1-2 of F and F_pixel_switch at 3000 on small
+#      (the identity channel's decision: one seed each way so far); then F_paper, C and A at 1000 and 3000
+#      on tiny and small;
 #   4. seeds 1-2 of F and NTASAD at 3000 on small, F without SA (row E) at 3000 on small with seeds 0-2 (the
 #      fourth diagnostic, paired with F's seeds), then 10000 steps on small;
 #   5. once `medium` is rendered: F and NTASAD at 1000 and 3000, F, A, NTASAD and row E at 10000 (F, A and

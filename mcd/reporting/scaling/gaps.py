@@ -35,7 +35,7 @@ import pandas as pd
 
 from mcd.config.methods import BY_EXPERIMENT, display_name
 from mcd.reporting.finding import Finding
-from mcd.reporting.scaling.grid import Grid, by_seed, code_at
+from mcd.reporting.scaling.grid import Grid, by_seed, codes_at
 from mcd.reporting.tables import TABLE1_BUDGET
 
 #: The paper's ordering, checked at every scale point: (subject, the method it should be above).
@@ -104,12 +104,12 @@ def table(grid: Grid, scale_points: list[tuple[str, int]]) -> pd.DataFrame:
 def code_pair(grid: Grid, data: str, steps: int, a: str, b: str) -> str:
     """``same`` where both cells' runs ran one code, else ``<a>: <its code>, <b>: <its code>`` (module
     docstring); empty where a cell has no runs."""
-    ca, cb = code_at(grid, data, steps, a), code_at(grid, data, steps, b)
+    ca, cb = codes_at(grid, data, steps, a), codes_at(grid, data, steps, b)
     if not ca or not cb:
         return ""
-    if ca == cb and "; " not in ca:
+    if ca == cb and len(ca) == 1:
         return "same"
-    return f"{display_name(a)}: {ca}, {display_name(b)}: {cb}"
+    return f"{display_name(a)}: {'; '.join(ca)}, {display_name(b)}: {'; '.join(cb)}"
 
 
 def stopped_early(grid: Grid, data: str, steps: int, experiments: tuple[str, str]) -> str:

@@ -193,19 +193,24 @@ def cells(grid: Grid) -> pd.DataFrame:
                            else c.map(exp_rank) if c.name == "experiment" else c).reset_index(drop=True)
 
 
-def code_of(runs: pd.DataFrame) -> str:
-    """The code of a cell's runs (``Run.code``), each once in seed order, ``; ``-joined; ``?`` where the
-    points have no ``code`` (a grid built without it)."""
+def codes(runs: pd.DataFrame) -> tuple[str, ...]:
+    """The code of a cell's runs (``Run.code``), each once, in seed order; ``("?",)`` where the points have no
+    ``code`` (a grid built without it)."""
     if "code" not in runs:
-        return "?"
-    return "; ".join(dict.fromkeys(str(c) for c in runs.sort_values("seed")["code"]))
+        return ("?",)
+    return tuple(dict.fromkeys(str(c) for c in runs.sort_values("seed")["code"]))
 
 
-def code_at(grid: Grid, data: str, steps: int, experiment: str) -> str:
-    """:func:`code_of` one cell's runs (empty where it has none)."""
+def code_of(runs: pd.DataFrame) -> str:
+    """:func:`codes` as the tables show them, ``; ``-joined."""
+    return "; ".join(codes(runs))
+
+
+def codes_at(grid: Grid, data: str, steps: int, experiment: str) -> tuple[str, ...]:
+    """:func:`codes` of one cell's runs (empty where it has none)."""
     p = grid.points
     df = p[(p["data"] == data) & (p["steps"] == steps) & (p["experiment"] == experiment)]
-    return code_of(df) if len(df) else ""
+    return codes(df) if len(df) else ()
 
 
 def by_seed(grid: Grid, data: str, steps: int, experiment: str, score: str = "psnr") -> dict[int, float]:

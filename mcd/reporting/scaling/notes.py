@@ -63,8 +63,9 @@ def _where(point: tuple[int, str, int]) -> str:
     return f"{point[1]} x {point[2]} steps"
 
 
-def _gap(f: Finding) -> str:
-    m, se = f.values["mean"], f.values["se"]
+def _gap(f: Finding, sign: float = 1.0) -> str:
+    """A difference's finding as the notes write it (``sign`` -1: minus it, what a put-back part is worth)."""
+    m, se = sign * f.values["mean"], f.values["se"]
     if math.isnan(se):
         return f"{m:+.2f} dB ({f.detail['rule']})"
     return f"{m:+.2f} ± {se:.2f} dB ({f.detail['rule']}; {resolved(m, se)})"
@@ -134,14 +135,6 @@ def lead(found: list[Finding]) -> list[str]:
     return out
 
 
-def _worth(f: Finding) -> str:
-    """Minus a ``F_paper_<part> - F`` finding, as :func:`_gap` writes a difference."""
-    m, se = -f.values["mean"], f.values["se"]
-    if math.isnan(se):
-        return f"{m:+.2f} dB ({f.detail['rule']})"
-    return f"{m:+.2f} ± {se:.2f} dB ({f.detail['rule']}; {resolved(m, se)})"
-
-
 def additions(found: list[Finding]) -> list[str]:
     """One paragraph per scale point where an ``F_paper_<part>`` ran: what each of F's additions to the
     paper's text is worth there (minus ``F_paper_<part> - F``), from the most to the least, each with its
@@ -152,7 +145,7 @@ def additions(found: list[Finding]) -> list[str]:
     for point in sorted({_point(f) for f in gaps if f.subjects[0] in PAPER_PARTS}):
         here = {f.subjects[0]: f for f in gaps if _point(f) == point}
         parts = sorted((here[e] for e in PAPER_PARTS if e in here), key=lambda f: f.values["mean"])
-        worth = [f"{display_name(f.subjects[0])}: {_worth(f)}" for f in parts]
+        worth = [f"{display_name(f.subjects[0])}: {_gap(f, -1.0)}" for f in parts]
         helps = [display_name(f.subjects[0]) for f in parts if f.values["mean"] < 0 and _is_resolved(f)]
         hurts = [display_name(f.subjects[0]) for f in parts if f.values["mean"] > 0 and _is_resolved(f)]
         text = [f"At {_where(point)}, what each addition is worth to F (F minus F with it put back): "
