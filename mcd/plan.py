@@ -143,7 +143,7 @@ def lines(p: dict[str, Any]) -> list[str]:
           + ("" if pi["frames"] < 2 else f" (frames: {', '.join(f'{t:.2f}' for t in c['frame_seconds'])} s "
              f"at {pi['spp']} spp)") for name, c in pi["scenes"].items()),
         f"render time here: per scene, {_range(*wk['spp_per_scene'])} spp x {w * h} pixels x its ns/sample "
-        f"+ {wk['render_calls'] // ns} calls x its ms/call + its s/scene, over {ns} scenes = "
+        f"+ {wk['render_calls_per_scene']} calls x its ms/call + its s/scene, over {ns} scenes = "
         f"{_range(*p['render_hours_here'], ' h')}",
         ("render on this GPU (measured): " if p["gpu_measured"] else
          f"render on the reference GPU (derived from its {_range(*(s * 1e9 for s in GPU_S_PER_SAMPLE))} ns "

@@ -51,12 +51,14 @@ wait_render() {  # a profile's store is complete once its render command has fin
 }
 
 if [ -n "${WAIT_PID:-}" ]; then while kill -0 "$WAIT_PID" 2>/dev/null; do sleep 30; done; fi
-GAP='sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[1000]}'  # seeds 0-2 at the diagnostics' point
+seeds_at() {  # seeds_at <data> <steps>: the sweep's seeds 1-2 allowed at that scale point too
+  echo "sweep_plan.seeds_only_where={data:[$1],train.max_steps:[$2]}"
+}
+GAP=$(seeds_at tiny 1000)  # seeds 0-2 at the diagnostics' point
 DIAGNOSTICS=+experiment=F,ntasad,ntasad_no_warp,ntasad_no_previous,F_warp_previous,F_pixel_switch
 # F with one of its additions back to the paper's text each (docs/method.md "F against the paper")
 DEVIATIONS=+experiment=F_paper_output,F_paper_mean,F_paper_bound,F_paper_misses,F_paper_edge,F_paper_map_input,\
 F_paper_padding,F_paper_head,F_paper_range,F_paper_flips,F_paper_reverse
-SEEDS_3000='sweep_plan.seeds_only_where={data:[tiny],train.max_steps:[3000]}'
 leg data=tiny train.max_steps=1000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000 "$DIAGNOSTICS" seed=0  # while `small` renders
 wait_render small
@@ -69,7 +71,7 @@ leg data=small train.max_steps=1000,3000 +experiment=F_pixel_switch seed=0  # de
 leg data=tiny train.max_steps=10000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000 "$DEVIATIONS" seed=0  # what each of F's additions to the paper is worth
 leg data=tiny train.max_steps=1000 "$DEVIATIONS" seed=1,2 "$GAP"  # the same, seeds paired with F's
-leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=1,2 "$SEEDS_3000"  # F's 3000-step point, settled
+leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=1,2 "$(seeds_at tiny 3000)"  # F's 3000-step point, settled
 leg data=small train.max_steps=3000 +experiment=F,F_pixel_switch seed=1,2  # seeds for F's identity channel
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0
 leg data=small train.max_steps=1000,3000 +experiment=F_paper,C,A,F_pixel_switch seed=0
