@@ -71,6 +71,10 @@ leg data=small train.max_steps=1000,3000 +experiment=F_pixel_switch seed=0  # de
 leg data=tiny train.max_steps=10000 +experiment=F,ntasad seed=0
 leg data=tiny train.max_steps=1000 "$DEVIATIONS" seed=0  # what each of F's additions to the paper is worth
 leg data=tiny train.max_steps=1000 "$DEVIATIONS" seed=1,2 "$GAP"  # the same, seeds paired with F's
+# seeds 3-4 of the three additions nearest the threshold at three seeds, and a second scale point for two of
+# them (notes/scaling_plan.md "F's final defaults")
+leg data=tiny train.max_steps=1000 +experiment=F,F_paper_output,F_paper_misses,F_paper_map_input seed=3,4 "$GAP"
+leg data=small train.max_steps=1000 +experiment=F_paper_output,F_paper_map_input seed=0
 leg data=tiny train.max_steps=3000 +experiment=F,ntasad seed=1,2 "$(seeds_at tiny 3000)"  # F's 3000-step point, settled
 leg data=small train.max_steps=3000 +experiment=F,F_pixel_switch seed=1,2  # seeds for F's identity channel
 leg data=tiny train.max_steps=1000,3000 +experiment=F_paper,C,A seed=0

@@ -97,7 +97,7 @@ def test_each_scene_costs_its_own_samples_calls_and_load_and_a_missing_one_the_m
     from mcd.lit.workload import render_seconds
 
     wk = {"scenes": ["cheap", "dear", "absent"], "spp_per_scene": (100, 200), "width": 10, "height": 10,
-          "render_calls": 30, "render_calls_per_scene": 10}
+          "render_calls_per_scene": 10}
     pilot = {"scenes": {"cheap": {"s_per_sample": 1e-6, "s_per_call": 0.1, "s_per_scene": 2.0},
                         "dear": {"s_per_sample": 1e-5, "s_per_call": 0.3, "s_per_scene": 4.0}}}
     # per scene: spp x 100 pixels x s/sample + 10 calls x s/call + s/scene, at 100 and at 200 spp
