@@ -264,7 +264,8 @@ def test_the_planned_renderer_calls_are_the_calls_a_render_makes(tmp_path, monke
     buffers = requested_buffers(cfg)
     StoreBuilder.from_cfg(cfg).ensure(sorted(buffers), progress=False)
     wk = counts(cfg, buffers, buffers)
-    assert len(made) == wk["render_calls"], (len(made), wk["render_calls"])
+    calls = wk["render_calls_per_scene"] * len(wk["scenes"])
+    assert len(made) == calls, (len(made), calls)
     step = {"device": "cpu", "seconds": 1.0, "memory_mb": 1.0, "state_mb": 0.0}
     hours = derive(wk, made_pilot(wk, 2e-6, 0.1, "llvm_ad_rgb"), step, None)["render_hours_here"]
-    assert hours == pytest.approx(tuple((s * 2e-6 + wk["render_calls"] * 0.1) / 3600 for s in wk["samples"]))
+    assert hours == pytest.approx(tuple((s * 2e-6 + calls * 0.1) / 3600 for s in wk["samples"]))

@@ -131,7 +131,7 @@ def counts(cfg: DictConfig, render_buffers: Iterable[str], train_buffers: Iterab
         "train_store_frame_bytes": packed,
         "train_store_bytes": {dt: packed_frames * b for dt, b in packed.items()},
         "samples": (lo * w * h * len(scenes), hi * w * h * len(scenes)),
-        "render_calls": calls * len(scenes), "render_calls_per_scene": calls,
+        "render_calls_per_scene": calls,
         "spp_per_scene": (lo, hi),
         "train_clips": clips, "batch": batch, "ranks": ranks, "steps_per_epoch": steps,
         "run_steps": run_steps, "run_steps_how": how, "train_error": train_error,
