@@ -83,7 +83,7 @@ sweep() {  # sweep <name> <experiments> [overrides...]
 stage() {
   case $1 in
     ablation) one_commit; sweep ablation A,B,C,D,E,F,G,H,I,J,K,L,M ;;   # the component study, row I included
-    baselines) one_commit; sweep baselines rae,dasr,dasr_paper_loss,fastdvdnet,ntasad,oidn,noisy ;;  # U-Net = row A
+    baselines) one_commit; sweep baselines rae,dasr,dasr_paper_loss,fastdvdnet,ntasad,oidn,noisy,F_paper ;;  # U-Net = row A
     spp) one_commit; sweep spp F,ntasad,A,oidn,noisy budget=2,8,16,32 ;;  # 4 spp: the ablation and baselines jobs
     seeds) one_commit; sweep seeds A,B,C,F seed=1,2,3,4 ;;           # seed 0: the ablation jobs
     transfer) one_commit; sweep transfer F,A "transfer.init_from=$ROOT/ablation/$DATA$TAG/\${experiment}_spp4" ;;

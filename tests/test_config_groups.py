@@ -57,7 +57,7 @@ def test_experiment_composes_to_its_method_and_loss_files(experiment: str) -> No
 
 def test_the_default_method_builds_row_f_as_documented_and_unet_is_row_a() -> None:
     """What the default config builds (docs/method.md "Output", docs/kernel_pool.md): row F with a residual
-    ``F_d`` on ``log1p`` colour, the stack of 5 levels, ``F_d`` reading ``i_bar`` (not ``i``), the centred RMS
+    ``F_d`` on ``log1p`` colour, the stack of 5 levels, ``F_d`` reading ``i_bar`` (not ``i``), the soft-RMS
     kernel-map head and the output steps; the U-Net experiment builds row A's network and gives its output."""
     import torch
 
@@ -67,7 +67,7 @@ def test_the_default_method_builds_row_f_as_documented_and_unet_is_row_a() -> No
     f = build(compose_cfg())
     assert f.sw == dict.fromkeys(SWITCHES, True)
     assert (f.residual, f.colour, f.levels, f.reads_adaptive) == (True, "log1p", 5, False)
-    assert f.sampler.head.output == "rms_centred" and len(f._forward_hooks) == 1
+    assert f.sampler.head.output == "rms_soft" and len(f._forward_hooks) == 1
     torch.manual_seed(0)
     unet = build(compose_cfg("+experiment=unet")).eval()
     torch.manual_seed(0)

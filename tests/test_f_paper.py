@@ -88,12 +88,19 @@ def test_each_of_fs_additions_has_one_experiment_that_puts_back_the_papers_setti
     ours = flat(compose(["+experiment=F"]))
     rows = {what: dict((k, value(t)) for k, t in pairs) for what, f_column, pairs in deviation_rows()
             if "(default)" not in f_column and not f_column.startswith("off")}
+    # rows F took back from the paper after the scaling study: their experiments stay as its records
+    records = {e: what for what, f_column, _ in deviation_rows() if "(default)" in f_column
+               for e in re.findall(r"`(F_paper_[a-z_]+)`", f_column)}
     found: dict[str, str] = {}
     for path in sorted((REPO / "conf" / "experiment").glob("F_paper_*.yaml")):
         experiment = path.stem
         theirs = flat(compose([f"+experiment={experiment}"]))
         changed = {k: theirs.get(k) for k in set(ours) | set(theirs)
                    if k != "experiment" and ours.get(k) != theirs.get(k)}
+        if experiment in records:
+            assert changed == {}, f"{experiment}: F has the paper's {records[experiment]!r}, not {changed}"
+            assert BY_EXPERIMENT[experiment].variant_of == "F" and BY_EXPERIMENT[experiment].diagnostic
+            continue
         (what,) = [w for w, switch in rows.items() if switch == changed] or [None]
         assert what, f"{experiment} changes {changed}: no single row of docs/method.md's table"
         assert what not in found, f"{experiment} and {found[what]} both put back {what!r}"
@@ -101,13 +108,20 @@ def test_each_of_fs_additions_has_one_experiment_that_puts_back_the_papers_setti
         assert theirs["experiment"] == experiment
         assert BY_EXPERIMENT[experiment].variant_of == "F" and BY_EXPERIMENT[experiment].diagnostic
     assert sorted(found) == sorted(rows), f"rows without an experiment: {sorted(set(rows) - set(found))}"
+    assert sorted(records) == ["F_paper_map_input"]
     study = (REPO / "scripts" / "scaling_study.sh").read_text()
     assert all(e in study for e in found.values()), "scripts/scaling_study.sh runs every F_paper_<part>"
 
 def test_f_paper_sits_beside_f_in_table1():
+    """A variant of F's Table 1 row, run by the baselines sweep and the current report's baselines stage."""
     entry = BY_EXPERIMENT["F_paper"]
     assert entry.variant_of == "F" and entry.trainable and not entry.table1
     assert TABLE1_VARIANTS["F_paper"] == "F"
+    sweep = yaml.safe_load((REPO / "conf" / "sweep" / "baselines.yaml").read_text())
+    assert "F_paper" in sweep["hydra"]["sweeper"]["params"]["+experiment"].split(",")
+    stage = next(line for line in (REPO / "scripts" / "current_report.sh").read_text().splitlines()
+                 if line.strip().startswith("baselines)"))
+    assert "F_paper" in stage.split("sweep baselines")[1].split(";;")[0].strip().split(",")
 
 
 @pytest.mark.slow

@@ -7,10 +7,14 @@ around the ceiling light: the kernel pool's blur of the light, the residual F_d'
 frame-mean match's bands) and its map spent 2-5x the interior's samples on the top row and the left column
 (zero padding in ``F_s``). The README's full training is measured in docs/method.md.
 
-The fixture starts F from He's initialisation (``method.init=he``, docs/method.md "Initialisation"): under the
+The fixtures start F from He's initialisation (``method.init=he``, docs/method.md "Initialisation"): under the
 default one, every seed tried (0-2) ends these 100 steps with a collapsed map, exactly 3 spp on every pixel,
-on which the ring check would hold whatever the sampler's padding; under ``he`` the map is alive (spread
-0.62-0.66 over the test frames, seed 0), and the ring test first asserts that it is.
+on which the ring check would hold whatever the sampler's padding; under ``he`` the map is alive, and the ring
+test first asserts that it is. The ring test's F also has ``F_d`` read the sampling map
+(``method.denoiser_reads_map=true``, F's default before the scaling study; docs/method.md "F against the
+paper"): with the paper's inputs the map of these 100 steps collapses too (spread 0 on the three frames, seed
+0; 0.49-0.55 with the map read), while at 1000 steps on ``tiny`` the study found as many collapsed seeds with
+it as without (notes/scaling_plan.md). The ring is ``F_s``'s, whatever ``F_d`` reads.
 """
 
 
@@ -47,19 +51,31 @@ def side_ratios(image: np.ndarray) -> dict[str, float]:
     return {side: float(image[band].mean()) / inner for side, band in sides.items()}
 
 
-@pytest.fixture(scope="module")
-def f_run(tmp_path_factory):
-    """Row F, from He's initialisation (module docstring), trained ``STEPS`` steps on the 64x64 Cornell box
-    and tested on its test frames."""
-    root = tmp_path_factory.mktemp("trained_f")
+def train_f(root, *method: str):
+    """Row F (with ``method`` overrides), from He's initialisation (module docstring), trained ``STEPS``
+    steps on the 64x64 Cornell box under ``root`` and tested on its test frames: its run directory and the
+    store."""
     overrides = [*STORE, f"paths.data_dir={root / 'data'}"]
     # One thread, as every test's command (mcd_run): two workers each running this with two threads on CI's
     # two cores spun OpenMP's waits past the timeout
-    proc = mcd_run("+experiment=F", "method.init=he", *overrides, f"train.max_steps={STEPS}",
+    proc = mcd_run("+experiment=F", "method.init=he", *method, *overrides, f"train.max_steps={STEPS}",
                    "train.max_minutes=null", "train.sample_frames=[0,1,2]",
                    "trainer.enable_progress_bar=false", f"hydra.run.dir={root / 'F'}")
     assert proc.returncode == 0, proc.stderr[-4000:]
     return root / "F", StoreReader.from_cfg(compose_cfg(*overrides))
+
+
+@pytest.fixture(scope="module")
+def f_run(tmp_path_factory):
+    """Row F as configured."""
+    return train_f(tmp_path_factory.mktemp("trained_f"))
+
+
+@pytest.fixture(scope="module")
+def f_map_run(tmp_path_factory):
+    """Row F with ``F_d`` reading the sampling map, whose map stays alive over these steps (module
+    docstring)."""
+    return train_f(tmp_path_factory.mktemp("trained_f_map"), "method.denoiser_reads_map=true")
 
 
 @pytest.mark.slow
@@ -74,7 +90,7 @@ def test_f_beats_its_noisy_input_on_rmse(f_run):
 
 
 @pytest.mark.slow
-def test_the_border_ring_of_the_sampling_map_is_explained_by_the_content(f_run):
+def test_the_border_ring_of_the_sampling_map_is_explained_by_the_content(f_map_run):
     """Each side's map-to-interior ratio against that of the per-pixel relative error (rMSE's terms) of a
     1-spp render, the error more samples would lower: the top rows of this frame are the dark ceiling, where
     that error is 3.7x the interior's, so more samples there are the content's due; the other sides hold
@@ -83,7 +99,7 @@ def test_the_border_ring_of_the_sampling_map_is_explained_by_the_content(f_run):
     is 1.9x the interior against the content's 3.7x, the others 0.53-0.77x. The check guards against the
     gross ring (1.3-5x), not the padding choice alone: with ``method.sampler_padding=zeros`` and today's
     other settings the sides are 0.69-0.90x at 100 steps and 0.69-0.83x at 200, under the slack too."""
-    run, store = f_run
+    run, store = f_map_run
     maps, errors = [], []
     for frame in range(3):
         maps.append(read_exr(run / "samples" / "cbox" / f"{frame:04d}_sampling_map.exr")[..., 0])

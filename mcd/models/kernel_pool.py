@@ -9,7 +9,7 @@ pool").
 - Kernel map ``h`` (2 channels, tanh): from ``F_s``'s finest features, ``g``, the adaptive image ``i`` and the
   descriptor (broadcast over the image), through a few conv blocks (Fast GhostConv when FG is on, as every
   block of ``F_s``). What enters the final ``tanh`` is ``method.kp.head_output`` (docs/kernel_pool.md):
-  ``tanh`` = the head's output ``z`` as it is (the paper's text); ``rms_centred`` (default) = ``z`` with the
+  ``tanh`` = the head's output ``z`` as it is (the paper's text); ``rms_centred`` = ``z`` with the
   kernel index's (channel 0's) mean over the image removed, then divided by its root mean square over the
   image, per channel: ``tanh`` then cannot saturate everywhere, so the pool keeps receiving gradient, and the
   index spreads across the pool instead of settling on one kernel everywhere (docs/kernel_pool.md tells how
@@ -17,7 +17,8 @@ pool").
   ``sqrt(mean(z^2) + 1)`` instead of its RMS: ``rms_centred`` maps a near-constant identity channel to +-1 by
   its sign alone, so one step that moved its mean across zero flipped every pixel between 12% and 88%
   identity (the early loss jump of docs/method.md "The early loss jump"); with the floor of 1 under the RMS
-  the channel is continuous in ``z`` and still cannot saturate (``|z| >> 1`` is scaled to an RMS of 1).
+  the channel is continuous in ``z`` and still cannot saturate (``|z| >> 1`` is scaled to an RMS of 1). The
+  default: it scored above ``rms_centred`` in the scaling study (docs/method.md "F against the paper").
 - Interpolation: one ``grid_sample`` over a ``q x 2`` table whose columns are ``softmax(pi_bar)`` (softmax
   over each kernel's taps) and the identity kernel: ``h[0]`` picks a position along the pool, ``h[1]`` moves
   between that kernel and the identity.

@@ -62,7 +62,7 @@ class TwoStage(nn.Module):
 
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
-                 sampler_padding: str = "zeros", reads_map: bool = True,
+                 sampler_padding: str = "zeros", reads_map: bool = False,
                  warp_previous: bool = False, init: str = "torch") -> None:
         super().__init__()
         #: ``method.warp_previous``: ``F_d`` also reads its previous output warped by the motion vectors
@@ -263,14 +263,14 @@ ENTRIES = (
 def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG: bool, SA: bool,
                     denoiser: dict, sampler: dict, kernel_pool: dict, ghost: dict, pooling: dict,
                     attention: dict, sampling: dict, kp: dict, denoiser_output: str, sampler_padding: str,
-                    colour: str = "log1p", denoiser_reads_map: bool = True,
+                    colour: str = "log1p", denoiser_reads_map: bool = False,
                     warp_previous: bool = False, init: str = "torch") -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
-    ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions), ``denoiser_reads_map`` (``F_d``
-    reads the normalised sampling map with AS: this project's default; false: the paper's list of ``F_d``'s
-    inputs),
+    ``denoiser_output``, ``sampler_padding`` (``F_s``'s convolutions), ``denoiser_reads_map`` (false:
+    the paper's list of ``F_d``'s inputs, the default; true: ``F_d`` also reads the normalised sampling map
+    with AS, an addition measured without gain, docs/method.md "F against the paper"),
     ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output),
     ``init`` (the convolutions' initialisation, :mod:`mcd.models.init`); and its
     widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),

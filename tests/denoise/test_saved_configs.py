@@ -24,17 +24,19 @@ def test_every_bundled_checkpoint_builds_and_loads_through_the_registry():
     for name in bundled_names():
         loaded = load(name)
         cfg = json.loads((BUNDLED_DIR / f"{name}.json").read_text())["config"]
-        # the model built today from the old config is the one built from today's experiment config at the
-        # bundle's own widths (a bundle keeps the widths it was trained with when a profile changes)
+        # on today's schema: the method section has every key today's has, and no other
         today_cfg = compose_cfg(f"+experiment={cfg['experiment']}", f"budget={cfg['budget']}")
+        method = OmegaConf.to_container(today_cfg.method, resolve=True)
+        assert set(cfg["method"]) == set(method) and set(cfg["method"]["kp"]) == set(method["kp"]), name
+        # the model built today from the old config is the one built from today's experiment config at the
+        # bundle's own widths and method settings (a bundle keeps what it was trained with when a profile or
+        # a method's default changes)
         with open_dict(today_cfg):
             today_cfg.capacity = cfg["capacity"]
+            today_cfg.method = cfg["method"]
         today = build(today_cfg)
         shapes = [tuple(p.shape) for p in today.parameters()]
         assert [tuple(p.shape) for p in loaded.model.parameters()] == shapes
-        # on today's schema: the method section has every key today's has, and no other
-        method = OmegaConf.to_container(today_cfg.method, resolve=True)
-        assert set(cfg["method"]) == set(method) and set(cfg["method"]["kp"]) == set(method["kp"]), name
 
 
 def _old(meta: dict) -> dict:
