@@ -3,9 +3,10 @@
 
 - UN: the denoiser ``F_d`` (always on). Without AS it denoises the uniform render at the budget, ``c_s``.
 - AS: the sampling network ``F_s`` predicts logits, :func:`mcd.sampling.adaptive_render` turns them into the
-  sampling map ``m`` and the adaptive image ``i``; ``F_d`` sees ``i``, ``g`` and ``m / (s - 1)``.
+  sampling map ``m`` and the adaptive image ``i``; ``F_d`` sees ``i`` and ``g`` (and ``m / (s - 1)`` with
+  ``method.denoiser_reads_map``, off by default: docs/method.md "F against the paper").
 - KP (needs AS): ``F_s`` also predicts the kernel map; the kernel pool's per-pixel kernels give ``i_bar``;
-  ``F_d`` sees ``i_bar``, ``g`` and ``m / (s - 1)`` (paper Sec. 4.1: each pixel of ``i_bar`` switches between
+  ``F_d`` sees ``i_bar`` and ``g`` (paper Sec. 4.1: each pixel of ``i_bar`` switches between
   the filtered and the raw adaptive pixel, so ``F_d`` does not read ``i`` itself). ``method.kp.head_output``
   chooses what enters the kernel map's ``tanh`` (mcd.models.kernel_pool, docs/kernel_pool.md).
 - PP: position-aware pooling in ``F_d``'s encoder. FG (needs AS): Fast GhostConv blocks in ``F_s``.
