@@ -12,10 +12,10 @@
 # 98e0240:reports/small_converged/curves.csv: seconds over steps per method, AMD EPYC, two jobs sharing 2
 # cores, one thread each; a shared machine, so rough) scaled by each method's MACs
 # at the equal-share widths (python -m mcd.complexity): A-M about 10 s (I, K, L, M taken as F's), the
-# five trained baselines about 9 s, spp about 11 s (F, NTASAD, A at 4 budgets), seeds about 7 s (A, B, C, F at
-# 4 seeds), transfer about 1 s: about 38 CPU-seconds per step, so at 1000 steps about 11 CPU-hours with
-# validation and testing, about 6 hours of wall time on 2 cores with JOBS=2, more than one session: the
-# stages resume (below). 3000 steps, the budget of the earlier converged reports, would take three times that.
+# five trained baselines and F_paper (taken as F's) about 10 s, spp about 11 s (F, NTASAD, A at 4 budgets), seeds
+# about 7 s (A, B, C, F at 4 seeds), transfer about 1 s: about 39 CPU-seconds per step, so at 1000 steps about
+# 11 CPU-hours with validation and testing, about 6 hours of wall time on 2 cores with JOBS=2, more than one
+# session: the stages resume (below). 3000 steps, the budget of the earlier converged reports, would take three times that.
 #
 # Resumable across sessions: a sweep skips its finished jobs and resumes unfinished ones from their last.ckpt
 # (ckpt_path=auto). The first stage records the commit and BUDGET_STEPS in <MULTIRUN>/<DATA>_current.commit, and

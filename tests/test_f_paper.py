@@ -97,16 +97,15 @@ def test_each_of_fs_additions_has_one_experiment_that_puts_back_the_papers_setti
         theirs = flat(compose([f"+experiment={experiment}"]))
         changed = {k: theirs.get(k) for k in set(ours) | set(theirs)
                    if k != "experiment" and ours.get(k) != theirs.get(k)}
+        assert theirs["experiment"] == experiment
+        assert BY_EXPERIMENT[experiment].variant_of == "F" and BY_EXPERIMENT[experiment].diagnostic
         if experiment in records:
             assert changed == {}, f"{experiment}: F has the paper's {records[experiment]!r}, not {changed}"
-            assert BY_EXPERIMENT[experiment].variant_of == "F" and BY_EXPERIMENT[experiment].diagnostic
             continue
         (what,) = [w for w, switch in rows.items() if switch == changed] or [None]
         assert what, f"{experiment} changes {changed}: no single row of docs/method.md's table"
         assert what not in found, f"{experiment} and {found[what]} both put back {what!r}"
         found[what] = experiment
-        assert theirs["experiment"] == experiment
-        assert BY_EXPERIMENT[experiment].variant_of == "F" and BY_EXPERIMENT[experiment].diagnostic
     assert sorted(found) == sorted(rows), f"rows without an experiment: {sorted(set(rows) - set(found))}"
     assert sorted(records) == ["F_paper_map_input"]
     study = (REPO / "scripts" / "scaling_study.sh").read_text()
