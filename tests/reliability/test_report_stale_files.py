@@ -36,7 +36,7 @@ def test_a_report_of_the_other_kind_under_one_name_leaves_no_earlier_file(one_ru
     main([*args, "--kind", "scaling"])
     left = {p.name for p in report.iterdir()}
     assert {"table1.csv", "table1.md", "components.csv", "spp.csv", "per_frame", "strips"}.isdisjoint(left)
-    assert set(scaling) - {"scaling.png"} <= left and "notes.md" in left
+    assert set(scaling) - {"scaling.png", "scaling_gaps.png"} <= left and "notes.md" in left
     assert left - {"analysis.md"} <= {*scaling, *both}, "a scaling report file that no writer declares"
     assert (report / "analysis.md").read_text() == "mine\n"  # the user's own file stays
 

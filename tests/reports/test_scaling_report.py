@@ -111,6 +111,25 @@ def test_f_without_sa_is_measured_against_f_where_row_e_ran():
 
 
 
+def test_the_differences_figure_draws_the_rows_with_runs_on_both_sides(tmp_path):
+    """``scaling_gaps.png`` draws each difference with runs on both sides (a cell without runs is a row of the
+    table, not a point), and writes nothing when no difference has both sides."""
+    from mcd.reporting.provenance import Provenance
+    from mcd.reporting.scaling import gaps_plot
+
+    psnr = {("F", 0): 27.0, ("F", 1): 26.5, ("ntasad", 0): 28.0, ("ntasad", 1): 28.9, ("A", 0): 25.0}
+    points = pd.DataFrame([{"data": "small", "train_scenes": 5, "steps": 3000, "experiment": e, "seed": s,
+                            "psnr": v, "flip": 0.1} for (e, s), v in psnr.items()])
+    table = scaling_gaps.table(Grid(points), [("small", 3000), ("medium", 3000)])
+    drawn = gaps_plot.rows(table)
+    assert len(table) == 4 and drawn["difference"].tolist() == ["Ours (F) - NTASAD", "Ours (F) - A"]
+    prov = Provenance.gather([], [], command="test")
+    assert gaps_plot.write(table, tmp_path, prov) == tmp_path / gaps_plot.FILE
+    assert (tmp_path / gaps_plot.FILE).stat().st_size > 10_000
+    assert gaps_plot.write(table[table["data"] == "medium"], tmp_path / "none", prov) is None
+    assert not (tmp_path / "none").exists()
+
+
 def test_a_difference_says_when_its_two_sides_ran_different_code():
     """The gaps table's ``code``: ``same`` where one commit trained every run of both cells; else each side's
     commits (a cell resumed under a second commit, or of two commits, shows them), so a difference across code
@@ -251,6 +270,8 @@ def test_a_real_grid_gives_the_scaling_report(cbox_store, tmp_path):
     main([str(sweep), "--out", str(tmp_path / "reports"), "--readme", str(tmp_path / "README.md")])
     out = tmp_path / "reports" / "scaling"  # a scaling sweep's runs make a scaling report by themselves
     assert (out / "scaling.png").stat().st_size > 20_000
+    assert (out / "scaling_gaps.png").stat().st_size > 20_000
+    assert "![scaling_gaps.png](scaling_gaps.png)" in (out / "scaling_gaps.md").read_text()
     # every file of the report, the figure and the viewer included, is one its writers declare
     assert {p.name for p in out.iterdir()} == {*outputs.declared("scaling"), *outputs.declared("both")}
 

@@ -5,7 +5,8 @@ for runs of the scaling sweep (or with ``--kind scaling``):
 - ``scaling_cells.md/.csv``: every cell (data, steps, method) of the plan and of the runs, its seeds, band
   rule, PSNR, FLIP and the training scenes' PSNR (mean, standard error, range), ``no runs`` where it has none;
 - ``scaling_gaps.md/.csv``: F - NTASAD, F - U-Net and the other pairs per scale point
-  (:mod:`mcd.reporting.scaling.gaps`);
+  (:mod:`mcd.reporting.scaling.gaps`), and ``scaling_gaps.png``, each with its error bar
+  (:mod:`mcd.reporting.scaling.gaps_plot`);
 - ``scaling_fits.md/.csv``: PSNR against log10(steps) per method and data profile, and where F meets NTASAD
   and the U-Net (:mod:`mcd.reporting.scaling.fit`);
 - ``scaling_jobs.csv``: every job of the sweep's plan with its state, and the runs outside it
@@ -29,7 +30,7 @@ from mcd.reporting.markdown_text import escape as esc
 from mcd.reporting.outputs import writes
 from mcd.reporting.provenance import Provenance
 from mcd.reporting.runs import Run
-from mcd.reporting.scaling import coverage, fit, gaps, notes, plot
+from mcd.reporting.scaling import coverage, fit, gaps, gaps_plot, notes, plot
 from mcd.reporting.scaling.grid import Grid, cells, order, read, root_relative
 from mcd.reporting.select import to_markdown
 
@@ -132,6 +133,9 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
     png = plot.write(grid, table, out_dir, prov)
     if png is None:
         (out_dir / plot.FILE).unlink(missing_ok=True)
+    gaps_png = gaps_plot.write(gap_table, out_dir, prov)
+    if gaps_png is None:
+        (out_dir / gaps_plot.FILE).unlink(missing_ok=True)
     notes_path = notes.write(found, out_dir, regenerate)
 
     largest = grid.largest_scale()
@@ -160,7 +164,8 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
                          "side's commits: the same seed under other numerics takes another trajectory, so a "
                          "difference across code holds the code's difference too, which no standard error "
                          "here counts.",
-                         _gaps_markdown(gap_table)),
+                         (f"![{gaps_plot.FILE}]({gaps_plot.FILE})\n\n" if gaps_png is not None else "")
+                         + _gaps_markdown(gap_table)),
         "scaling_fits": ("Fits of PSNR against log10(steps), per method and data profile",
                          "PSNR = a + b log10(steps) by least squares through the cell means (one point per "
                          "budget); `b`: dB per tenfold steps; `rms residual`: root mean square distance of "
