@@ -55,9 +55,9 @@ def write(gaps: pd.DataFrame, out_dir: Path, prov: Provenance) -> Path | None:
             m, e = float(drawn.at[i, mean]), float(drawn.at[i, se])
             if math.isnan(m):
                 continue
-            resolved = not math.isnan(e)
-            ax.errorbar(m, y[i], xerr=BAR_SE * e if resolved else None, fmt="o", ms=4, capsize=2,
-                        color="tab:blue", markerfacecolor="tab:blue" if resolved else "white")
+            has_se = not math.isnan(e)
+            ax.errorbar(m, y[i], xerr=BAR_SE * e if has_se else None, fmt="o", ms=4, capsize=2,
+                        color="tab:blue", markerfacecolor="tab:blue" if has_se else "white")
         ax.axvline(0.0, color="black", linewidth=0.8)
         for i in range(1, n):  # a rule between scale points
             if point[i] != point[i - 1]:

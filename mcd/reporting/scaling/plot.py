@@ -37,9 +37,7 @@ ROWS = (("psnr", "PSNR (dB), higher is better"), ("flip", "FLIP, lower is better
 
 
 def write(grid: Grid, cells: pd.DataFrame, out_dir: Path, prov: Provenance) -> Path | None:
-    """Write ``scaling.png`` (None, and nothing written, without cells)."""
-    if cells.empty:
-        return None
+    """Write ``scaling.png`` (None, and nothing written, without cells of the study's methods)."""
     experiments = order(set(cells["experiment"]) & set(STUDY))
     if not experiments:
         return None
