@@ -11,7 +11,10 @@ saved image in place of the output: ``initial`` (a kernel-pool row's ``i_bar``, 
   colour put right, its brightness left as the method made it);
 - ``colour error only``: the reference's luminance with the output's chromaticity;
 - ``colour smoothed``: the output's luminance with its own chromaticity averaged over a ``--box`` square
-  (a test of whether the colour error is pixel-sized: smoothing helps only then).
+  (a test of whether the colour error is pixel-sized: smoothing helps only then);
+- with ``--hue-from NAME``, ``hue from NAME``: the output's luminance with the chromaticity of another saved
+  image of the frame, averaged over the ``--box`` square (``--hue-from initial``: the hue of ``i_bar``, the
+  kernel pool's filter of the adaptive render, in place of the one ``F_d``'s correction gave).
 
 Luminance is Rec. 709's ``Y``; a pixel's chromaticity is ``rgb / Y``, taken only where both images have
 ``Y`` above :data:`DARK` (elsewhere the pixel stays as it is). Also counted: the share of pixels whose
@@ -20,6 +23,7 @@ pixels where both are above :data:`DARK`. A table in Markdown, one row per run (
 and scene)::
 
     PYTHONPATH=. python tools/colour_split.py RUN_DIR [RUN_DIR ...] [--box 5] [--per-scene] [--image output]
+        [--hue-from initial]
 """
 
 from __future__ import annotations
@@ -53,12 +57,14 @@ def recombine(lum_from: np.ndarray, colour_from: np.ndarray) -> np.ndarray:
     return np.where(ok, y_l * colour_from / np.where(ok, y_c, 1.0), lum_from)
 
 
-def smooth_colour(image: np.ndarray, box: int) -> np.ndarray:
-    """``image``'s luminance with its chromaticity averaged over a ``box`` x ``box`` square (the box mean of
-    the RGB, whose chromaticity is the luminance-weighted mean of the pixels')."""
+def smooth_colour(image: np.ndarray, box: int, hue: np.ndarray | None = None) -> np.ndarray:
+    """``image``'s luminance with the chromaticity of ``hue`` (default: ``image`` itself) averaged over a
+    ``box`` x ``box`` square (the box mean of the RGB, whose chromaticity is the luminance-weighted mean of
+    the pixels')."""
     from scipy.ndimage import uniform_filter
 
-    return recombine(image, uniform_filter(image, size=(box, box, 1), mode="reflect"))
+    hue = image if hue is None else hue
+    return recombine(image, uniform_filter(hue, size=(box, box, 1), mode="reflect"))
 
 
 def hue_off_share(output: np.ndarray, ref: np.ndarray) -> float:
@@ -71,16 +77,22 @@ def hue_off_share(output: np.ndarray, ref: np.ndarray) -> float:
     return float((np.abs(chroma[0] - chroma[1]).sum(-1) > HUE_OFF).mean())
 
 
-def frame_figures(output: np.ndarray, ref: np.ndarray, box: int) -> dict[str, float]:
+def frame_figures(output: np.ndarray, ref: np.ndarray, box: int,
+                  hue_from: tuple[str, np.ndarray] | None = None) -> dict[str, float]:
     """The module docstring's PSNRs and hue-off share of one frame (linear ``H x W x 3``; the output's
-    negative values are taken as 0, as the display image does)."""
+    negative values are taken as 0, as the display image does); ``hue_from``: ``(name, image)`` of the
+    ``hue from`` column."""
     from mcd.core.metrics import psnr
 
     output = np.maximum(output.astype(np.float64), 0.0)
     ref = ref.astype(np.float64)
     images = (output, recombine(output, ref), recombine(ref, output), smooth_colour(output, box))
-    return {**{k: psnr(x, ref) for k, x in zip(COLUMNS, images, strict=True)},
-            "hue off %": 100.0 * hue_off_share(output, ref)}
+    found = {k: psnr(x, ref) for k, x in zip(COLUMNS, images, strict=True)}
+    if hue_from is not None:
+        name, hue = hue_from
+        hue = np.maximum(hue.astype(np.float64), 0.0)
+        found[f"hue from {name}"] = psnr(smooth_colour(output, box, hue), ref)
+    return {**found, "hue off %": 100.0 * hue_off_share(output, ref)}
 
 
 def run_frames(run_dir: Path, image: str = "output") -> list[tuple[str, Path, Path]]:
@@ -96,15 +108,23 @@ def run_frames(run_dir: Path, image: str = "output") -> list[tuple[str, Path, Pa
     return found
 
 
-def measure(run_dir: Path, box: int, per_scene: bool, image: str = "output") -> list[dict]:
+def measure(run_dir: Path, box: int, per_scene: bool, image: str = "output",
+            hue_from: str | None = None) -> list[dict]:
     """One row per run (or per run and scene): the mean of :func:`frame_figures` of ``image`` over the saved
-    frames."""
+    frames; ValueError naming the file where a frame lacks the ``hue_from`` image."""
     from mcd.data.exr import read_exr
 
     by_key: dict[str, list[dict[str, float]]] = {}
     for scene, out, ref in run_frames(run_dir, image):
         key = scene if per_scene else "all"
-        by_key.setdefault(key, []).append(frame_figures(read_exr(out), read_exr(ref), box))
+        hue = None
+        if hue_from is not None:
+            path = out.with_name(out.name.replace(f"_{image}.exr", f"_{hue_from}.exr"))
+            if not path.is_file():
+                raise ValueError(f"{path} is missing: --hue-from {hue_from} needs that image of every saved "
+                                 "frame (a kernel-pool row saves `initial`)")
+            hue = (hue_from, read_exr(path))
+        by_key.setdefault(key, []).append(frame_figures(read_exr(out), read_exr(ref), box, hue))
     rows = []
     for key, frames in by_key.items():
         mean = {k: float(np.mean([f[k] for f in frames])) for k in frames[0]}
@@ -130,11 +150,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--box", type=int, default=5, help="side of the colour-smoothing square (odd)")
     parser.add_argument("--per-scene", action="store_true", help="one row per run and scene")
     parser.add_argument("--image", default="output", choices=IMAGES, help="the saved image scored")
+    parser.add_argument("--hue-from", choices=IMAGES, help="add the column: the image's luminance with this "
+                        "saved image's chromaticity, box-averaged")
     args = parser.parse_args(argv)
     if args.box < 1 or args.box % 2 == 0:
         parser.error(f"--box {args.box}: give an odd side of at least 1")
     try:
-        rows = [row for run in args.runs for row in measure(run, args.box, args.per_scene, args.image)]
+        rows = [row for run in args.runs
+                for row in measure(run, args.box, args.per_scene, args.image, args.hue_from)]
     except ValueError as exc:
         parser.error(str(exc))
     print(table(rows))

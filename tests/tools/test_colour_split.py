@@ -41,6 +41,17 @@ def test_a_hue_error_shows_in_colour_only_and_smoothing_removes_a_pixel_sized_on
     assert f["colour smoothed"] > f["as saved"] + 3.0       # 1 speck in 30 pixels: averaged away
 
 
+def test_the_hue_of_another_image_puts_a_hue_error_right_and_leaves_brightness_alone():
+    ref = _reference()
+    blue = np.array([0.2, 0.6, 1.4])
+    wrong = luminance(ref) * 1.3 * blue / (blue @ Y_WEIGHTS)   # too bright, and blue everywhere
+    grey_filter = ref * 0.5                                    # the reference's hue, half its brightness
+    f = frame_figures(wrong, ref, 1, ("initial", grey_filter))
+    g = frame_figures(ref * 1.3, ref, 1)
+    assert f["hue from initial"] == pytest.approx(g["as saved"], abs=1e-4)  # the brightness error stays
+    assert f["hue from initial"] > f["as saved"] + 3.0
+
+
 def test_recombine_leaves_black_pixels_as_they_are():
     ref = _reference()
     out = ref * 1.1
@@ -65,6 +76,9 @@ def test_a_run_folder_is_read_per_scene_and_a_folder_without_samples_is_named(tm
     assert measure(run, 3, per_scene=False)[0]["frames"] == 4
     main([str(run)])
     assert "| F_run | output | all | 4 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main([str(run), "--hue-from", "initial"])          # nor i_bar to take the hue from
+    assert "0000_initial.exr is missing: --hue-from initial" in capsys.readouterr().err
     empty = tmp_path / "empty_run"
     empty.mkdir()
     with pytest.raises(SystemExit):
