@@ -18,6 +18,8 @@ predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output"); the o
 render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 ``method.denoiser_margin`` reflects ``F_d``'s input by that many pixels on every side outside training and
 crops its output back (every method's denoiser: mcd.models.margin; docs/method.md "Frame edges").
+``method.denoiser_hue=i_bar`` (not the paper's; needs KP) keeps ``F_d``'s luminance and takes the output's hue
+from ``i_bar`` (mcd.models.hue, docs/method.md "Output").
 ``method.warp_previous`` (not the paper's; a diagnostic, docs/method.md "Diagnostics") also feeds ``F_d`` its
 previous output, warped to this frame by the motion vectors as NTASAD's is (on a sequence's first frame, its
 own colour input). The stages run under :func:`mcd.core.stages.stage` labels (:data:`STAGES`, ``F_d``'s
@@ -33,6 +35,7 @@ from torch import Tensor, nn
 from mcd.core.stages import stage
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
+from mcd.models.hue import hue_from
 from mcd.models.init import initialise
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import kp_options_of, pool_picture
@@ -47,6 +50,9 @@ from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_n
 #: ``method.denoiser_output``: ``direct`` (the paper: ``F_d`` predicts the image) or ``residual`` (``F_d``
 #: predicts a correction added to its colour input, ``i_bar``, ``i`` or ``c_s``, in the compressed range).
 DENOISER_OUTPUTS = ("direct", "residual")
+#: ``method.denoiser_hue``: ``free`` (the paper: ``F_d`` gives every channel) or ``i_bar`` (the output's hue
+#: from the kernel pool's ``i_bar``, its luminance from ``F_d``: mcd.models.hue; needs KP).
+DENOISER_HUES = ("free", "i_bar")
 #: Labels of the top-level stages of :meth:`TwoStage.forward` (nested ones: ``kernel-map head`` and ``kernel
 #: application`` in ``kernel pool``; ``F_d``'s levels, ``PP`` and ``SA`` in ``F_d``; ``Ghost conv`` in ``F_s``
 #: and the kernel-map head).
@@ -64,8 +70,16 @@ class TwoStage(nn.Module):
     def __init__(self, switches: dict[str, bool], budget: float, widths: dict, levels: int = 5,
                  colour: str = "log1p", kp: dict | None = None, denoiser_output: str = "direct",
                  sampler_padding: str = "zeros", reads_map: bool = False,
-                 warp_previous: bool = False, init: str = "torch") -> None:
+                 warp_previous: bool = False, init: str = "torch", hue: str = "free") -> None:
         super().__init__()
+        if hue not in DENOISER_HUES:
+            raise ValueError(f"method.denoiser_hue={hue!r}; use one of {DENOISER_HUES}")
+        if hue == "i_bar" and not switches.get("KP"):
+            raise ValueError("method.denoiser_hue=i_bar takes the hue from the kernel pool's i_bar, which "
+                             "this row does not have (KP off): set method.denoiser_hue=free, or use a row "
+                             "with KP (C-J)")
+        #: ``method.denoiser_hue=i_bar``: the output's hue from ``i_bar`` (mcd.models.hue)
+        self.hue_from_ibar = hue == "i_bar"
         #: ``method.warp_previous``: ``F_d`` also reads its previous output warped by the motion vectors
         self.warp_previous = bool(warp_previous)
         self.prev: Tensor | None = None
@@ -218,6 +232,8 @@ class TwoStage(nn.Module):
             self.prev = y
         with stage("output steps"):
             out["output"] = expand(y, self.colour)
+            if self.hue_from_ibar:
+                out["output"] = hue_from(out["output"], out["initial"])
         return out
 
 
@@ -229,6 +245,7 @@ ENTRIES = (
      "paper": {"psnr": 33.39, "ssim": 87.65, "gmacs": 478.22, "params_m": 1.285}},
     {"experiment": "F_paper", "display": "Ours (F, paper's text)", "variant_of": "F"},
     {"experiment": "F_pixel_switch", "display": "F, per-pixel identity channel", "variant_of": "F"},
+    {"experiment": "F_hue", "display": "F, hue from i_bar (not the paper's)", "variant_of": "F"},
     {"experiment": "F_warp_previous", "display": "F + warped previous output (not the paper's)",
      "variant_of": "F", "diagnostic": True},
     {"experiment": "F_he", "display": "F, He's initialisation (diagnostic)", "variant_of": "F",
@@ -265,7 +282,7 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
                     denoiser: dict, sampler: dict, kernel_pool: dict, ghost: dict, pooling: dict,
                     attention: dict, sampling: dict, kp: dict, denoiser_output: str, sampler_padding: str,
                     colour: str = "log1p", denoiser_reads_map: bool = False,
-                    warp_previous: bool = False, init: str = "torch") -> TwoStage:
+                    warp_previous: bool = False, init: str = "torch", denoiser_hue: str = "free") -> TwoStage:
     """``TwoStage`` at ``budget`` (average spp) from its method settings (conf/method/two_stage.yaml): the
     switches ``UN AS KP PP FG SA`` (an impossible combination is refused: mcd.models.switches),
     ``sampling.levels`` (5), ``colour``, ``kp`` (kernel-pool options, docs/kernel_pool.md),
@@ -273,6 +290,7 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
     the paper's list of ``F_d``'s inputs, the default; true: ``F_d`` also reads the normalised sampling map
     with AS, an addition measured without gain, docs/method.md "F against the paper"),
     ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output),
+    ``denoiser_hue`` (``free``, the paper; ``i_bar``, not the paper's: the output's hue from the pool's),
     ``init`` (the convolutions' initialisation, :mod:`mcd.models.init`); and its
     widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
     ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio),
@@ -284,4 +302,4 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
     return TwoStage(switches, budget, sizes, levels=int(sampling["levels"]), colour=colour,
                     kp=kp, denoiser_output=str(denoiser_output), sampler_padding=str(sampler_padding),
                     reads_map=bool(denoiser_reads_map),
-                    warp_previous=bool(warp_previous), init=str(init))
+                    warp_previous=bool(warp_previous), init=str(init), hue=str(denoiser_hue))
