@@ -33,10 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-#: Rec. 709 luminance weights of linear RGB.
-Y_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
-#: Luminance under which a pixel's chromaticity is not taken (black and near-black pixels have none).
-DARK = 1e-3
+from mcd.models.hue import DARK, Y_WEIGHTS  # the output step's own luminance weights and dark floor
+
 #: L1 distance of ``rgb / (r + g + b)`` from the reference's above which a pixel counts as off in hue.
 HUE_OFF = 0.1
 #: The saved images ``--image`` scores (mcd.lit.samples; ``initial`` is a kernel-pool row's ``i_bar``).
@@ -46,7 +44,7 @@ COLUMNS = ("as saved", "luminance error only", "colour error only", "colour smoo
 
 def luminance(image: np.ndarray) -> np.ndarray:
     """``H x W x 1`` Rec. 709 luminance of linear ``H x W x 3`` RGB."""
-    return (image @ Y_WEIGHTS)[..., None]
+    return (image @ np.asarray(Y_WEIGHTS))[..., None]
 
 
 def recombine(lum_from: np.ndarray, colour_from: np.ndarray) -> np.ndarray:

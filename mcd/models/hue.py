@@ -16,7 +16,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
-#: Rec. 709 luminance weights of linear RGB (the ones tools/colour_split.py measures with).
+#: Rec. 709 luminance weights of linear RGB.
 Y_WEIGHTS = (0.2126, 0.7152, 0.0722)
 #: Side of the square ``i_bar``'s chromaticity is averaged over.
 BOX = 3
