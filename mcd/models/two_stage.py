@@ -18,8 +18,8 @@ predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output"); the o
 render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 ``method.denoiser_margin`` reflects ``F_d``'s input by that many pixels on every side outside training and
 crops its output back (every method's denoiser: mcd.models.margin; docs/method.md "Frame edges").
-``method.denoiser_hue=i_bar`` (not the paper's; needs KP) keeps ``F_d``'s luminance and takes the output's hue
-from ``i_bar`` (mcd.models.hue, docs/method.md "Output").
+``method.denoiser_hue=i_bar`` or ``i_bar_detached`` (not the paper's; needs KP) keeps ``F_d``'s luminance and
+takes the output's hue from ``i_bar`` (mcd.models.hue, docs/method.md "Output").
 ``method.warp_previous`` (not the paper's; a diagnostic, docs/method.md "Diagnostics") also feeds ``F_d`` its
 previous output, warped to this frame by the motion vectors as NTASAD's is (on a sequence's first frame, its
 own colour input). The stages run under :func:`mcd.core.stages.stage` labels (:data:`STAGES`, ``F_d``'s
@@ -50,9 +50,11 @@ from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_n
 #: ``method.denoiser_output``: ``direct`` (the paper: ``F_d`` predicts the image) or ``residual`` (``F_d``
 #: predicts a correction added to its colour input, ``i_bar``, ``i`` or ``c_s``, in the compressed range).
 DENOISER_OUTPUTS = ("direct", "residual")
-#: ``method.denoiser_hue``: ``free`` (the paper: ``F_d`` gives every channel) or ``i_bar`` (the output's hue
-#: from the kernel pool's ``i_bar``, its luminance from ``F_d``: mcd.models.hue; needs KP).
-DENOISER_HUES = ("free", "i_bar")
+#: ``method.denoiser_hue``: ``free`` (the paper: ``F_d`` gives every channel), ``i_bar`` (the output's hue
+#: from the kernel pool's ``i_bar``, its luminance from ``F_d``: mcd.models.hue; needs KP; the loss reaches
+#: the pool through the hue too) or ``i_bar_detached`` (the same output; the hue passes no gradient to the
+#: pool).
+DENOISER_HUES = ("free", "i_bar", "i_bar_detached")
 #: Labels of the top-level stages of :meth:`TwoStage.forward` (nested ones: ``kernel-map head`` and ``kernel
 #: application`` in ``kernel pool``; ``F_d``'s levels, ``PP`` and ``SA`` in ``F_d``; ``Ghost conv`` in ``F_s``
 #: and the kernel-map head).
@@ -74,12 +76,14 @@ class TwoStage(nn.Module):
         super().__init__()
         if hue not in DENOISER_HUES:
             raise ValueError(f"method.denoiser_hue={hue!r}; use one of {DENOISER_HUES}")
-        if hue == "i_bar" and not switches.get("KP"):
-            raise ValueError("method.denoiser_hue=i_bar takes the hue from the kernel pool's i_bar, which "
+        if hue != "free" and not switches.get("KP"):
+            raise ValueError(f"method.denoiser_hue={hue} takes the hue from the kernel pool's i_bar, which "
                              "this row does not have (KP off): set method.denoiser_hue=free, or use a row "
                              "with KP (C-J)")
-        #: ``method.denoiser_hue=i_bar``: the output's hue from ``i_bar`` (mcd.models.hue)
-        self.hue_from_ibar = hue == "i_bar"
+        #: ``method.denoiser_hue`` other than ``free``: the output's hue from ``i_bar`` (mcd.models.hue)
+        self.hue_from_ibar = hue != "free"
+        #: ``method.denoiser_hue=i_bar_detached``: that hue passes no gradient to the kernel pool
+        self.hue_detached = hue == "i_bar_detached"
         #: ``method.warp_previous``: ``F_d`` also reads its previous output warped by the motion vectors
         self.warp_previous = bool(warp_previous)
         self.prev: Tensor | None = None
@@ -233,7 +237,8 @@ class TwoStage(nn.Module):
         with stage("output steps"):
             out["output"] = expand(y, self.colour)
             if self.hue_from_ibar:
-                out["output"] = hue_from(out["output"], out["initial"])
+                guide = out["initial"].detach() if self.hue_detached else out["initial"]
+                out["output"] = hue_from(out["output"], guide)
         return out
 
 
@@ -246,6 +251,8 @@ ENTRIES = (
     {"experiment": "F_paper", "display": "Ours (F, paper's text)", "variant_of": "F"},
     {"experiment": "F_pixel_switch", "display": "F, per-pixel identity channel", "variant_of": "F"},
     {"experiment": "F_hue", "display": "F, hue from i_bar (not the paper's)", "variant_of": "F"},
+    {"experiment": "F_hue_detached", "variant_of": "F",
+     "display": "F, hue from i_bar, no gradient to the pool (not the paper's)"},
     {"experiment": "F_warp_previous", "display": "F + warped previous output (not the paper's)",
      "variant_of": "F", "diagnostic": True},
     {"experiment": "F_he", "display": "F, He's initialisation (diagnostic)", "variant_of": "F",
@@ -290,7 +297,8 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
     the paper's list of ``F_d``'s inputs, the default; true: ``F_d`` also reads the normalised sampling map
     with AS, an addition measured without gain, docs/method.md "F against the paper"),
     ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output),
-    ``denoiser_hue`` (``free``, the paper; ``i_bar``, not the paper's: the output's hue from the pool's),
+    ``denoiser_hue`` (``free``, the paper; ``i_bar`` or ``i_bar_detached``, not the paper's: the output's hue
+    from the pool's, with or without its gradient),
     ``init`` (the convolutions' initialisation, :mod:`mcd.models.init`); and its
     widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
     ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio),
