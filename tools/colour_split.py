@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mcd.models.hue import DARK, Y_WEIGHTS  # the output step's own luminance weights and dark floor
+from mcd.models.hue import DARK  # the output step's own dark floor
+from mcd.models.inputs import LUMA  # and luminance weights
 
 #: L1 distance of ``rgb / (r + g + b)`` from the reference's above which a pixel counts as off in hue.
 HUE_OFF = 0.1
@@ -44,7 +45,7 @@ COLUMNS = ("as saved", "luminance error only", "colour error only", "colour smoo
 
 def luminance(image: np.ndarray) -> np.ndarray:
     """``H x W x 1`` Rec. 709 luminance of linear ``H x W x 3`` RGB."""
-    return (image @ np.asarray(Y_WEIGHTS))[..., None]
+    return (image @ np.asarray(LUMA))[..., None]
 
 
 def recombine(lum_from: np.ndarray, colour_from: np.ndarray) -> np.ndarray:

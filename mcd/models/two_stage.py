@@ -18,8 +18,9 @@ predicts the image directly, Sec. 4, ``direct``; docs/method.md "Output"); the o
 render ``F_d`` denoised: ``i`` (``out["adaptive"]``) with AS, ``c_s`` without.
 ``method.denoiser_margin`` reflects ``F_d``'s input by that many pixels on every side outside training and
 crops its output back (every method's denoiser: mcd.models.margin; docs/method.md "Frame edges").
-``method.denoiser_hue=i_bar`` or ``i_bar_detached`` (not the paper's; needs KP) keeps ``F_d``'s luminance and
-takes the output's hue from ``i_bar`` (mcd.models.hue, docs/method.md "Output").
+``method.denoiser_hue=i_bar`` or ``i_bar_grey`` (not the paper's; needs KP) keeps ``F_d``'s luminance and
+takes the output's hue from ``i_bar`` (mcd.models.hue, docs/method.md "Output"); ``i_bar_grey`` also makes
+``F_d``'s residual correction the same for the three channels.
 ``method.warp_previous`` (not the paper's; a diagnostic, docs/method.md "Diagnostics") also feeds ``F_d`` its
 previous output, warped to this frame by the motion vectors as NTASAD's is (on a sequence's first frame, its
 own colour input). The stages run under :func:`mcd.core.stages.stage` labels (:data:`STAGES`, ``F_d``'s
@@ -35,7 +36,7 @@ from torch import Tensor, nn
 from mcd.core.stages import stage
 from mcd.data.buffers import GBUFFERS, uniform_buffer
 from mcd.models.denoiser import Denoiser
-from mcd.models.hue import hue_from
+from mcd.models.hue import grey_correction, hue_from
 from mcd.models.init import initialise
 from mcd.models.inputs import cat_channels, compress, expand, gbuffers, grey, need
 from mcd.models.kernel_pool import kp_options_of, pool_picture
@@ -51,10 +52,10 @@ from mcd.sampling import adaptive_render, cap_for_levels, stack_buffers, stack_n
 #: predicts a correction added to its colour input, ``i_bar``, ``i`` or ``c_s``, in the compressed range).
 DENOISER_OUTPUTS = ("direct", "residual")
 #: ``method.denoiser_hue``: ``free`` (the paper: ``F_d`` gives every channel), ``i_bar`` (the output's hue
-#: from the kernel pool's ``i_bar``, its luminance from ``F_d``: mcd.models.hue; needs KP; the loss reaches
-#: the pool through the hue too) or ``i_bar_detached`` (the same output; the hue passes no gradient to the
-#: pool).
-DENOISER_HUES = ("free", "i_bar", "i_bar_detached")
+#: from the kernel pool's ``i_bar``, its luminance from ``F_d``: mcd.models.hue; needs KP) or ``i_bar_grey``
+#: (the same, with ``F_d``'s residual correction one value per pixel for the three channels; needs KP and
+#: ``denoiser_output=residual``).
+DENOISER_HUES = ("free", "i_bar", "i_bar_grey")
 #: Labels of the top-level stages of :meth:`TwoStage.forward` (nested ones: ``kernel-map head`` and ``kernel
 #: application`` in ``kernel pool``; ``F_d``'s levels, ``PP`` and ``SA`` in ``F_d``; ``Ghost conv`` in ``F_s``
 #: and the kernel-map head).
@@ -80,10 +81,15 @@ class TwoStage(nn.Module):
             raise ValueError(f"method.denoiser_hue={hue} takes the hue from the kernel pool's i_bar, which "
                              "this row does not have (KP off): set method.denoiser_hue=free, or use a row "
                              "with KP (C-J)")
+        if hue == "i_bar_grey" and denoiser_output != "residual":
+            raise ValueError("method.denoiser_hue=i_bar_grey makes F_d's residual correction grey, and "
+                             f"method.denoiser_output={denoiser_output} has none: set "
+                             "method.denoiser_output=residual, or method.denoiser_hue=i_bar")
         #: ``method.denoiser_hue`` other than ``free``: the output's hue from ``i_bar`` (mcd.models.hue)
         self.hue_from_ibar = hue != "free"
-        #: ``method.denoiser_hue=i_bar_detached``: that hue passes no gradient to the kernel pool
-        self.hue_detached = hue == "i_bar_detached"
+        #: ``method.denoiser_hue=i_bar_grey``: ``F_d``'s correction is one value per pixel
+        #: (mcd.models.hue.grey_correction)
+        self.grey_residual = hue == "i_bar_grey"
         #: ``method.warp_previous``: ``F_d`` also reads its previous output warped by the motion vectors
         self.warp_previous = bool(warp_previous)
         self.prev: Tensor | None = None
@@ -231,14 +237,13 @@ class TwoStage(nn.Module):
         with stage("F_d"):
             y = self.denoise(z)
             if self.residual:
-                y = y + feats[0].float()
+                y = (grey_correction(y) if self.grey_residual else y) + feats[0].float()
         if self.warp_previous:
             self.prev = y
         with stage("output steps"):
             out["output"] = expand(y, self.colour)
             if self.hue_from_ibar:
-                guide = out["initial"].detach() if self.hue_detached else out["initial"]
-                out["output"] = hue_from(out["output"], guide)
+                out["output"] = hue_from(out["output"], out["initial"])
         return out
 
 
@@ -251,8 +256,8 @@ ENTRIES = (
     {"experiment": "F_paper", "display": "Ours (F, paper's text)", "variant_of": "F"},
     {"experiment": "F_pixel_switch", "display": "F, per-pixel identity channel", "variant_of": "F"},
     {"experiment": "F_hue", "display": "F, hue from i_bar (not the paper's)", "variant_of": "F"},
-    {"experiment": "F_hue_detached", "variant_of": "F",
-     "display": "F, hue from i_bar, no gradient to the pool (not the paper's)"},
+    {"experiment": "F_hue_grey", "display": "F, hue from i_bar, grey correction (not the paper's)",
+     "variant_of": "F"},
     {"experiment": "F_warp_previous", "display": "F + warped previous output (not the paper's)",
      "variant_of": "F", "diagnostic": True},
     {"experiment": "F_he", "display": "F, He's initialisation (diagnostic)", "variant_of": "F",
@@ -297,8 +302,8 @@ def build_two_stage(*, budget: float, UN: bool, AS: bool, KP: bool, PP: bool, FG
     the paper's list of ``F_d``'s inputs, the default; true: ``F_d`` also reads the normalised sampling map
     with AS, an addition measured without gain, docs/method.md "F against the paper"),
     ``warp_previous`` (a diagnostic, not the paper's: ``F_d`` also reads its warped previous output),
-    ``denoiser_hue`` (``free``, the paper; ``i_bar`` or ``i_bar_detached``, not the paper's: the output's hue
-    from the pool's, with or without its gradient),
+    ``denoiser_hue`` (``free``, the paper; ``i_bar`` or ``i_bar_grey``, not the paper's: the output's hue
+    from the pool's; with ``i_bar_grey`` ``F_d``'s correction is grey),
     ``init`` (the convolutions' initialisation, :mod:`mcd.models.init`); and its
     widths (``capacity.two_stage``, conf/capacity/): ``denoiser`` (F_d's level widths and convs per level),
     ``sampler`` (F_s's), ``kernel_pool``, ``ghost`` (the Fast GhostConv's large kernel, groups, mid ratio),

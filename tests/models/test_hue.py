@@ -1,8 +1,7 @@
 """The output's hue from the kernel pool's ``i_bar`` (``method.denoiser_hue=i_bar``, mcd/models/hue.py;
 docs/method.md "Output"): the step keeps the luminance and takes the box-averaged hue, leaves black pixels and
 HDR values sane, and in row F the output's luminance is ``F_d``'s while its hue is ``i_bar``'s, on a real
-32x32 Cornell-box render; ``i_bar_detached`` passes no gradient to the pool through the hue; refused on a row
-without the kernel pool."""
+32x32 Cornell-box render; refused on a row without the kernel pool."""
 
 from __future__ import annotations
 
@@ -11,7 +10,9 @@ import torch
 
 from mcd.data import BUFFERS
 from mcd.models import build
-from mcd.models.hue import DARK, box_mean, hue_from, luminance
+from mcd.models.hue import DARK, box_mean, grey_correction, hue_from
+from mcd.models.inputs import LUMA
+from mcd.models.inputs import grey as luminance
 from tests.conftest import compose_cfg, store32_overrides
 
 
@@ -85,33 +86,41 @@ def test_training_reaches_f_d_through_the_luminance(cbox_store):
     assert grads and any(g.abs().sum() > 0 for g in grads)
 
 
-def _pool_grad(model) -> float:
-    return sum(float(p.grad.abs().sum()) for n, p in model.named_parameters()
-               if p.grad is not None and not n.startswith("denoiser."))
+def test_a_grey_correction_is_one_value_per_pixel_and_every_channel_gets_its_gradient():
+    correction = torch.randn(2, 3, 5, 7, requires_grad=True)
+    g = grey_correction(correction)
+    assert torch.equal(g[:, 0], g[:, 1]) and torch.equal(g[:, 1], g[:, 2])
+    torch.testing.assert_close(g[:, :1], luminance(correction))
+    g.sum().backward()
+    torch.testing.assert_close(correction.grad[0, :, 0, 0], 3 * torch.tensor(LUMA))
 
 
-def test_the_detached_hue_passes_no_gradient_to_the_pool(cbox_store):
-    """A loss on the output's chromaticity alone (its luminance divided out) reaches the kernel pool and F_s
-    under ``i_bar`` and not under ``i_bar_detached``; both give the same output."""
+def test_row_f_with_a_grey_correction_takes_i_bars_hue(cbox_store):
+    """``i_bar_grey`` on a real render: ``F_d``'s own three output channels differ (the grey step, not the
+    network, makes its correction one value per pixel), the output takes ``i_bar``'s 3x3 hue, and training
+    reaches ``F_d``."""
     x = _frame(cbox_store[1])
-    outputs, grads = {}, {}
-    for hue in ("i_bar", "i_bar_detached"):
-        model = _model(cbox_store, f"method.denoiser_hue={hue}").train()
-        out = model(x)["output"]
-        lit = luminance(out).detach() > DARK
-        (_chroma(out) * lit).sum().backward()
-        outputs[hue], grads[hue] = out.detach(), _pool_grad(model)
-    torch.testing.assert_close(outputs["i_bar"], outputs["i_bar_detached"])
-    assert grads["i_bar"] > 0
-    # detached, only float rounding is left: the chromaticity divides F_d's luminance out, and that
-    # cancellation's residue flows back through F_d's input (measured: 24,000 against 0.02)
-    assert grads["i_bar_detached"] < 1e-5 * grads["i_bar"]
+    model = _model(cbox_store, "method.denoiser_hue=i_bar_grey")
+    seen = {}
+    model.denoiser.register_forward_hook(lambda m, i, o: seen.update(correction=o.detach()))
+    with torch.no_grad():
+        out = model(x)
+    c = seen["correction"]
+    assert not torch.equal(c[:, 0], c[:, 1])
+    lit = (luminance(out["output"]) > DARK) & (luminance(box_mean(out["initial"])) > DARK)
+    got, want = _chroma(out["output"]), _chroma(box_mean(out["initial"]))
+    torch.testing.assert_close(got[lit.expand_as(got)], want[lit.expand_as(want)], rtol=1e-3, atol=1e-4)
+    model = _model(cbox_store, "method.denoiser_hue=i_bar_grey").train()
+    model(x)["output"].mean().backward()
+    assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in model.denoiser.parameters())
 
 
 def test_a_row_without_the_kernel_pool_is_refused(cbox_store):
     with pytest.raises(ValueError, match="method.denoiser_hue=i_bar takes the hue from the kernel pool"):
         _model(cbox_store, "+experiment=B", "method.denoiser_hue=i_bar")
-    with pytest.raises(ValueError, match="method.denoiser_hue=i_bar_detached takes the hue"):
-        _model(cbox_store, "+experiment=B", "method.denoiser_hue=i_bar_detached")
+    with pytest.raises(ValueError, match="method.denoiser_hue=i_bar_grey takes the hue"):
+        _model(cbox_store, "+experiment=B", "method.denoiser_hue=i_bar_grey")
+    with pytest.raises(ValueError, match="method.denoiser_output=direct has none"):
+        _model(cbox_store, "method.denoiser_hue=i_bar_grey", "method.denoiser_output=direct")
     with pytest.raises(ValueError, match="method.denoiser_hue='grey'"):
         _model(cbox_store, "method.denoiser_hue=grey")

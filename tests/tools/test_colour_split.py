@@ -9,7 +9,8 @@ import pytest
 
 from mcd.core.metrics import PSNR_CAP_DB
 from mcd.data.exr import write_exr
-from tools.colour_split import Y_WEIGHTS, frame_figures, luminance, main, measure, recombine
+from mcd.models.inputs import LUMA
+from tools.colour_split import frame_figures, luminance, main, measure, recombine
 
 
 def _reference(seed: int = 0) -> np.ndarray:
@@ -32,7 +33,7 @@ def test_a_hue_error_shows_in_colour_only_and_smoothing_removes_a_pixel_sized_on
     ref = _reference()
     specked = ref.copy()
     blue = np.array([0.2, 0.6, 1.4])
-    specked[::6, ::5] = luminance(ref)[::6, ::5] * blue / (blue @ Y_WEIGHTS)  # blue specks of the same Y
+    specked[::6, ::5] = luminance(ref)[::6, ::5] * blue / (blue @ LUMA)  # blue specks of the same Y
     assert np.allclose(luminance(specked), luminance(ref), rtol=1e-5)
     f = frame_figures(specked, ref, 5)
     assert f["luminance error only"] == PSNR_CAP_DB
@@ -44,7 +45,7 @@ def test_a_hue_error_shows_in_colour_only_and_smoothing_removes_a_pixel_sized_on
 def test_the_hue_of_another_image_puts_a_hue_error_right_and_leaves_brightness_alone():
     ref = _reference()
     blue = np.array([0.2, 0.6, 1.4])
-    wrong = luminance(ref) * 1.3 * blue / (blue @ Y_WEIGHTS)   # too bright, and blue everywhere
+    wrong = luminance(ref) * 1.3 * blue / (blue @ LUMA)   # too bright, and blue everywhere
     grey_filter = ref * 0.5                                    # the reference's hue, half its brightness
     f = frame_figures(wrong, ref, 1, ("initial", grey_filter))
     g = frame_figures(ref * 1.3, ref, 1)
