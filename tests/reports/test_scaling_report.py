@@ -150,6 +150,23 @@ def test_a_difference_says_when_its_two_sides_ran_different_code():
     assert dict(zip(cells(Grid(points))["experiment"], cells(Grid(points))["code"], strict=True))["F"] == \
         "954f1b4; 75caca1"
 
+def test_the_viewer_shows_the_largest_budget_where_the_most_methods_ran():
+    """The viewer's scale point is the largest data profile's largest budget among those where the most
+    methods ran: one method alone at a larger budget does not move it there; once another joins, it does."""
+    def grid(cells: list[tuple[str, int, str]]) -> Grid:
+        scenes = {"small": 5, "medium": 12}
+        return Grid(pd.DataFrame([{"data": d, "train_scenes": scenes[d], "steps": s, "experiment": e,
+                                   "seed": 0, "psnr": 27.0, "flip": 0.1} for d, s, e in cells]))
+
+    shared = [(d, s, e) for d in ("small", "medium") for s in (1000, 3000) for e in ("F", "ntasad")]
+    assert grid(shared).viewer_point() == ("medium", 3000)
+    assert grid([*shared, ("medium", 10000, "F")]).viewer_point() == ("medium", 3000)
+    joined = [*shared, ("medium", 10000, "F"), ("medium", 10000, "ntasad")]
+    assert grid(joined).viewer_point() == ("medium", 10000)
+    assert grid([("small", 1000, "F"), ("small", 3000, "A")]).viewer_point() == ("small", 3000)
+    assert Grid(pd.DataFrame()).viewer_point() is None
+
+
 @pytest.mark.parametrize("signs, words", [
     ((-1, -1, +1, +1), "It appears as the work grows"),
     ((+1, +1, +1, +1), "Yes: the paper's ordering"),
@@ -334,7 +351,8 @@ def test_a_real_grid_gives_the_scaling_report(cbox_store, tmp_path):
     assert "- small, 3000 steps: NTASAD, seeds 0, 1, 2 (not run)" in text
     assert "- tiny, 1000 steps: A, seed 0 (failed)" in text
     readme = (out / "README.md").read_text()
-    assert "- Data profile(s): tiny" in readme and "the largest scale point, tiny x 4 steps" in readme
+    assert "- Data profile(s): tiny" in readme
+    assert "the largest scale point the methods share, tiny x 4 steps" in readme
     assert "A_steps1000_seed0`: failed: ConfigError: train.lr=-1" in readme
     # the viewer shows the largest scale point's runs: F's pictures carry F_steps4_seed0's per-frame PSNR
     data = json.loads((out / "viewer" / "data.js").read_text().split(" = ", 1)[1].rstrip().rstrip(";"))

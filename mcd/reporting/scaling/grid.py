@@ -89,12 +89,15 @@ class Grid:
         """How many training scenes the runs of ``data`` had (the most any run of it recorded)."""
         return int(self.points.loc[self.points["data"] == data, "train_scenes"].max())
 
-    def largest_scale(self) -> tuple[str, int] | None:
-        """The largest scale point with runs: the largest data profile present, at its largest budget."""
+    def viewer_point(self) -> tuple[str, int] | None:
+        """The largest scale point the methods share, the one the viewer shows: the largest data profile
+        present, at the largest of its budgets where the most methods ran (a budget only one method has
+        reached yet would show that method alone)."""
         if not self.data:
             return None
         data = self.data[-1]
-        return data, int(self.points.loc[self.points["data"] == data, "steps"].max())
+        methods = self.points[self.points["data"] == data].groupby("steps")["experiment"].nunique()
+        return data, int(max(methods.index, key=lambda steps: (methods[steps], steps)))
 
     def runs_at(self, runs: list[Run], data: str, steps: int) -> list[Run]:
         """The runs of ``runs`` at one scale point."""

@@ -11,9 +11,9 @@ for runs of the scaling sweep (or with ``--kind scaling``):
   and the U-Net (:mod:`mcd.reporting.scaling.fit`);
 - ``scaling_jobs.csv``: every job of the sweep's plan with its state, and the runs outside it
   (:mod:`mcd.reporting.scaling.coverage`);
-- ``findings.json``, ``notes.md`` (:mod:`mcd.reporting.scaling.notes`), the viewer of the largest scale
-  point's runs (:mod:`mcd.reporting.viewer`) and ``README.md`` (provenance, the answer, findings, tables,
-  files).
+- ``findings.json``, ``notes.md`` (:mod:`mcd.reporting.scaling.notes`), the viewer of the runs at the largest
+  scale point the methods share (:meth:`Grid.viewer_point`, :mod:`mcd.reporting.viewer`) and ``README.md``
+  (provenance, the answer, findings, tables, files).
 """
 
 from __future__ import annotations
@@ -138,7 +138,7 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
         (out_dir / gaps_plot.FILE).unlink(missing_ok=True)
     notes_path = notes.write(found, out_dir, regenerate)
 
-    largest = grid.largest_scale()
+    largest = grid.viewer_point()
     page = None
     if with_viewer and largest is not None:
         page = viewer.write(grid.runs_at(runs, *largest), out_dir, name)
@@ -194,8 +194,9 @@ def write(runs: list[Run], out_dir: Path, name: str, prov: Provenance, root: Pat
         "",
         esc(notes.answer(found)) + f" More in [{notes_path.name}]({notes_path.name}).",
         "",
-        *([f"The [viewer]({page.relative_to(out_dir).as_posix()}) shows the runs of the largest scale point, "
-           f"{esc(where)} (opens from disk: wipe, synced zoom, exposure, FLIP error maps, F's maps).", ""]
+        *([f"The [viewer]({page.relative_to(out_dir).as_posix()}) shows the runs of the largest scale point "
+           f"the methods share, {esc(where)} (opens from disk: wipe, synced zoom, exposure, FLIP error maps, "
+           "F's maps).", ""]
           if page is not None else []),
         *prov.readme_lines(root, regenerate, notes_lines, time.perf_counter() - started),
         "",
