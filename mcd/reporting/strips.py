@@ -28,7 +28,7 @@ from mcd.reporting.outputs import writes  # noqa: E402
 from mcd.reporting.provenance import Provenance  # noqa: E402
 from mcd.reporting.runs import Run  # noqa: E402
 from mcd.reporting.select import pick  # noqa: E402
-from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS  # noqa: E402
+from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, TABLE1_ROWS, table1_experiments  # noqa: E402
 
 #: Columns of the strip and their titles (`noisy` is saved as `noisy_<budget>spp`).
 COLUMNS = (
@@ -107,13 +107,15 @@ def strip_run(runs: list[Run]) -> Run | None:
     return None
 
 
-def table1_runs(runs: list[Run]) -> list[tuple[str, str, Run]]:
+def table1_runs(runs: list[Run], variants: bool = False) -> list[tuple[str, str, Run]]:
     """``(experiment, title, run)`` of Table 1's finished methods at 4 spp, in Table 1's order, the noisy
     input left out (the strips and the viewer show it from the full method's samples). A method's stand-in
     (mcd.config.methods: row A for the U-Net) stands in where it did not run (as in table1), under the same
-    title."""
+    title. ``variants``: each row is followed by its variants that ran (``table1_experiments``: F_paper after
+    F, as Table 1 lists them); the strips, of fixed width, leave them out."""
     found = []
-    for exp in (e for e in TABLE1_ROWS if e != "noisy"):
+    rows = table1_experiments({r.experiment for r in runs}) if variants else TABLE1_ROWS
+    for exp in (e for e in rows if e != "noisy"):
         other = pick(runs, exp, TABLE1_BUDGET, prefer_sweep="baselines")
         title = display_name(exp)
         alt = BY_EXPERIMENT[exp].stand_in

@@ -2,9 +2,9 @@
 static page that opens from disk (``file://``, no server, nothing from the network) and shows, for each test
 scene and frame that the runs saved samples of (``train.sample_frames``, ``mcd.lit.samples``):
 
-- every method of Table 1 (``strips.table1_runs``: F, the baselines, OIDN; a stand-in where a method did not
-  run) beside the noisy input at the same budget and the reference, each with the frame's metrics from its
-  run's ``frames.csv``;
+- every method of Table 1 (``strips.table1_runs``: F, the baselines, OIDN, and the variants that ran, such as
+  the paper's exact F; a stand-in where a method did not run) beside the noisy input at the same budget and
+  the reference, each with the frame's metrics from its run's ``frames.csv``;
 - a wipe between any two pictures (left and right picked from lists), zoom (wheel) and pan (drag) in sync
   across every picture, exposure in stops;
 - each picture's FLIP error map against the reference (``mcd.core.metrics.flip_map``, magma colours);
@@ -83,9 +83,10 @@ def remove(report_dir: Path) -> None:
 
 
 def _methods(runs: list[Run], main: Run) -> list[tuple[str, str, Run]]:
-    """``(key, title, run)`` of every method to show: Table 1's (``strips.table1_runs``), with the run of the
-    frames (``strips.strip_run``) first when Table 1 lacks it."""
-    chosen = table1_runs(runs)
+    """``(key, title, run)`` of every method to show: Table 1's with the variants that ran
+    (``strips.table1_runs``), with the run of the frames (``strips.strip_run``) first when Table 1 lacks
+    it."""
+    chosen = table1_runs(runs, variants=True)
     if all(run.path != main.path for _, _, run in chosen):
         chosen.insert(0, (main.experiment, display_name(main.experiment), main))
     return chosen

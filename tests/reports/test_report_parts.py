@@ -65,6 +65,24 @@ def test_pick_prefers_finished_runs_of_the_preferred_sweep(tmp_path):
     assert pick(runs, "F", 8.0, prefer_sweep="abl") is None
 
 
+def test_the_viewer_shows_a_rows_variants_after_it_and_the_strips_do_not(tmp_path):
+    """``table1_runs(variants=True)`` (the viewer's methods) puts each variant that ran right after its
+    Table 1 row, as Table 1 does (F_paper after F); without it (the strips) only Table 1's rows; a variant
+    that did not run is absent."""
+    from mcd.reporting.strips import table1_runs
+
+    jobs = (("A", "ablation"), ("F", "ablation"), ("ntasad", "baselines"), ("F_paper", "baselines"),
+            ("oidn", "baselines"))
+    for exp, sweep in jobs:
+        _job(tmp_path / sweep, f"{exp}_spp4", metrics={"psnr": 20.0, "experiment": exp, "budget": 4},
+             experiment=exp, sweep=sweep)
+    runs = find_runs([tmp_path])
+    assert [e for e, _, _ in table1_runs(runs)] == ["A", "ntasad", "F", "oidn"]
+    shown = table1_runs(runs, variants=True)
+    assert [e for e, _, _ in shown] == ["A", "ntasad", "F", "F_paper", "oidn"]
+    assert dict((e, t) for e, t, _ in shown)["F_paper"] == "Ours (F, paper's text)"
+
+
 def test_spp_rows_fill_the_unet_gaps_with_row_a(tmp_path):
     from mcd.reporting.spp import spp_frame
 
