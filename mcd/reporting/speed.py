@@ -4,12 +4,13 @@ at the resolution of that run's test frames.
 
 - ``speed_vs_error.csv/.png``: for each run, its model is built again from the run's own config
   (``resolved_config.yaml``, else ``.hydra/config.yaml``: method, capacity profile, budget) and timed by
-  :func:`mcd.models.latency.latency_ms` (CPU, fp32, eager, batch 1, the test frames' ``data.width`` x
+  :func:`mcd.models.latency.alternated_ms` (CPU, fp32, eager, batch 1, the test frames' ``data.width`` x
   ``data.height``, scaled down, aspect kept, to at most :data:`MAX_TIMED_SIDE` pixels a side, which bounds
-  the memory timing takes), in this process, one run after the other, so every point's time comes from one
-  machine and one load; PSNR and rMSE are the run's own. The CSV (``height`` and ``width`` timed,
-  ``test_size`` the run's own) and the figure's title state the capacity profile(s), the resolution timed,
-  any cap, the path and the machine. The noisy input has no network and no point.
+  the memory timing takes), in this process, the models in turn, one frame each per round, so every point's
+  time comes from one machine and the same rounds of its load; PSNR and rMSE are the run's own. The CSV
+  (``height`` and ``width`` timed, ``test_size`` the run's own) and the figure's title state the capacity
+  profile(s), the resolution timed, any cap, the path and the machine. The noisy input has no network and no
+  point.
 - ``speed_bench.csv`` (when a bench CSV of ``python -m mcd.bench`` is given): that CSV's fastest path per
   method and device at its largest resolution, under the bench's own capacity profile and resolution (often
   the paper's capacity): a separate latency table, not paired with this report's errors.
@@ -34,7 +35,7 @@ from mcd.reporting.runs import Run, read_table  # noqa: E402
 from mcd.reporting.select import metric, pick  # noqa: E402
 from mcd.reporting.tables import COMPONENT_ROWS, TABLE1_BUDGET, table1_experiments  # noqa: E402
 
-#: The path every report point is timed on (:func:`mcd.models.latency.latency_ms`).
+#: The path every report point is timed on (:func:`mcd.models.latency.alternated_ms`).
 PATH = "CPU fp32 eager"
 #: Experiments without a network to time.
 NO_NETWORK = ("noisy",)
@@ -103,35 +104,36 @@ def config_size(cfg) -> tuple[int, int]:
     return tuple(int(OmegaConf.select(cfg, f"data.{k}", default=0) or 0) for k in ("height", "width"))
 
 
-def run_latency(run: Run) -> tuple[float, int, int, str]:
-    """``(ms, height, width, status)``: the latency of the run's own model at its test frames' resolution,
-    capped by :func:`timed_size` (``height`` and ``width`` are the size timed; NaN and the reason in
-    ``status`` where the model cannot be built or timed, e.g. OIDN without pyoidn)."""
+def run_timer(run: Run) -> tuple[object, int, int]:
+    """``(timer, height, width)``: the run's own model, built again from its config and prepared for timing
+    at its test frames' resolution capped by :func:`timed_size` (``height`` and ``width`` are the size to
+    time; a :class:`mcd.models.latency.FrameTimer`, or in its place the reason it cannot be timed, e.g. OIDN
+    without pyoidn)."""
     from mcd.models import build
-    from mcd.models.latency import latency_ms
+    from mcd.models.latency import FrameTimer
 
     cfg = OmegaConf.create(run_config(run))
     height, width = config_size(cfg)
     if not height or not width:
-        return math.nan, height, width, "not timed: the run's config has no data.height and data.width"
+        return "not timed: the run's config has no data.height and data.width", height, width
     height, width = timed_size(height, width)
     try:
-        model = build(cfg)
-        return latency_ms(model, height, width), height, width, "ok"
+        return FrameTimer(build(cfg), height, width), height, width
     except Exception as err:  # a model that cannot be timed is a row that says why, not a crash
-        why = (str(err).splitlines() or [""])[0]
-        return math.nan, height, width, f"not timed: {type(err).__name__}: {why}"
+        return f"not timed: {type(err).__name__}: {(str(err).splitlines() or [''])[0]}", height, width
 
 
 def speed_frame(runs: list[Run]) -> pd.DataFrame:
     """The points of the plot: one per Table 1 experiment with a finished 4-spp run (the run Table 1 shows,
-    row A's for a U-Net without a job of its own), its model's latency and its errors."""
+    row A's for a U-Net without a job of its own), its model's latency and its errors; the models are timed
+    in turn (:func:`mcd.models.latency.alternated_ms`)."""
     import torch
 
     from mcd.core.machine import device_name
+    from mcd.models.latency import FrameTimer, alternated_ms
 
     machine = device_name(torch.device("cpu"))
-    rows = []
+    chosen = []
     for exp in table1_experiments({r.experiment for r in runs}):
         if exp in NO_NETWORK:
             continue
@@ -141,9 +143,19 @@ def speed_frame(runs: list[Run]) -> pd.DataFrame:
         if other is not None and (run is None or run.status != "ok"):  # as Table 1: the U-Net is row A
             label = f"{display_name(exp)} (row {other})"
             run, exp = pick(runs, other, TABLE1_BUDGET, prefer_sweep="ablation"), other
-        if run is None or run.status != "ok":
-            continue
-        ms, height, width, status = run_latency(run)
+        if run is not None and run.status == "ok":
+            chosen.append((run, label, exp, *run_timer(run)))
+    timers = [t for _, _, _, t, _, _ in chosen if isinstance(t, FrameTimer)]
+    measured = iter(alternated_ms(timers))
+    rows = []
+    for run, label, exp, timer, height, width in chosen:
+        ms, status = math.nan, timer
+        if isinstance(timer, FrameTimer):
+            found = next(measured)
+            if isinstance(found, Exception):
+                status = f"not timed: {type(found).__name__}: {(str(found).splitlines() or [''])[0]}"
+            else:
+                ms, status = found, "ok"
         run_h, run_w = config_size(OmegaConf.create(run_config(run)))
         rows.append(
             {

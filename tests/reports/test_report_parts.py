@@ -504,11 +504,12 @@ def test_speed_against_error_times_each_runs_own_model_at_its_test_resolution(tm
          metrics={"psnr": 10.0, "experiment": "noisy", "budget": 4})
     timed = {}
 
-    def fake(model, height, width, **kw):
-        timed[type(model).__name__, height, width] = sum(p.numel() for p in model.parameters())
-        return 7.0
+    def fake(timers, **kw):
+        for t in timers:
+            timed[type(t.model).__name__, *t.size] = sum(p.numel() for p in t.model.parameters())
+        return [7.0] * len(timers)
 
-    monkeypatch.setattr(latency, "latency_ms", fake)
+    monkeypatch.setattr(latency, "alternated_ms", fake)
     df = speed_frame(find_runs([tmp_path])).set_index("experiment")
     assert list(df.index) == ["A", "F"]  # the noisy input has no network to time
     assert df.loc["A", "capacity"] == "cpu" and df.loc["F", "capacity"] == "paper"
