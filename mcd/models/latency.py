@@ -1,6 +1,6 @@
 """Timing one frame through a model (docs/benchmark.md "Metrics", speed): the inputs in the model's layout,
-timed calls closed by a device synchronisation, :func:`latency_ms`, the median time of one output frame of a
-built model at a given resolution, and :func:`alternated_ms`, the same for several models timed in turn.
+timed calls closed by a device synchronisation, and :func:`alternated_ms`, the median time of one output frame
+of each of several built models at a given resolution (:class:`FrameTimer`), the models timed in turn.
 ``python -m mcd.bench`` (mcd/bench/speed.py) measures every inference path with these; the report's
 speed-against-error figure (mcd/reporting/speed.py) measures each run's own model with :func:`alternated_ms`,
 so that a point's latency and error come from one architecture, capacity and resolution, and the points'
@@ -121,11 +121,3 @@ def alternated_ms(timers: list[FrameTimer], warmup: int = 2, reps: int = 5) -> l
             attempt(k, timer.check)
     return [r if r is not None else statistics.median(t) for r, t in zip(results, times, strict=True)]
 
-
-def latency_ms(model: nn.Module, height: int, width: int, warmup: int = 2, reps: int = 5) -> float:
-    """Median milliseconds of one output frame of ``model`` at ``height`` x ``width`` on the CPU
-    (:class:`FrameTimer`), in steady state. Raises on a non-finite output."""
-    (ms,) = alternated_ms([FrameTimer(model, height, width)], warmup, reps)
-    if isinstance(ms, Exception):
-        raise ms
-    return ms

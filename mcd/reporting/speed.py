@@ -104,6 +104,11 @@ def config_size(cfg) -> tuple[int, int]:
     return tuple(int(OmegaConf.select(cfg, f"data.{k}", default=0) or 0) for k in ("height", "width"))
 
 
+def not_timed(err: Exception) -> str:
+    """A row's status where its model could not be built or timed: the error's type and first line."""
+    return f"not timed: {type(err).__name__}: {(str(err).splitlines() or [''])[0]}"
+
+
 def run_timer(run: Run) -> tuple[object, int, int]:
     """``(timer, height, width)``: the run's own model, built again from its config and prepared for timing
     at its test frames' resolution capped by :func:`timed_size` (``height`` and ``width`` are the size to
@@ -120,7 +125,7 @@ def run_timer(run: Run) -> tuple[object, int, int]:
     try:
         return FrameTimer(build(cfg), height, width), height, width
     except Exception as err:  # a model that cannot be timed is a row that says why, not a crash
-        return f"not timed: {type(err).__name__}: {(str(err).splitlines() or [''])[0]}", height, width
+        return not_timed(err), height, width
 
 
 def speed_frame(runs: list[Run]) -> pd.DataFrame:
@@ -153,7 +158,7 @@ def speed_frame(runs: list[Run]) -> pd.DataFrame:
         if isinstance(timer, FrameTimer):
             found = next(measured)
             if isinstance(found, Exception):
-                status = f"not timed: {type(found).__name__}: {(str(found).splitlines() or [''])[0]}"
+                status = not_timed(found)
             else:
                 ms, status = found, "ok"
         run_h, run_w = config_size(OmegaConf.create(run_config(run)))
